@@ -1,0 +1,61 @@
+"""fepre: finite-element pre-processing for parts described by signed distance functions.
+
+Model a part with :mod:`fepre.sdf`, sample it onto VTK image grids, extract its surface, mesh
+its volume with DistMesh tetrahedra, compare against pytetwild and export to FEA solvers.
+
+Heavy modules (VTK, PyVista) load on first use, so ``import fepre`` stays fast.
+
+Examples
+--------
+>>> import fepre
+>>> from fepre import sdf
+>>> part = sdf.sphere(1.0)
+>>> round(float(part([0.0, 0.0, 0.5])), 3)
+-0.5
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import PackageNotFoundError, version as _version
+from typing import Any
+
+from . import sdf
+from .config import config
+from .errors import ConvergenceWarning, MeshingError
+
+try:
+    __version__ = _version("fepre")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0.0.0+unknown"
+
+# public name -> module that defines it (imported on first access)
+_LAZY: dict[str, str] = {
+    "sample": "fepre.sampling",
+    "isosurface": "fepre.surface",
+    "check_surface": "fepre.surface",
+    "SurfaceCheck": "fepre.surface",
+    "distmesh": "fepre.distmesh",
+    "DistMeshOptions": "fepre.distmesh",
+    "improve": "fepre.distmesh",
+    "export": "fepre.export",
+}
+_SUBMODULES = {"quality", "sampling", "surface", "distmesh", "export", "bench", "cli"}
+
+__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "__version__", *_LAZY, *_SUBMODULES]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        module = importlib.import_module(f"fepre.{name}")
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'fepre' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

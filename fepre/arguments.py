@@ -1,0 +1,142 @@
+"""Checks of user arguments that raise errors naming the parameter and what is accepted.
+
+Every public function validates its inputs with these helpers so that bad input fails early
+with a message a user can act on, never deep inside numpy.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "as_points",
+    "as_vector",
+    "positive_float",
+    "nonnegative_float",
+    "finite_float",
+    "positive_int",
+    "as_bounds",
+    "choice",
+]
+
+
+def _numeric_array(value: Any, name: str) -> np.ndarray:
+    try:
+        array = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # ragged nested sequences
+        raise ValueError(f"{name} must be a rectangular array of numbers; got {value!r:.80}") from exc
+    if array.dtype == object:
+        raise ValueError(
+            f"{name} must be a rectangular array of numbers (not ragged or mixed); got {value!r:.80}"
+        )
+    if array.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must contain real numbers; got dtype {array.dtype}")
+    return array
+
+
+def as_points(points: Any, dim: int = 3, name: str = "points") -> tuple[np.ndarray, bool]:
+    """Return ``points`` as a float64 (N, dim) array and whether a single point was given.
+
+    A (dim,) array is one point. A (dim, N) array with N != dim is refused because it is almost
+    always a transposed point array.
+    """
+    array = _numeric_array(points, name)
+    if array.ndim == 1 and array.shape[0] == dim:
+        single = True
+        array = array.reshape(1, dim)
+    elif array.ndim == 2 and array.shape[1] == dim:
+        single = False
+    elif array.ndim == 2 and array.shape[0] == dim:
+        raise ValueError(
+            f"{name} must have shape (N, {dim}); got {array.shape}, which looks transposed: "
+            f"pass {name}.T"
+        )
+    else:
+        raise ValueError(f"{name} must have shape (N, {dim}) or ({dim},); got {array.shape}")
+    array = np.asarray(array, dtype=np.float64)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} must be finite; got NaN or infinite coordinates")
+    return array, single
+
+
+def as_vector(value: Any, dim: int, name: str, *, allow_scalar: bool = False) -> np.ndarray:
+    """Return a finite float64 vector of length ``dim`` (a scalar is broadcast if allowed)."""
+    array = _numeric_array(value, name).astype(np.float64)
+    if array.ndim == 0 and allow_scalar:
+        array = np.full(dim, float(array))
+    if array.shape != (dim,):
+        accepted = f"a number or a sequence of {dim} numbers" if allow_scalar else f"a sequence of {dim} numbers"
+        raise ValueError(f"{name} must be {accepted}; got {value!r:.80}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} must be finite; got {value!r:.80}")
+    return array
+
+
+def finite_float(value: Any, name: str) -> float:
+    """Return ``value`` as a finite float."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)):
+        raise TypeError(f"{name} must be a real number; got {type(value).__name__} {value!r:.40}")
+    result = float(value)
+    if not math.isfinite(result):
+        raise ValueError(f"{name} must be finite; got {value!r}")
+    return result
+
+
+def positive_float(value: Any, name: str) -> float:
+    """Return ``value`` as a finite float > 0."""
+    result = finite_float(value, name)
+    if result <= 0:
+        raise ValueError(f"{name} must be > 0; got {value!r}")
+    return result
+
+
+def nonnegative_float(value: Any, name: str) -> float:
+    """Return ``value`` as a finite float >= 0."""
+    result = finite_float(value, name)
+    if result < 0:
+        raise ValueError(f"{name} must be >= 0; got {value!r}")
+    return result
+
+
+def positive_int(value: Any, name: str) -> int:
+    """Return ``value`` as an int >= 1."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise TypeError(f"{name} must be a positive integer; got {type(value).__name__} {value!r:.40}")
+    if value < 1:
+        raise ValueError(f"{name} must be a positive integer; got {value!r}")
+    return int(value)
+
+
+def as_bounds(value: Any, dim: int = 3, name: str = "bounds") -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Return ``((min...), (max...))`` from that form or a flat VTK-style 2*dim sequence.
+
+    Accepted: ``((xmin, ymin, zmin), (xmax, ymax, zmax))`` or
+    ``(xmin, xmax, ymin, ymax, zmin, zmax)`` (VTK/PyVista order).
+    """
+    array = _numeric_array(value, name).astype(np.float64)
+    if array.shape == (2, dim):
+        lo, hi = array[0], array[1]
+    elif array.shape == (2 * dim,):
+        lo, hi = array[0::2], array[1::2]
+    else:
+        raise ValueError(
+            f"{name} must be ((min...), (max...)) with {dim} entries each or a flat VTK-style "
+            f"sequence of {2 * dim} numbers; got shape {array.shape}"
+        )
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} must be finite; got {value!r:.80}")
+    if np.any(lo >= hi):
+        axis = int(np.argmax(lo >= hi))
+        raise ValueError(f"{name} must have min < max on every axis; axis {axis} has {lo[axis]} >= {hi[axis]}")
+    return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
+
+
+def choice(value: Any, name: str, accepted: tuple) -> Any:
+    """Return ``value`` if it is one of ``accepted``."""
+    if value not in accepted:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, accepted))}; got {value!r}")
+    return value

@@ -1,0 +1,33 @@
+"""Solid modelling with signed distance functions (the Descartes.jl layer of fepre).
+
+A model is a tree of :class:`SDF` nodes: primitives combined by booleans, transforms and
+deformations. Calling a model on an (N, 3) array returns (N,) float64 values, negative inside.
+
+Examples
+--------
+>>> from fepre import sdf
+>>> part = sdf.sphere(1.0)
+>>> part.exact, part.bounds
+(True, ((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)))
+"""
+
+from .core import SDF
+from .solids import *  # noqa: F401,F403
+from .shapes2d import *  # noqa: F401,F403
+from .extrusions import *  # noqa: F401,F403
+from .booleans import *  # noqa: F401,F403
+from .transforms import *  # noqa: F401,F403
+from .deform import *  # noqa: F401,F403
+from .lattices import *  # noqa: F401,F403
+from . import booleans, deform, extrusions, lattices, shapes2d, solids, transforms
+
+__all__ = (
+    ["SDF"]
+    + solids.__all__
+    + shapes2d.__all__
+    + extrusions.__all__
+    + booleans.__all__
+    + transforms.__all__
+    + deform.__all__
+    + lattices.__all__
+)

@@ -1,0 +1,339 @@
+"""The SDF node type: evaluation, gradients, projection and the model tree.
+
+Every model is a tree of :class:`SDF` nodes. A node implements :meth:`SDF._values` on
+coordinate arrays (``x, y, z`` for 3D, ``x, y`` for 2D) that only need to be broadcastable
+against each other. That one protocol serves both ways of evaluating a model:
+
+* ``model(points)`` on an (N, 3) array: coordinates are column views, evaluated in cache-sized
+  blocks on several threads (numpy releases the GIL);
+* :meth:`SDF.values_on_axes` on three 1D axis arrays: a grid is sampled without ever
+  materialising its coordinates (the seed's "direct function sampling"); work that depends on
+  one axis only is done once per axis value.
+
+Nodes with an analytic gradient override :meth:`SDF._values_and_gradient`; the others get
+central differences of their own values.
+"""
+
+from __future__ import annotations
+
+import itertools
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Iterator, Sequence
+
+import numpy as np
+
+from ..arguments import as_points, positive_int
+from ..config import config
+
+__all__ = ["SDF", "Bounds", "Coords"]
+
+Bounds = tuple[tuple[float, ...], tuple[float, ...]]
+Coords = tuple[np.ndarray, ...]
+
+_pools: dict[int, ThreadPoolExecutor] = {}
+
+
+def thread_pool(workers: int) -> ThreadPoolExecutor:
+    """A shared pool with ``workers`` threads (created once per size)."""
+    pool = _pools.get(workers)
+    if pool is None:
+        pool = _pools[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fepre")
+    return pool
+
+
+def _format_value(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (tuple, list)):
+        return "(" + ", ".join(_format_value(v) for v in value) + ")"
+    return repr(value)
+
+
+class SDF:
+    """A signed distance function node: negative inside, zero on the boundary, positive outside.
+
+    Parameters
+    ----------
+    bounds : ((min...), (max...)) or None
+        Axis-aligned box containing the solid (the negative region), or None if unbounded.
+    exact : bool
+        True only where the value is the true Euclidean distance everywhere; otherwise the value
+        is a 1-Lipschitz lower bound of the distance.
+    children : sequence of SDF
+        The node's operands, for tree walks and ``repr``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> ball = sdf.sphere(1.0)
+    >>> float(ball([0.0, 0.0, 2.0]))
+    1.0
+    >>> ball([[0, 0, 0], [1, 0, 0]]).tolist()
+    [-1.0, 0.0]
+    """
+
+    dim: int = 3
+    #: True where the node overrides ``_values_and_gradient`` with an analytic gradient.
+    analytic_gradient: bool = False
+
+    def __init__(self, *, bounds: Bounds | None, exact: bool, children: Sequence["SDF"] = ()) -> None:
+        if bounds is not None:
+            lo, hi = bounds
+            bounds = (tuple(float(v) for v in lo), tuple(float(v) for v in hi))
+        self._bounds = bounds
+        self._exact = bool(exact)
+        self._children = tuple(children)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def bounds(self) -> Bounds | None:
+        """Axis-aligned box ``((xmin, ymin, zmin), (xmax, ymax, zmax))`` of the solid, or None."""
+        return self._bounds
+
+    @property
+    def exact(self) -> bool:
+        """True when the value is the exact Euclidean signed distance everywhere."""
+        return self._exact
+
+    @property
+    def children(self) -> tuple["SDF", ...]:
+        """The operands of this node."""
+        return self._children
+
+    def walk(self) -> Iterator["SDF"]:
+        """Yield this node and all its descendants, depth first."""
+        yield self
+        for child in self._children:
+            yield from child.walk()
+
+    # ------------------------------------------------------------------ the protocol
+    def _values(self, *coords: np.ndarray) -> np.ndarray:
+        """Values at broadcastable coordinate arrays; dtype follows the coordinates."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement _values")
+
+    def _values_and_gradient(self, *coords: np.ndarray) -> tuple[np.ndarray, Coords]:
+        """Values and gradient components; central differences unless overridden."""
+        values = self._values(*coords)
+        step = self.difference_step
+        gradient = []
+        for axis in range(self.dim):
+            plus = list(coords)
+            minus = list(coords)
+            plus[axis] = coords[axis] + step
+            minus[axis] = coords[axis] - step
+            gradient.append((self._values(*plus) - self._values(*minus)) / (2.0 * step))
+        return values, tuple(gradient)
+
+    @property
+    def difference_step(self) -> float:
+        """Step of central differences: cbrt(machine epsilon) times the model's size."""
+        return 6e-6 * self.length_scale
+
+    @property
+    def length_scale(self) -> float:
+        """A characteristic length: the largest extent of ``bounds`` (1 if unbounded)."""
+        if self._bounds is None:
+            return 1.0
+        lo, hi = np.asarray(self._bounds[0]), np.asarray(self._bounds[1])
+        extent = float(np.max(hi - lo))
+        return extent if np.isfinite(extent) and extent > 0 else 1.0
+
+    # ------------------------------------------------------------------ evaluation
+    def __call__(self, points: Any) -> np.ndarray | float:
+        """Evaluate at an (N, dim) array (returns (N,) float64) or one point (returns float)."""
+        array, single = as_points(points, self.dim)
+        values = self._evaluate_rows(array, self._values_block)
+        return float(values[0]) if single else values
+
+    def _values_block(self, block: np.ndarray) -> np.ndarray:
+        return self._values(*(block[:, axis] for axis in range(self.dim)))
+
+    def _evaluate_rows(self, array: np.ndarray, kernel, width: int = 0, workers: int | None = None):
+        """Apply ``kernel`` to row blocks of ``array`` (threaded when there are many)."""
+        count = array.shape[0]
+        shape = (count,) if width == 0 else (count, width)
+        out = np.empty(shape, dtype=np.float64)
+        chunk = max(1024, int(config.chunk_points))
+        if count <= chunk:
+            out[...] = kernel(array)
+            return out
+        starts = range(0, count, chunk)
+
+        def run(start: int) -> None:
+            out[start : start + chunk] = kernel(array[start : start + chunk])
+
+        workers = config.resolve_workers(workers)
+        if workers == 1:
+            for start in starts:
+                run(start)
+        else:
+            list(thread_pool(workers).map(run, starts))
+        return out
+
+    def value_and_gradient(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Values (N,) and gradients (N, dim) at an (N, dim) array of points."""
+        array, _ = as_points(points, self.dim)
+
+        def kernel(block: np.ndarray) -> np.ndarray:
+            values, gradient = self._values_and_gradient(*(block[:, axis] for axis in range(self.dim)))
+            result = np.empty((block.shape[0], self.dim + 1))
+            result[:, 0] = values
+            for axis in range(self.dim):
+                result[:, axis + 1] = gradient[axis]
+            return result
+
+        both = self._evaluate_rows(array, kernel, width=self.dim + 1)
+        return both[:, 0], both[:, 1:]
+
+    def gradient(self, points: Any) -> np.ndarray:
+        """Gradient at an (N, dim) array of points, shape (N, dim); a single point gives (dim,).
+
+        Analytic where the node has one (``analytic_gradient``), central differences otherwise.
+
+        Examples
+        --------
+        >>> from fepre import sdf
+        >>> sdf.sphere(1.0).gradient([2.0, 0.0, 0.0]).tolist()
+        [1.0, 0.0, 0.0]
+        """
+        array, single = as_points(points, self.dim)
+        _, gradient = self.value_and_gradient(array)
+        return gradient[0] if single else gradient
+
+    def values_on_axes(
+        self,
+        *axes: Any,
+        out: np.ndarray | None = None,
+        dtype: Any = np.float32,
+        workers: int | None = None,
+    ) -> np.ndarray:
+        """Sample on the tensor grid of 1D ``axes`` (x, y[, z]) without building coordinates.
+
+        Returns an array of shape ``(nz, ny, nx)`` (``(ny, nx)`` in 2D), C-contiguous, so that
+        ``result.ravel()`` is in VTK point order (x fastest). Blocks of rows are evaluated on
+        ``workers`` threads; each block's temporaries stay cache-sized.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from fepre import sdf
+        >>> t = np.linspace(-1, 1, 5)
+        >>> sdf.sphere(0.5).values_on_axes(t, t, t).shape
+        (5, 5, 5)
+        """
+        if len(axes) != self.dim:
+            raise ValueError(f"values_on_axes needs {self.dim} axis arrays; got {len(axes)}")
+        dtype = np.dtype(dtype)
+        if dtype.kind != "f":
+            raise TypeError(f"dtype must be a floating type such as 'float32'; got {dtype}")
+        vectors = []
+        for name, axis in zip("xyz", axes):
+            vector = np.asarray(axis, dtype=dtype)
+            if vector.ndim != 1 or vector.size == 0:
+                raise ValueError(f"axis {name} must be a non-empty 1D array; got shape {vector.shape}")
+            if not np.isfinite(vector).all():
+                raise ValueError(f"axis {name} must be finite")
+            vectors.append(vector)
+        shape = tuple(v.size for v in reversed(vectors))
+        if out is None:
+            out = np.empty(shape, dtype=dtype)
+        elif out.shape != shape:
+            raise ValueError(f"out must have shape {shape}; got {out.shape}")
+
+        # Blocks run over the two slowest axes; the fastest (x) is always whole.
+        row = shape[-1]
+        rows_per_block = max(1, int(config.chunk_points) // row)
+        if self.dim == 3:
+            nz, ny = shape[0], shape[1]
+            if rows_per_block >= ny:
+                kz = max(1, rows_per_block // ny)
+                blocks = [(z, min(z + kz, nz), 0, ny) for z in range(0, nz, kz)]
+            else:
+                blocks = [
+                    (z, z + 1, y, min(y + rows_per_block, ny))
+                    for z, y in itertools.product(range(nz), range(0, ny, rows_per_block))
+                ]
+            x = vectors[0][None, None, :]
+
+            def run(block: tuple[int, int, int, int]) -> None:
+                z0, z1, y0, y1 = block
+                y = vectors[1][None, y0:y1, None]
+                z = vectors[2][z0:z1, None, None]
+                out[z0:z1, y0:y1, :] = self._values(x, y, z)
+
+        else:
+            ny = shape[0]
+            blocks = [(y, min(y + rows_per_block, ny)) for y in range(0, ny, rows_per_block)]
+            x = vectors[0][None, :]
+
+            def run(block: tuple[int, int]) -> None:
+                y0, y1 = block
+                out[y0:y1, :] = self._values(x, vectors[1][y0:y1, None])
+
+        workers = config.resolve_workers(workers)
+        if workers == 1 or len(blocks) == 1:
+            for block in blocks:
+                run(block)
+        else:
+            list(thread_pool(workers).map(run, blocks))
+        return out
+
+    def project(self, points: Any, iterations: int = 10, tol: float | None = None) -> np.ndarray:
+        """Move points onto the zero level set by Newton steps ``p -= d * g / |g|^2``.
+
+        Parameters
+        ----------
+        points : (N, dim) or (dim,) array
+        iterations : int
+            Largest number of Newton steps.
+        tol : float, optional
+            Stop once every ``|d|`` is below this (default ``1e-12`` times the model's size).
+
+        Examples
+        --------
+        >>> from fepre import sdf
+        >>> sdf.sphere(1.0).project([3.0, 0.0, 0.0]).tolist()
+        [1.0, 0.0, 0.0]
+        """
+        array, single = as_points(points, self.dim)
+        iterations = positive_int(iterations, "iterations")
+        tol = 1e-12 * self.length_scale if tol is None else float(tol)
+        current = array.copy()
+        active = np.arange(current.shape[0])
+        for _ in range(iterations):
+            values, gradient = self.value_and_gradient(current[active])
+            moving = np.abs(values) > tol
+            if not moving.any():
+                break
+            active, values, gradient = active[moving], values[moving], gradient[moving]
+            norm2 = np.einsum("ij,ij->i", gradient, gradient)
+            norm2 = np.where(norm2 > 1e-300, norm2, 1.0)
+            current[active] -= (values / norm2)[:, None] * gradient
+        return current[0] if single else current
+
+    # ------------------------------------------------------------------ tree display
+    def _parameters(self) -> dict[str, Any]:
+        """Parameters shown by ``repr`` (override in nodes)."""
+        return {}
+
+    def _label(self) -> str:
+        return type(self).__name__.lower()
+
+    def describe(self) -> str:
+        """One line naming the node and its parameters."""
+        parameters = ", ".join(f"{k}={_format_value(v)}" for k, v in self._parameters().items())
+        return f"{self._label()}({parameters})"
+
+    def __repr__(self) -> str:
+        lines: list[str] = []
+
+        def visit(node: SDF, prefix: str, last: bool, root: bool) -> None:
+            lines.append(node.describe() if root else f"{prefix}{'└─ ' if last else '├─ '}{node.describe()}")
+            child_prefix = "" if root else prefix + ("   " if last else "│  ")
+            for index, child in enumerate(node.children):
+                visit(child, child_prefix, index == len(node.children) - 1, False)
+
+        visit(self, "", True, True)
+        return "\n".join(lines)
