@@ -1,0 +1,130 @@
+"""The SDF protocol: point validation, blocked/threaded evaluation, axis sampling, projection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.sdf.core import SDF
+
+
+class NoGradientSphere(SDF):
+    """A sphere without an analytic gradient, to exercise central differences."""
+
+    def __init__(self, radius: float) -> None:
+        self.radius = radius
+        super().__init__(bounds=((-radius,) * 3, (radius,) * 3), exact=True)
+
+    def _values(self, x, y, z):
+        return np.sqrt(x * x + y * y + z * z) - self.radius
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)
+
+
+def test_single_point_returns_float_and_array_returns_float64():
+    ball = sdf.sphere(2.0, center=(1.0, 0.0, 0.0))
+    value = ball([1.0, 0.0, 3.0])
+    assert isinstance(value, float) and value == pytest.approx(1.0)
+    values = ball(np.array([[1, 0, 0], [4, 0, 0]], dtype=np.int32))
+    assert values.dtype == np.float64 and values.tolist() == pytest.approx([-2.0, 1.0])
+
+
+@pytest.mark.parametrize(
+    "points, error, fragment",
+    [
+        (np.zeros((5, 2)), ValueError, "(N, 3)"),
+        (np.zeros((3, 7)), ValueError, "transposed"),
+        (np.zeros((2, 3, 3)), ValueError, "(N, 3)"),
+        ([[0, 0, 0], [1, 2]], ValueError, "rectangular"),
+        (["a", "b", "c"], TypeError, "real numbers"),
+        (np.array([[np.nan, 0, 0]]), ValueError, "finite"),
+        (np.zeros(3, dtype=complex), TypeError, "real numbers"),
+    ],
+)
+def test_bad_points_are_refused_with_the_parameter_named(points, error, fragment):
+    with pytest.raises(error, match="points") as info:
+        sdf.sphere()(points)
+    assert fragment in str(info.value)
+
+
+def test_blocked_threaded_evaluation_equals_direct(rng, monkeypatch):
+    points = rng.uniform(-2, 2, size=(100_003, 3))
+    ball = sdf.sphere(1.3, center=(0.1, -0.2, 0.3))
+    direct = np.linalg.norm(points - [0.1, -0.2, 0.3], axis=1) - 1.3
+    monkeypatch.setattr(fepre.config, "chunk_points", 4096)
+    threaded = ball(points)
+    monkeypatch.setattr(fepre.config, "workers", 1)
+    serial = ball(points)
+    np.testing.assert_array_equal(threaded, serial)
+    np.testing.assert_allclose(threaded, direct, rtol=0, atol=1e-14)
+
+
+def test_values_on_axes_is_vtk_order_and_matches_point_evaluation(monkeypatch):
+    x = np.linspace(-1.2, 1.1, 23)
+    y = np.linspace(-1.0, 1.3, 17)
+    z = np.linspace(-0.9, 1.0, 11)
+    ball = sdf.sphere(0.8, center=(0.1, 0.2, -0.1))
+    monkeypatch.setattr(fepre.config, "chunk_points", 40)  # force several blocks per plane
+    grid = ball.values_on_axes(x, y, z, dtype=np.float64)
+    assert grid.shape == (11, 17, 23) and grid.flags.c_contiguous
+    zz, yy, xx = np.meshgrid(z, y, x, indexing="ij")
+    points = np.column_stack([xx.ravel(), yy.ravel(), zz.ravel()])  # x fastest: VTK order
+    np.testing.assert_allclose(grid.ravel(), ball(points), atol=1e-14)
+    single = ball.values_on_axes(x, y, z, dtype="float32", workers=1)
+    assert single.dtype == np.float32
+    np.testing.assert_allclose(single, grid, atol=1e-6)
+
+
+def test_values_on_axes_rejects_bad_axes():
+    ball = sdf.sphere()
+    with pytest.raises(ValueError, match="3 axis arrays"):
+        ball.values_on_axes(np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="axis y"):
+        ball.values_on_axes(np.zeros(3), np.zeros((2, 2)), np.zeros(3))
+    with pytest.raises(TypeError, match="dtype"):
+        ball.values_on_axes(np.zeros(3), np.zeros(3), np.zeros(3), dtype=int)
+    with pytest.raises(ValueError, match="workers"):
+        ball.values_on_axes(np.zeros(3), np.zeros(3), np.zeros(3), workers=0)
+
+
+def test_central_difference_gradient_matches_analytic(rng):
+    points = rng.uniform(-2, 2, size=(500, 3))
+    analytic = sdf.sphere(0.7).gradient(points)
+    numeric = NoGradientSphere(0.7).gradient(points)
+    np.testing.assert_allclose(numeric, analytic, atol=1e-7)
+    norms = np.linalg.norm(analytic, axis=1)
+    np.testing.assert_allclose(norms, 1.0, atol=1e-12)
+
+
+def test_project_lands_on_the_zero_set(rng):
+    points = rng.uniform(-3, 3, size=(1000, 3))
+    points = points[np.linalg.norm(points, axis=1) > 1e-3]
+    for model in (sdf.sphere(1.5), NoGradientSphere(1.5)):
+        projected = model.project(points)
+        assert np.abs(model(projected)).max() < 1e-9
+        # Newton on an exact distance moves along the ray through the centre
+        cosine = np.einsum("ij,ij->i", projected, points) / (
+            np.linalg.norm(projected, axis=1) * np.linalg.norm(points, axis=1)
+        )
+        np.testing.assert_allclose(cosine, 1.0, atol=1e-9)
+    with pytest.raises(ValueError, match="iterations"):
+        sdf.sphere().project(points, iterations=0)
+
+
+def test_repr_prints_the_node_and_walk_visits_it():
+    ball = sdf.sphere(2.0, center=(1, 2, 3))
+    assert repr(ball) == "sphere(radius=2, center=(1, 2, 3))"
+    assert list(ball.walk()) == [ball]
+
+
+def test_package_exposes_errors_and_version():
+    assert issubclass(fepre.MeshingError, RuntimeError)
+    assert issubclass(fepre.ConvergenceWarning, UserWarning)
+    assert fepre.__version__.count(".") >= 2
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        fepre.nonsense  # noqa: B018
