@@ -1,5 +1,374 @@
-"""Boolean operations: union, intersection, difference and complement, sharp or smooth."""
+"""Boolean operations: union, intersection, difference and complement, sharp or smooth.
+
+Sharp booleans take the minimum/maximum of their operands; smooth ones (``k > 0``) use the
+polynomial smooth minimum ``b (1 - h) + a h - k h (1 - h)`` with
+``h = clamp(1/2 + (b - a) / (2k), 0, 1)``. Its gradient is the convex combination
+``h grad a + (1 - h) grad b``, so it stays 1-Lipschitz, and it lies at most ``k/4`` below
+``min(a, b)`` (the blend's bulge).
+
+N-ary sharp operations are flat: ``a | b | c`` is one node with three children, each evaluated
+once, reduced in place.
+"""
 
 from __future__ import annotations
 
-__all__: list[str] = []
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..arguments import nonnegative_float
+from .core import SDF, Bounds, Coords
+
+__all__ = ["union", "intersection", "difference", "complement"]
+
+
+# ---------------------------------------------------------------------- helpers
+def check_operands(shapes: Sequence[Any], name: str) -> tuple[SDF, ...]:
+    """Refuse non-SDF operands and mixed dimensions with a message naming them."""
+    if not shapes:
+        raise ValueError(f"{name} needs at least one shape; got none")
+    for index, shape in enumerate(shapes):
+        if not isinstance(shape, SDF):
+            raise TypeError(
+                f"{name} operand {index} must be an SDF (a fepre.sdf shape); got {type(shape).__name__} {shape!r:.60}"
+            )
+    dims = {shape.dim for shape in shapes}
+    if len(dims) > 1:
+        listed = ", ".join(f"{type(s).__name__}: {s.dim}D" for s in shapes)
+        raise ValueError(f"{name} cannot combine 2D and 3D shapes ({listed}); extrude or revolve the 2D shapes first")
+    return tuple(shapes)
+
+
+def full_shape(coords: Coords) -> tuple[int, ...]:
+    """The broadcast shape of coordinate arrays."""
+    return np.broadcast_shapes(*(np.shape(c) for c in coords))
+
+
+def writable(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``values`` itself when it is a fresh full-shape array we may overwrite, else a copy."""
+    values = np.asarray(values)
+    if values.shape == shape and values.flags.writeable and values.flags.owndata and values.flags.c_contiguous:
+        return values
+    out = np.empty(shape, dtype=values.dtype if values.dtype.kind == "f" else np.float64)
+    out[...] = values
+    return out
+
+
+def _check_k(k: Any) -> float:
+    return nonnegative_float(k, "k")
+
+
+def _box_union(boxes: Sequence[Bounds | None]) -> Bounds | None:
+    if any(b is None for b in boxes):
+        return None
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    return tuple(lo), tuple(hi)
+
+
+def _box_intersection(boxes: Sequence[Bounds | None]) -> Bounds | None:
+    known = [b for b in boxes if b is not None]
+    if not known:
+        return None
+    lo = np.max([b[0] for b in known], axis=0)
+    hi = np.min([b[1] for b in known], axis=0)
+    hi = np.maximum(hi, lo)  # an empty intersection gets a degenerate box
+    return tuple(lo), tuple(hi)
+
+
+def _disjoint(boxes: Sequence[Bounds | None]) -> bool:
+    """True when every pair of boxes is strictly separated along some axis."""
+    if any(b is None for b in boxes):
+        return False
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            (alo, ahi), (blo, bhi) = boxes[i], boxes[j]
+            if not any(ah < bl or bh < al for al, ah, bl, bh in zip(alo, ahi, blo, bhi)):
+                return False
+    return True
+
+
+def smooth_min(a: np.ndarray, b: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Polynomial smooth minimum of radius ``k`` and the weight ``h`` of ``a``."""
+    h = np.clip((b - a) * (0.5 / k) + 0.5, 0.0, 1.0)
+    return b + (a - b) * h - k * h * (1.0 - h), h
+
+
+def _blend_gradient(h: np.ndarray, ga: Coords, gb: Coords) -> Coords:
+    return tuple(gb_i + (ga_i - gb_i) * h for ga_i, gb_i in zip(ga, gb))
+
+
+def _select(take: np.ndarray, v: np.ndarray, g: Coords, value: np.ndarray, gradient: Coords):
+    return np.where(take, v, value), tuple(np.where(take, gi, gv) for gi, gv in zip(g, gradient))
+
+
+def _box_distance(coords: Coords, bounds: Bounds) -> np.ndarray:
+    from .deform import box_distance
+
+    return box_distance(coords, bounds)
+
+
+# ---------------------------------------------------------------------- nodes
+class Union(SDF):
+    """Union of children: ``min`` (sharp) or the chained smooth minimum of radius ``k``."""
+
+    analytic_gradient = True
+
+    def __init__(self, children: Sequence[SDF], k: float = 0.0) -> None:
+        self.dim = children[0].dim
+        self.k = k
+        boxes = [c.bounds for c in children]
+        bounds = _box_union(boxes)
+        self._guard = None
+        if k > 0 and bounds is not None:
+            # Each chained blend lowers the value by at most k/4 below the plain minimum.
+            bulge = (len(children) - 1) * k / 4.0
+            bounds = (tuple(np.asarray(bounds[0]) - bulge), tuple(np.asarray(bounds[1]) + bulge))
+            if not all(c.exact for c in children):
+                # A lower-bound child may be small far from its solid: clip to the grown box.
+                self._guard = bounds
+        exact = k == 0 and all(c.exact for c in children) and _disjoint(boxes)
+        super().__init__(bounds=bounds, exact=exact, children=children)
+
+    def _label(self) -> str:
+        return "union"
+
+    def _parameters(self) -> dict[str, Any]:
+        return {"k": self.k} if self.k > 0 else {}
+
+    def _values(self, *coords):
+        shape = full_shape(coords)
+        out = None
+        for child in self.children:
+            values = child._values(*coords)
+            if out is None:
+                out = writable(values, shape)
+            elif self.k > 0:
+                out, _ = smooth_min(out, values, self.k)
+            else:
+                np.minimum(out, values, out=out)
+        if self._guard is not None:
+            out = np.maximum(out, _box_distance(coords, self._guard))
+        return out
+
+    def _values_and_gradient(self, *coords):
+        value, gradient = self.children[0]._values_and_gradient(*coords)
+        for child in self.children[1:]:
+            v, g = child._values_and_gradient(*coords)
+            if self.k > 0:
+                value, h = smooth_min(value, v, self.k)
+                gradient = _blend_gradient(h, gradient, g)
+            else:
+                value, gradient = _select(v < value, v, g, value, gradient)
+        if self._guard is not None:
+            guard, guard_gradient = _box_distance_and_gradient(coords, self._guard)
+            value, gradient = _select(guard > value, guard, guard_gradient, value, gradient)
+        return value, gradient
+
+
+def _box_distance_and_gradient(coords: Coords, bounds: Bounds):
+    from .deform import box_distance_and_gradient
+
+    return box_distance_and_gradient(coords, bounds)
+
+
+class Intersection(SDF):
+    """Intersection: ``max`` (sharp) or the chained smooth maximum of radius ``k``."""
+
+    analytic_gradient = True
+
+    def __init__(self, children: Sequence[SDF], k: float = 0.0) -> None:
+        self.dim = children[0].dim
+        self.k = k
+        # A smooth maximum is never below the plain maximum: the solid only shrinks.
+        super().__init__(bounds=_box_intersection([c.bounds for c in children]), exact=False, children=children)
+
+    def _label(self) -> str:
+        return "intersection"
+
+    def _parameters(self) -> dict[str, Any]:
+        return {"k": self.k} if self.k > 0 else {}
+
+    def _values(self, *coords):
+        shape = full_shape(coords)
+        out = None
+        for child in self.children:
+            values = child._values(*coords)
+            if out is None:
+                out = writable(values, shape)
+            elif self.k > 0:
+                out, _ = smooth_min(-out, -values, self.k)
+                np.negative(out, out=out)
+            else:
+                np.maximum(out, values, out=out)
+        return out
+
+    def _values_and_gradient(self, *coords):
+        value, gradient = self.children[0]._values_and_gradient(*coords)
+        for child in self.children[1:]:
+            v, g = child._values_and_gradient(*coords)
+            if self.k > 0:
+                value, h = smooth_min(-value, -v, self.k)
+                value = -value
+                gradient = _blend_gradient(h, gradient, g)
+            else:
+                value, gradient = _select(v > value, v, g, value, gradient)
+        return value, gradient
+
+
+class Difference(SDF):
+    """``base`` minus the union of ``others``: ``max(base, -min(others))``, sharp or smooth."""
+
+    analytic_gradient = True
+
+    def __init__(self, base: SDF, others: Sequence[SDF], k: float = 0.0) -> None:
+        self.dim = base.dim
+        self.k = k
+        super().__init__(bounds=base.bounds, exact=False, children=(base, *others))
+
+    def _label(self) -> str:
+        return "difference"
+
+    def _parameters(self) -> dict[str, Any]:
+        return {"k": self.k} if self.k > 0 else {}
+
+    def _values(self, *coords):
+        shape = full_shape(coords)
+        base, *others = self.children
+        if self.k > 0:
+            out = base._values(*coords)
+            for other in others:
+                out, _ = smooth_min(-out, other._values(*coords), self.k)
+                np.negative(out, out=out)
+            return out
+        cut = None
+        for other in others:
+            values = other._values(*coords)
+            if cut is None:
+                cut = writable(values, shape)
+            else:
+                np.minimum(cut, values, out=cut)
+        np.negative(cut, out=cut)
+        np.maximum(cut, base._values(*coords), out=cut)
+        return cut
+
+    def _values_and_gradient(self, *coords):
+        base, *others = self.children
+        value, gradient = base._values_and_gradient(*coords)
+        for other in others:
+            v, g = other._values_and_gradient(*coords)
+            g = tuple(-gi for gi in g)
+            if self.k > 0:
+                value, h = smooth_min(-value, v, self.k)
+                value = -value
+                gradient = _blend_gradient(h, gradient, g)
+            else:
+                value, gradient = _select(-v > value, -v, g, value, gradient)
+        return value, gradient
+
+
+class Complement(SDF):
+    """Everything outside the child: ``-f`` (unbounded; exact when the child is)."""
+
+    analytic_gradient = True
+
+    def __init__(self, child: SDF) -> None:
+        self.dim = child.dim
+        super().__init__(bounds=None, exact=child.exact, children=(child,))
+
+    def _label(self) -> str:
+        return "complement"
+
+    def _values(self, *coords):
+        return np.negative(self.children[0]._values(*coords))
+
+    def _values_and_gradient(self, *coords):
+        value, gradient = self.children[0]._values_and_gradient(*coords)
+        return -value, tuple(-g for g in gradient)
+
+
+# ---------------------------------------------------------------------- public functions
+def union(*shapes: SDF, k: float = 0.0) -> SDF:
+    """Union of ``shapes``; ``k > 0`` blends them smoothly with radius ``k``.
+
+    Sharp unions of sharp unions are flattened into one node. The result is exact only when the
+    operands are exact and their bounding boxes are pairwise disjoint.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> both = sdf.union(sdf.sphere(1), sdf.sphere(1, center=(3, 0, 0)))
+    >>> float(both([1.5, 0.0, 0.0]))
+    0.5
+    >>> round(float(sdf.union(sdf.sphere(1), sdf.sphere(1, center=(1.5, 0, 0)), k=0.5)([0.75, 0, 0])), 4)
+    -0.375
+    """
+    shapes = check_operands(shapes, "union")
+    k = _check_k(k)
+    if len(shapes) == 1:
+        return shapes[0]
+    flat: list[SDF] = []
+    for shape in shapes:
+        if k == 0 and isinstance(shape, Union) and shape.k == 0:
+            flat.extend(shape.children)
+        else:
+            flat.append(shape)
+    return Union(flat, k)
+
+
+def intersection(*shapes: SDF, k: float = 0.0) -> SDF:
+    """Intersection of ``shapes``; ``k > 0`` blends the crease smoothly with radius ``k``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> lens = sdf.intersection(sdf.sphere(1), sdf.sphere(1, center=(1, 0, 0)))
+    >>> float(lens([0.5, 0.0, 0.0]))
+    -0.5
+    """
+    shapes = check_operands(shapes, "intersection")
+    k = _check_k(k)
+    if len(shapes) == 1:
+        return shapes[0]
+    flat: list[SDF] = []
+    for shape in shapes:
+        if k == 0 and isinstance(shape, Intersection) and shape.k == 0:
+            flat.extend(shape.children)
+        else:
+            flat.append(shape)
+    return Intersection(flat, k)
+
+
+def difference(base: SDF, *others: SDF, k: float = 0.0) -> SDF:
+    """``base`` with every shape of ``others`` removed; ``k > 0`` rounds the cut edges.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> cup = sdf.difference(sdf.sphere(1), sdf.sphere(0.5))
+    >>> float(cup([0.0, 0.0, 0.0]))
+    0.5
+    """
+    shapes = check_operands((base, *others), "difference")
+    k = _check_k(k)
+    if len(shapes) == 1:
+        return shapes[0]
+    base, *others = shapes
+    if k == 0 and isinstance(base, Difference) and base.k == 0:
+        return Difference(base.children[0], [*base.children[1:], *others], 0.0)
+    return Difference(base, others, k)
+
+
+def complement(shape: SDF) -> SDF:
+    """Everything outside ``shape`` (``-shape``); the complement of a complement is the shape.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> float(sdf.complement(sdf.sphere(1))([0.0, 0.0, 0.0]))
+    1.0
+    """
+    (shape,) = check_operands((shape,), "complement")
+    if isinstance(shape, Complement):
+        return shape.children[0]
+    return Complement(shape)

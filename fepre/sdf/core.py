@@ -313,6 +313,102 @@ class SDF:
             current[active] -= (values / norm2)[:, None] * gradient
         return current[0] if single else current
 
+    # ------------------------------------------------------------------ operators and modifiers
+    def __or__(self, other: "SDF") -> "SDF":
+        from .booleans import union
+
+        return union(self, other)
+
+    def __and__(self, other: "SDF") -> "SDF":
+        from .booleans import intersection
+
+        return intersection(self, other)
+
+    def __sub__(self, other: "SDF") -> "SDF":
+        from .booleans import difference
+
+        return difference(self, other)
+
+    def __neg__(self) -> "SDF":
+        from .booleans import complement
+
+        return complement(self)
+
+    def __ror__(self, other: Any) -> "SDF":
+        from .booleans import union
+
+        return union(other, self)
+
+    def __rand__(self, other: Any) -> "SDF":
+        from .booleans import intersection
+
+        return intersection(other, self)
+
+    def __rsub__(self, other: Any) -> "SDF":
+        from .booleans import difference
+
+        return difference(other, self)
+
+    def translate(self, offset: Any) -> "SDF":
+        """Moved by ``offset`` (see :func:`fepre.sdf.translate`)."""
+        from .transforms import translate
+
+        return translate(self, offset)
+
+    def rotate(self, angle: float, axis: Any = None, center: Any = None) -> "SDF":
+        """Rotated by ``angle`` degrees about ``axis`` through ``center`` (see :func:`fepre.sdf.rotate`)."""
+        from .transforms import rotate
+
+        return rotate(self, angle, axis, center)
+
+    def scale(self, factor: Any) -> "SDF":
+        """Scaled about the origin (see :func:`fepre.sdf.scale`)."""
+        from .transforms import scale
+
+        return scale(self, factor)
+
+    def mirror(self, normal: Any, point: Any = None) -> "SDF":
+        """Reflected across a plane (see :func:`fepre.sdf.mirror`)."""
+        from .transforms import mirror
+
+        return mirror(self, normal, point)
+
+    def transform(self, matrix: Any) -> "SDF":
+        """Mapped by a general affine matrix (see :func:`fepre.sdf.transform`)."""
+        from .transforms import transform
+
+        return transform(self, matrix)
+
+    def offset(self, distance: float) -> "SDF":
+        """Grown by ``distance`` (see :func:`fepre.sdf.offset`)."""
+        from .deform import offset
+
+        return offset(self, distance)
+
+    def shell(self, thickness: float) -> "SDF":
+        """Hollowed inwards to a wall of ``thickness`` (see :func:`fepre.sdf.shell`)."""
+        from .deform import shell
+
+        return shell(self, thickness)
+
+    def elongate(self, h: Any, center: Any = None) -> "SDF":
+        """Stretched by ``2 h`` per axis (see :func:`fepre.sdf.elongate`)."""
+        from .deform import elongate
+
+        return elongate(self, h, center)
+
+    def twist(self, rate: float) -> "SDF":
+        """Twisted about z by ``rate`` degrees per unit length (see :func:`fepre.sdf.twist`)."""
+        from .deform import twist
+
+        return twist(self, rate)
+
+    def bend(self, rate: float) -> "SDF":
+        """Bent in the xy-plane by ``rate`` degrees per unit length (see :func:`fepre.sdf.bend`)."""
+        from .deform import bend
+
+        return bend(self, rate)
+
     # ------------------------------------------------------------------ tree display
     def _parameters(self) -> dict[str, Any]:
         """Parameters shown by ``repr`` (override in nodes)."""
