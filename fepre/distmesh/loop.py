@@ -1,0 +1,247 @@
+"""The DistMesh iteration: bar forces, moves, boundary projection, retriangulation, stopping."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..quality import signed_volumes
+from .delaunay import tetrahedralize
+from .forces import bar_forces, bars_of
+from .hilbert import hilbert_order
+from .options import DistMeshOptions
+
+__all__ = ["DistMeshState", "LoopResult", "iterate", "project_outside", "centroid_inside"]
+
+HISTORY = ("max_move", "max_dp", "min_quality", "mean_quality", "retriangulated")
+
+
+@dataclass
+class DistMeshState:
+    """What a ``callback`` receives after each iteration (arrays are live views: copy to keep).
+
+    Attributes
+    ----------
+    iteration : int
+        1-based iteration number.
+    points : (N, 3) float64 array
+        Current point positions.
+    tets : (M, 4) int64 array
+        Current triangulation (positively oriented, boundary cells dropped).
+    max_move : float
+        Largest point move of this iteration.
+    max_dp : float
+        Largest move of an interior point, relative to ``h`` (the ``ptol`` criterion).
+    min_quality, mean_quality : float
+        Worst and mean volume-edge ratio of ``tets`` at the start of the iteration.
+    retriangulated : bool
+        Whether this iteration began with a new Delaunay triangulation.
+    seconds : float
+        Time since the start of the loop.
+    """
+
+    iteration: int
+    points: np.ndarray
+    tets: np.ndarray
+    max_move: float
+    max_dp: float
+    min_quality: float
+    mean_quality: float
+    retriangulated: bool
+    seconds: float
+
+
+@dataclass
+class LoopResult:
+    points: np.ndarray
+    fixed_mask: np.ndarray
+    history: dict[str, np.ndarray]
+    converged: bool
+    iterations: int
+    seconds: float
+    triangulations: int = 0
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def evaluate(model, points: np.ndarray, gradient: bool, deps: float | None, h: float):
+    """Model values (and gradients): analytic when available, else forward differences with
+    step ``deps * h`` when ``deps`` is set, else the model's central differences."""
+    if not gradient:
+        return model(points), None
+    if model.analytic_gradient or deps is None:
+        return model.value_and_gradient(points)
+    step = deps * h
+    values = model(points)
+    shifted = np.concatenate([points + step * np.eye(3)[k] for k in range(3)])
+    grad = (model(shifted).reshape(3, -1) - values[None, :]).T / step
+    return values, grad
+
+
+def project_outside(model, points, values, index, deps, h) -> None:
+    """Move ``points[index]`` (which have sdf ``values`` > 0) back: ``p -= d g / |g|^2``."""
+    if len(index) == 0:
+        return
+    _, grad = evaluate(model, points[index], True, deps, h)
+    norm2 = np.einsum("ij,ij->i", grad, grad)
+    norm2 = np.where(norm2 > 1e-24, norm2, 1.0)
+    points[index] -= (values / norm2)[:, None] * grad
+
+
+def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
+    """Mask of tetrahedra whose centroid has sdf < ``limit``.
+
+    ``bound`` is an upper bound of each point's sdf; as the sdf is 1-Lipschitz,
+    ``sdf(c) <= bound_i + |c - p_i|`` for every corner ``i``: cells where that bound is already
+    below ``limit`` are kept without evaluating the model.
+    """
+    corners = points[tets]
+    centroids = corners.mean(axis=1)
+    reach = np.linalg.norm(corners - centroids[:, None, :], axis=2) + bound[tets]
+    sure = reach.min(axis=1) < limit
+    keep = sure.copy()
+    unsure = np.flatnonzero(~sure)
+    if len(unsure):
+        keep[unsure] = model(centroids[unsure]) < limit
+    return keep
+
+
+def _print_progress(iteration: int, n_points: int, worst: float, seconds: float, done: bool) -> None:
+    end = "\n" if done else "\r"
+    sys.stderr.write(f"distmesh: iteration {iteration:5d}  {n_points:8d} points  worst quality {worst:6.3f}  {seconds:7.2f} s{end}")
+    sys.stderr.flush()
+
+
+def iterate(
+    model,
+    h: float,
+    points: np.ndarray,
+    fixed_mask: np.ndarray,
+    size: Callable | None,
+    options: DistMeshOptions,
+    progress: bool = False,
+    callback: Callable[[DistMeshState], object] | None = None,
+) -> LoopResult:
+    """Run the DistMesh loop from ``points``; returns the final positions and the history."""
+    start = time.perf_counter()
+    o = options
+    p = points.copy()
+    fixed = fixed_mask.copy()
+    geps, ttol, ptol = o.geps * h, o.ttol * h, o.ptol * h
+    n = len(p)
+
+    bound = model(p)  # sdf where evaluated, an upper bound of it elsewhere (the distance cache)
+    history = {name: [] for name in HISTORY}
+    timings = dict.fromkeys(("delaunay", "bars", "forces", "model", "quality"), 0.0)
+    p_triangulated = None
+    recent_moves: list[float] = []
+    triangulations = 0
+    converged = False
+    last_print = 0.0
+    tets = np.zeros((0, 4), np.int64)
+    iteration = 0
+
+    for iteration in range(1, o.maxiter + 1):
+        # -- retriangulate when points moved far enough (or move averaging asks for it)
+        retriangulate = p_triangulated is None
+        if not retriangulate:
+            moved = np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)).max()
+            retriangulate = moved > ttol
+            if o.retriangulation == "move_average" and len(recent_moves) > o.move_average_window:
+                window = recent_moves[-o.move_average_window - 1 : -1]
+                retriangulate |= recent_moves[-1] > np.mean(window)
+        if retriangulate:
+            t0 = time.perf_counter()
+            if o.sort == "hilbert" and triangulations % o.sort_interval == 0:
+                order = hilbert_order(p)
+                p, bound, fixed = p[order], bound[order], fixed[order]
+            tets = tetrahedralize(p, o.delaunay, h)
+            tets = tets[centroid_inside(model, p, tets, bound, -geps)]
+            t1 = time.perf_counter()
+            bars = bars_of(tets, n)
+            p_triangulated = p.copy()
+            recent_moves.clear()
+            triangulations += 1
+            timings["delaunay"] += t1 - t0
+            timings["bars"] += time.perf_counter() - t1
+
+        # -- forces and move
+        t0 = time.perf_counter()
+        hbars = None
+        if size is not None:
+            from .initial_points import evaluate_size
+
+            hbars = evaluate_size(size, 0.5 * (p[bars.ends[:, 0]] + p[bars.ends[:, 1]]))
+        force, lengths = bar_forces(p, bars.ends, o.fscale, o.nonlinear, hbars)
+        force[fixed] = 0.0
+        move = o.deltat * force
+        t1 = time.perf_counter()
+        timings["forces"] += t1 - t0
+
+        # -- quality of the current triangulation (volume-edge ratio, from the bar lengths)
+        l_rms = np.sqrt(np.mean(lengths[bars.of_tet] ** 2, axis=1))
+        q = 6.0 * np.sqrt(2.0) * signed_volumes(p, tets) / l_rms**3
+        history["min_quality"].append(float(q.min()) if len(q) else 0.0)
+        history["mean_quality"].append(float(q.mean()) if len(q) else 0.0)
+        t2 = time.perf_counter()
+        timings["quality"] += t2 - t1
+
+        p += move
+        step = np.sqrt(np.einsum("ij,ij->i", move, move))
+
+        # -- sdf where it may have reached -geps; project points that left the domain
+        if o.distance_cache:
+            bound += step
+            near = np.flatnonzero(bound >= -geps)
+        else:
+            near = np.arange(n)
+        values = model(p[near]) if len(near) else np.zeros(0)
+        bound[near] = values
+        outside = near[(values > 0) & ~fixed[near]]
+        project_outside(model, p, bound[outside], outside, o.deps, h)
+        bound[outside] = 0.0
+        timings["model"] += time.perf_counter() - t2
+
+        interior = bound < -geps
+        max_dp = float(step[interior].max()) / h if interior.any() else 0.0
+        max_move = float(step.max())
+        recent_moves.append(max_move)
+        history["max_move"].append(max_move)
+        history["max_dp"].append(max_dp)
+        history["retriangulated"].append(bool(retriangulate))
+
+        seconds = time.perf_counter() - start
+        if callback is not None:
+            callback(
+                DistMeshState(iteration, p, tets, max_move, max_dp, history["min_quality"][-1],
+                              history["mean_quality"][-1], bool(retriangulate), seconds)
+            )
+        if max_dp < o.ptol:
+            converged = True
+        elif o.termination == "quality" and iteration >= 2 * o.quality_window:
+            w = o.quality_window
+            converged = all(
+                max(history[k][-w:]) - max(history[k][:-w]) < o.quality_tol for k in ("min_quality", "mean_quality")
+            )
+        if progress and (converged or seconds - last_print > 0.5):
+            last_print = seconds
+            _print_progress(iteration, n, history["min_quality"][-1], seconds, converged)
+        if converged:
+            break
+
+    seconds = time.perf_counter() - start
+    if progress and not converged:
+        _print_progress(iteration, n, history["min_quality"][-1] if history["min_quality"] else 0.0, seconds, True)
+    return LoopResult(
+        points=p,
+        fixed_mask=fixed,
+        history={k: np.asarray(v, dtype=np.int8 if k == "retriangulated" else np.float64) for k, v in history.items()},
+        converged=converged,
+        iterations=iteration,
+        seconds=seconds,
+        triangulations=triangulations,
+        timings=timings,
+    )

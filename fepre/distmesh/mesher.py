@@ -1,0 +1,161 @@
+"""fepre.distmesh: argument checks, initial points, the loop, the final mesh."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Any, Callable
+
+import numpy as np
+
+from ..arguments import as_bounds, as_points, positive_float
+from ..errors import ConvergenceWarning, MeshingError
+from ..sdf.core import SDF
+from .finalize import final_mesh
+from .initial_points import evaluate_size, initial_points
+from .loop import DistMeshState, iterate
+from .options import DistMeshOptions, resolve_options
+from .output import to_grid
+
+__all__ = ["distmesh"]
+
+
+def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
+    """Called when no lattice point fell inside: tell an empty domain from a too-large h."""
+    axes = [np.linspace(lower[k], upper[k], 48) for k in range(3)]
+    if float(model.values_on_axes(*axes, dtype=np.float64).min()) >= 0:
+        raise MeshingError(
+            f"the model's negative region misses the bounds {(tuple(lower), tuple(upper))}: "
+            "nothing to mesh (check the model's sign and the bounds)"
+        )
+    raise ValueError(f"h={h!r} is too large for the domain: no lattice point falls inside; use a smaller h")
+
+
+def distmesh(
+    model: SDF,
+    h: float,
+    *,
+    bounds: Any = None,
+    size: Callable[[np.ndarray], np.ndarray] | None = None,
+    fixed: Any = None,
+    options: DistMeshOptions | None = None,
+    progress: bool = False,
+    callback: Callable[[DistMeshState], object] | None = None,
+    **overrides: Any,
+):
+    """Tetrahedral mesh of the solid ``model < 0`` by DistMesh (Persson 2004, DistMesh.jl).
+
+    Parameters
+    ----------
+    model : fepre.sdf.SDF
+        The solid (negative inside).
+    h : float
+        Target edge length (where ``size`` is smallest, for graded meshes).
+    bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
+        Box holding the solid; defaults to ``model.bounds``.
+    size : callable, optional
+        Relative edge length ``size(points (N, 3)) -> (N,)`` (the reference's ``fh``): edges are
+        about ``h * size(x) / min(size)``.
+    fixed : (M, 3) array, optional
+        Points kept in the mesh that never move; they must lie in the solid (sdf <= 1e-3 h).
+    options : fepre.DistMeshOptions, optional
+        Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
+    progress : bool
+        Print a progress line (iteration, points, worst quality, seconds) on stderr.
+    callback : callable, optional
+        Called with a :class:`fepre.distmesh.DistMeshState` after every iteration.
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
+        VTK_TETRA cells of positive volume; point data ``sdf``, ``boundary``; cell data
+        ``min_dihedral_angle``, ``max_dihedral_angle``, ``radius_ratio``, ``volume_edge_ratio``,
+        ``volume``; field data ``distmesh_*`` (history per iteration: ``max_move``, ``max_dp``,
+        ``min_quality``, ``mean_quality``, ``retriangulated``; totals: ``iterations``,
+        ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``converged``).
+
+    Warns
+    -----
+    fepre.ConvergenceWarning
+        When the loop reaches ``maxiter``; the mesh reached so far is returned.
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> mesh = fepre.distmesh(sdf.sphere(1.0), h=0.3)
+    >>> bool((mesh["volume"] > 0).all()), 3.5 < mesh.volume < 4.19
+    (True, True)
+    """
+    start = time.perf_counter()
+    if not isinstance(model, SDF) or model.dim != 3:
+        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    h = positive_float(h, "h")
+    o = resolve_options(options, overrides)
+    if bounds is None:
+        if model.bounds is None:
+            raise ValueError("bounds is required for a model without bounds (model.bounds is None)")
+        bounds = model.bounds
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in as_bounds(bounds, 3, "bounds"))
+    extent = float((upper - lower).max())
+    if h >= extent:
+        raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
+    if size is not None and not callable(size):
+        raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
+    if callback is not None and not callable(callback):
+        raise TypeError(f"callback must be a callable or None; got {type(callback).__name__}")
+    if fixed is None:
+        fixed_points = np.zeros((0, 3))
+    else:
+        fixed_points, _ = as_points(fixed, 3, "fixed")
+        values = model(fixed_points)
+        outside = values > 1e-3 * h
+        if outside.any():
+            raise ValueError(
+                f"fixed points must lie in the domain (sdf <= 1e-3 h); point {fixed_points[outside][0].tolist()} "
+                f"has sdf {values[outside][0]:.4g}"
+            )
+        if len(np.unique(fixed_points, axis=0)) != len(fixed_points):
+            raise ValueError("fixed must not contain duplicate points")
+    if size is not None:
+        evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
+
+    rng = np.random.default_rng(o.seed)
+    points = initial_points(model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng)
+    if int((model(points[len(fixed_points):]) < 0).sum()) == 0 if len(points) > len(fixed_points) else True:
+        _check_domain(model, lower, upper, h)
+    if len(points) < 4:
+        raise ValueError(f"h={h!r} is too large for the domain: only {len(points)} points fit; use a smaller h")
+    fixed_mask = np.zeros(len(points), bool)
+    fixed_mask[: len(fixed_points)] = True
+
+    loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback)
+    points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay)
+    loop_seconds = time.perf_counter() - start
+
+    sliver_seconds = 0.0
+    if o.slivers:
+        from .slivers import improve_arrays
+
+        t0 = time.perf_counter()
+        points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=fixed_mask, size=size, seed=o.seed)
+        sliver_seconds = time.perf_counter() - t0
+
+    history = dict(loop.history)
+    history.update(
+        iterations=np.array([loop.iterations]),
+        converged=np.array([int(loop.converged)]),
+        triangulations=np.array([loop.triangulations]),
+        loop_seconds=np.array([loop_seconds]),
+        slivers_seconds=np.array([sliver_seconds]),
+        seconds=np.array([time.perf_counter() - start]),
+    )
+    grid = to_grid(points, tets, model, history)
+    if not loop.converged:
+        warnings.warn(
+            f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "
+            f"(last interior move {loop.history['max_dp'][-1]:.3g} h > ptol={o.ptol:g}); returning the mesh reached",
+            ConvergenceWarning,
+            stacklevel=2,
+        )
+    return grid

@@ -1,0 +1,161 @@
+"""DistMesh parameters: one dataclass, every field checked and documented."""
+
+from __future__ import annotations
+
+import dataclasses
+import numbers
+from dataclasses import dataclass
+from typing import Any, Optional
+
+from ..arguments import choice, nonnegative_float, positive_float, positive_int
+
+__all__ = ["DistMeshOptions", "resolve_options"]
+
+DISTRIBUTIONS = ("bcc", "fcc", "cubic")
+TERMINATIONS = ("displacement", "quality")
+RETRIANGULATIONS = ("movement", "move_average")
+DELAUNAY_BACKENDS = ("scipy", "gmsh")
+SORTS = (None, "hilbert")
+
+
+@dataclass(frozen=True)
+class DistMeshOptions:
+    """Parameters of :func:`fepre.distmesh`; lengths are relative to the edge length ``h``.
+
+    Attributes
+    ----------
+    deltat : float, default 0.1
+        Pseudo time step: each iteration moves a point by ``deltat`` times its total bar force.
+    ptol : float, default 0.001
+        Displacement termination: stop when no interior point (sdf < -geps) moved more than
+        ``ptol * h`` in one iteration.
+    ttol : float, default 0.1
+        Retriangulate once some point has moved more than ``ttol * h`` since the last
+        triangulation (the reference's rule; also the safety net of ``"move_average"``).
+    fscale : float, default 1.1
+        Bars' rest lengths are ``fscale`` times their scaled target, so that bars push.
+    geps : float, default 0.1
+        Boundary tolerance, times ``h``: tetrahedra whose centroid has sdf >= -geps*h are
+        dropped, points with sdf < geps*h are kept from the initial lattice.
+    deps : float or None, default None
+        Finite-difference step, times ``h``, for models without an analytic gradient
+        (None: ``sqrt(machine eps)``). Models with an analytic gradient ignore it.
+    maxiter : int, default 1000
+        Largest number of iterations; reaching it warns with ``ConvergenceWarning``.
+    distribution : {"bcc", "fcc", "cubic"}, default "bcc"
+        Initial lattice. ``"bcc"`` (body-centred cubic) has a unique Delaunay triangulation of
+        congruent well-shaped tetrahedra and is already near equilibrium; ``"fcc"`` is the
+        close packing (DistMesh.jl's default); ``"cubic"`` is the reference's simple cubic
+        lattice (maximally co-spherical). Every lattice has the point density that gives edges
+        of about ``h``.
+    jitter : float, default 0.01
+        Random perturbation of the initial lattice, times ``h`` (drawn from ``seed``); breaks
+        the co-sphericity of the cubic and fcc lattices.
+    nonlinear : bool, default False
+        Use the seed's nonlinear bar force ``k (L0 - L)`` with ``k = (L + L0) / (2 L0)``.
+    distance_cache : bool, default True
+        Keep an upper bound of each point's sdf (its last value plus the distance it moved
+        since, valid because an sdf is 1-Lipschitz) and evaluate the model only at points whose
+        bound reaches ``-geps * h``.
+    sort : {None, "hilbert"}, default None
+        Reorder points along a Hilbert curve before triangulating, for memory locality.
+    sort_interval : int, default 20
+        Sort every ``sort_interval`` retriangulations (with ``sort="hilbert"``).
+    termination : {"displacement", "quality"}, default "displacement"
+        ``"displacement"``: the reference's ``ptol`` rule. ``"quality"``: stop when neither the
+        worst nor the mean tetrahedron quality (volume-edge ratio) improved by more than
+        ``quality_tol`` over the last ``quality_window`` iterations (or on the ``ptol`` rule).
+    quality_window : int, default 20
+        Window of the quality termination, in iterations.
+    quality_tol : float, default 0.001
+        Smallest improvement of worst or mean quality over the window that keeps iterating.
+    retriangulation : {"movement", "move_average"}, default "movement"
+        ``"movement"``: the ``ttol`` rule. ``"move_average"``: also retriangulate when the
+        latest per-iteration maximum move exceeds the average of the previous
+        ``move_average_window`` ones (the seed's section 4.7).
+    move_average_window : int, default 7
+        Number of previous maximum moves averaged by ``"move_average"``.
+    delaunay : {"scipy", "gmsh"}, default "scipy"
+        Triangulation backend: ``scipy.spatial.Delaunay`` (Qhull) or
+        ``gmsh.algorithm.tetrahedralize`` (needs the optional ``gmsh`` package).
+    seed : int, default 0
+        Seed of every random choice (lattice jitter, size rejection); same seed, same mesh.
+    slivers : bool, default True
+        Run fepre's quality stage (:func:`fepre.distmesh.improve`: sliver removal and
+        smoothing) on the result of the loop.
+    """
+
+    deltat: float = 0.1
+    ptol: float = 0.001
+    ttol: float = 0.1
+    fscale: float = 1.1
+    geps: float = 0.1
+    deps: Optional[float] = None
+    maxiter: int = 1000
+    distribution: str = "bcc"
+    jitter: float = 0.01
+    nonlinear: bool = False
+    distance_cache: bool = True
+    sort: Optional[str] = None
+    sort_interval: int = 20
+    termination: str = "displacement"
+    quality_window: int = 20
+    quality_tol: float = 0.001
+    retriangulation: str = "movement"
+    move_average_window: int = 7
+    delaunay: str = "scipy"
+    seed: int = 0
+    slivers: bool = True
+
+    def __post_init__(self) -> None:
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        for name in ("deltat", "ptol", "ttol", "fscale", "geps"):
+            put(name, positive_float(getattr(self, name), name))
+        if self.deps is not None:
+            put("deps", positive_float(self.deps, "deps"))
+        if self.deltat > 1.0:
+            raise ValueError(f"deltat must be in (0, 1]; got {self.deltat!r}")
+        if self.geps >= 1.0:
+            raise ValueError(f"geps must be in (0, 1) (a fraction of h); got {self.geps!r}")
+        put("jitter", nonnegative_float(self.jitter, "jitter"))
+        if self.jitter >= 0.25:
+            raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {self.jitter!r}")
+        put("quality_tol", nonnegative_float(self.quality_tol, "quality_tol"))
+        for name in ("maxiter", "sort_interval", "quality_window", "move_average_window"):
+            put(name, positive_int(getattr(self, name), name))
+        for name in ("nonlinear", "distance_cache", "slivers"):
+            value = getattr(self, name)
+            if not isinstance(value, (bool, numbers.Integral)) or value not in (0, 1):
+                raise TypeError(f"{name} must be True or False; got {value!r}")
+            put(name, bool(value))
+        choice(self.distribution, "distribution", DISTRIBUTIONS)
+        choice(self.termination, "termination", TERMINATIONS)
+        choice(self.retriangulation, "retriangulation", RETRIANGULATIONS)
+        choice(self.delaunay, "delaunay", DELAUNAY_BACKENDS)
+        choice(self.sort, "sort", SORTS)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, numbers.Integral) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
+        put("seed", int(self.seed))
+
+
+def resolve_options(options: DistMeshOptions | None, overrides: dict[str, Any]) -> DistMeshOptions:
+    """``options`` (default options when None) with keyword ``overrides`` applied on top.
+
+    Examples
+    --------
+    >>> resolve_options(None, {"deltat": 0.05}).deltat
+    0.05
+    """
+    if options is None:
+        options = DistMeshOptions()
+    elif not isinstance(options, DistMeshOptions):
+        raise TypeError(f"options must be a fepre.DistMeshOptions or None; got {type(options).__name__}")
+    valid = [field.name for field in dataclasses.fields(DistMeshOptions)]
+    unknown = sorted(set(overrides) - set(valid))
+    if unknown:
+        raise TypeError(
+            f"unknown DistMesh option(s) {', '.join(map(repr, unknown))}; valid options: {', '.join(valid)}"
+        )
+    return dataclasses.replace(options, **overrides) if overrides else options

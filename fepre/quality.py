@@ -1,0 +1,192 @@
+"""Tetrahedron quality metrics, vectorised over all cells, and their summaries.
+
+Every metric is 1 for a regular tetrahedron (70.53 deg for the dihedral angles):
+
+* ``min_dihedral_angle``, ``max_dihedral_angle``: the extreme of the six dihedral angles, degrees;
+* ``radius_ratio``: ``3 r_in / R_circ`` (the inverse of VTK's ``radius_ratio``);
+* ``volume_edge_ratio``: ``6 sqrt(2) V / l_rms^3``;
+* ``volume``: signed volume in VTK's convention (positive when points 1, 2, 3 turn
+  counter-clockwise seen from point 0... i.e. ``(p1-p0) x (p2-p0) . (p3-p0) > 0``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["tet_quality", "add_quality", "summary", "QualitySummary", "METRICS"]
+
+METRICS = ("min_dihedral_angle", "max_dihedral_angle", "radius_ratio", "volume_edge_ratio", "volume")
+
+# face opposite vertex k (outward for a positive tet), and the two faces meeting at each edge
+_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+_EDGE_FACES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])  # edges 01 02 03 12 13 23
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+
+
+def _check(points: Any, tets: Any) -> tuple[np.ndarray, np.ndarray]:
+    points = np.asarray(points, dtype=np.float64)
+    tets = np.asarray(tets)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3); got {points.shape}")
+    if tets.ndim != 2 or tets.shape[1] != 4 or tets.dtype.kind not in "iu":
+        raise ValueError(f"tets must be an integer array of shape (M, 4); got {tets.shape} {tets.dtype}")
+    if tets.size and (tets.min() < 0 or tets.max() >= points.shape[0]):
+        raise ValueError(f"tets must index points 0..{points.shape[0] - 1}")
+    return points, tets
+
+
+def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Signed volumes (M,) in VTK's convention."""
+    p0 = points[tets[:, 0]]
+    a = points[tets[:, 1]] - p0
+    b = points[tets[:, 2]] - p0
+    c = points[tets[:, 3]] - p0
+    return np.einsum("ij,ij->i", np.cross(a, b), c) / 6.0
+
+
+def tet_quality(points: Any, tets: Any) -> dict[str, np.ndarray]:
+    """Quality arrays of the tetrahedra ``tets`` (M, 4) over ``points`` (N, 3).
+
+    Returns a dict with the keys of :data:`METRICS`, each an (M,) float64 array. Inverted cells
+    get negative ``radius_ratio`` and ``volume_edge_ratio`` (the sign of the volume).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    >>> q = tet_quality(p, [[0, 1, 2, 3]])
+    >>> round(float(q["radius_ratio"][0]), 6), round(float(q["min_dihedral_angle"][0]), 2)
+    (1.0, 70.53)
+    """
+    points, tets = _check(points, tets)
+    corners = points[tets]  # (M, 4, 3)
+    volume = signed_volumes(points, tets)
+
+    edge_vectors = corners[:, _EDGES[:, 1]] - corners[:, _EDGES[:, 0]]  # (M, 6, 3)
+    edge_lengths2 = np.einsum("mek,mek->me", edge_vectors, edge_vectors)
+    edge_lengths = np.sqrt(edge_lengths2)
+
+    # face area vectors, outward for positive cells
+    f = corners[:, _FACES]  # (M, 4, 3, 3)
+    normals = 0.5 * np.cross(f[:, :, 1] - f[:, :, 0], f[:, :, 2] - f[:, :, 0])
+    areas = np.linalg.norm(normals, axis=2)  # (M, 4)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = normals / areas[:, :, None]
+        n1 = unit[:, _EDGE_FACES[:, 0]]
+        n2 = unit[:, _EDGE_FACES[:, 1]]
+        cosines = -np.einsum("mek,mek->me", n1, n2)
+        dihedral = np.degrees(np.arccos(np.clip(cosines, -1.0, 1.0)))
+        dihedral = np.where(np.isfinite(dihedral), dihedral, 0.0)
+
+        # inradius 3V/sum(A); circumradius sqrt(s(s-a)(s-b)(s-c))/(6V) with a, b, c the
+        # products of opposite edge lengths
+        a = edge_lengths[:, 0] * edge_lengths[:, 5]
+        b = edge_lengths[:, 1] * edge_lengths[:, 4]
+        c = edge_lengths[:, 2] * edge_lengths[:, 3]
+        s = 0.5 * (a + b + c)
+        heron = np.sqrt(np.maximum(s * (s - a) * (s - b) * (s - c), 0.0))
+        # 3 r_in / R = 3 (3V/sumA) / (heron / 6V) = 54 V^2 / (sumA * heron)
+        radius_ratio = np.sign(volume) * 54.0 * volume**2 / (areas.sum(axis=1) * heron)
+        radius_ratio = np.where(np.isfinite(radius_ratio), radius_ratio, 0.0)
+        l_rms = np.sqrt(edge_lengths2.mean(axis=1))
+        volume_edge = 6.0 * np.sqrt(2.0) * volume / l_rms**3
+        volume_edge = np.where(np.isfinite(volume_edge), volume_edge, 0.0)
+    return {
+        "min_dihedral_angle": dihedral.min(axis=1) if len(tets) else np.zeros(0),
+        "max_dihedral_angle": dihedral.max(axis=1) if len(tets) else np.zeros(0),
+        "radius_ratio": radius_ratio,
+        "volume_edge_ratio": volume_edge,
+        "volume": volume,
+    }
+
+
+def _tetra_connectivity(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
+    import pyvista as pv
+
+    if not isinstance(mesh, pv.UnstructuredGrid):
+        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid; got {type(mesh).__name__}")
+    cells = mesh.cells_dict
+    kinds = set(cells)
+    tetra, quadratic = int(pv.CellType.TETRA), int(pv.CellType.QUADRATIC_TETRA)
+    if not kinds <= {tetra, quadratic} or len(kinds) > 1:
+        raise ValueError(f"mesh must contain only tetrahedra (linear or quadratic); got cell types {sorted(kinds)}")
+    if not kinds:
+        return np.asarray(mesh.points, dtype=np.float64), np.zeros((0, 4), dtype=np.int64)
+    connectivity = next(iter(cells.values()))[:, :4]
+    return np.asarray(mesh.points, dtype=np.float64), connectivity.astype(np.int64)
+
+
+def add_quality(mesh: Any, inplace: bool = False) -> Any:
+    """Return ``mesh`` (a copy unless ``inplace``) with the quality arrays as cell data.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
+    >>> round(float(add_quality(grid)["volume"][0]), 4)
+    0.1667
+    """
+    points, tets = _tetra_connectivity(mesh)
+    result = mesh if inplace else mesh.copy()
+    for name, values in tet_quality(points, tets).items():
+        result.cell_data[name] = values
+    return result
+
+
+@dataclass(frozen=True)
+class QualitySummary:
+    """Statistics of each metric: ``stats[metric][key]`` with keys min, p1, p5, p50, mean, max."""
+
+    cells: int
+    stats: dict[str, dict[str, float]]
+
+    def __getitem__(self, metric: str) -> dict[str, float]:
+        return self.stats[metric]
+
+    def __str__(self) -> str:
+        keys = ("min", "p1", "p5", "p50", "mean", "max")
+        width = max(len(m) for m in self.stats)
+        lines = [f"{self.cells} tetrahedra", f"{'':{width}}  " + "  ".join(f"{k:>10}" for k in keys)]
+        for metric, row in self.stats.items():
+            lines.append(f"{metric:{width}}  " + "  ".join(f"{row[k]:10.4g}" for k in keys))
+        return "\n".join(lines)
+
+    __repr__ = __str__
+
+
+def summary(mesh: Any) -> QualitySummary:
+    """Minimum, 1st/5th/50th percentiles, mean and maximum of every quality metric.
+
+    Uses the mesh's quality cell arrays when present, computes them otherwise.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
+    >>> round(summary(grid)["max_dihedral_angle"]["max"], 1)
+    90.0
+    """
+    if all(name in mesh.cell_data for name in METRICS):
+        arrays = {name: np.asarray(mesh.cell_data[name], dtype=np.float64) for name in METRICS}
+    else:
+        arrays = tet_quality(*_tetra_connectivity(mesh))
+    stats = {}
+    for name, values in arrays.items():
+        if values.size == 0:
+            stats[name] = dict.fromkeys(("min", "p1", "p5", "p50", "mean", "max"), float("nan"))
+            continue
+        p1, p5, p50 = np.percentile(values, [1, 5, 50])
+        stats[name] = {
+            "min": float(values.min()),
+            "p1": float(p1),
+            "p5": float(p5),
+            "p50": float(p50),
+            "mean": float(values.mean()),
+            "max": float(values.max()),
+        }
+    return QualitySummary(cells=int(len(arrays["volume"])), stats=stats)
