@@ -1,0 +1,464 @@
+"""Validation: fepre's tetrahedra measured side by side with independent meshers.
+
+:func:`compare` meshes a model with fepre (or takes a given mesh) and with each reference mesher
+(pytetwild, and gmsh when installed, both from the same fine flying-edges surface), then measures
+every mesh the same way: counts, volume error, boundary fidelity, element quality and time.
+
+Examples
+--------
+>>> import fepre
+>>> from fepre import sdf
+>>> result = fepre.compare(sdf.sphere(1.0), h=0.3, exact_volume=4.18879)  # doctest: +SKIP
+>>> print(result.table())                                                 # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from .arguments import as_bounds, positive_float
+from .references import REFERENCES, reference_surface, run_reference
+
+__all__ = ["compare", "Comparison", "MeshResult", "mesh_metrics", "boundary_surface"]
+
+# face opposite each vertex, outward for a positive (VTK) tetrahedron
+_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+
+
+def tetra_cells(mesh: Any) -> np.ndarray:
+    """Corner connectivity (M, 4) of a grid of linear or quadratic tetrahedra."""
+    import pyvista as pv
+
+    if not isinstance(mesh, pv.UnstructuredGrid):
+        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid; got {type(mesh).__name__}")
+    cells = mesh.cells_dict
+    kinds = set(cells)
+    allowed = {int(pv.CellType.TETRA), int(pv.CellType.QUADRATIC_TETRA)}
+    if not kinds or not kinds <= allowed or len(kinds) > 1:
+        raise ValueError(f"mesh must hold only tetrahedra (VTK_TETRA or VTK_QUADRATIC_TETRA); got cell types {sorted(kinds)}")
+    return np.asarray(next(iter(cells.values()))[:, :4], dtype=np.int64)
+
+
+def boundary_faces(tets: np.ndarray) -> np.ndarray:
+    """Faces (K, 3) used by exactly one tetrahedron, oriented outward."""
+    faces = tets[:, _FACES].reshape(-1, 3)
+    key = np.sort(faces, axis=1)
+    _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    return faces[first[counts == 1]]
+
+
+def boundary_surface(mesh: Any):
+    """The boundary triangles of a tetrahedral grid as a ``pyvista.PolyData`` (outward).
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
+    >>> boundary_surface(grid).n_cells
+    4
+    """
+    return _boundary(mesh)[0]
+
+
+def _boundary(mesh: Any) -> tuple[Any, np.ndarray]:
+    """Boundary surface and the mesh's indices of its nodes."""
+    import pyvista as pv
+
+    faces = boundary_faces(tetra_cells(mesh))
+    used, inverse = np.unique(faces, return_inverse=True)
+    points = np.asarray(mesh.points, dtype=np.float64)[used]
+    return pv.PolyData.from_regular_faces(points, inverse.reshape(-1, 3)), used
+
+
+def _surface_samples(surface: Any) -> np.ndarray:
+    """Vertices, edge midpoints and centroids of a triangle surface (dense Hausdorff samples)."""
+    points = np.asarray(surface.points, dtype=np.float64)
+    triangles = np.asarray(surface.regular_faces, dtype=np.int64)
+    corners = points[triangles]
+    midpoints = 0.5 * (corners + corners[:, [1, 2, 0]])
+    return np.concatenate([points, midpoints.reshape(-1, 3), corners.mean(axis=1)])
+
+
+def _distances_to_surface(points: np.ndarray, surface: Any) -> np.ndarray:
+    """Unsigned distance from each point to the triangles of ``surface`` (VTK cell locator)."""
+    import pyvista as pv
+
+    cloud = pv.PolyData(points)
+    return np.abs(np.asarray(cloud.compute_implicit_distance(surface)["implicit_distance"]))
+
+
+def hausdorff(a: Any, b: Any) -> tuple[float, float]:
+    """Directed distances (max over samples of ``a`` to ``b``, max over ``b`` to ``a``)."""
+    return (
+        float(_distances_to_surface(_surface_samples(a), b).max()),
+        float(_distances_to_surface(_surface_samples(b), a).max()),
+    )
+
+
+def mesh_metrics(
+    mesh: Any,
+    model: Any,
+    *,
+    reference: Any = None,
+    volume: float | None = None,
+    seconds: float | None = None,
+) -> dict[str, float]:
+    """Measure one tetrahedral mesh.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+        Linear or quadratic tetrahedra.
+    model : SDF
+        The part; boundary nodes are scored by ``|model|``.
+    reference : pyvista.PolyData, optional
+        Surface for the two-sided Hausdorff distance of the mesh boundary.
+    volume : float, optional
+        The part's volume (exact or estimated) for the volume error.
+    seconds : float, optional
+        Meshing time, copied into the result.
+
+    Returns
+    -------
+    dict
+        Keys ``elements``, ``nodes``, ``volume``, ``volume_error`` (relative), ``inverted``,
+        ``boundary_sdf_max``, ``boundary_sdf_mean``, ``hausdorff`` (and its two directions),
+        ``<metric>_<stat>`` for every quality metric, ``below_10``/``below_15`` (cells with a
+        dihedral angle under 10/15 degrees) and ``seconds``.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> from fepre import sdf
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
+    >>> m = mesh_metrics(grid, sdf.sphere(2.0), volume=1 / 6)
+    >>> m["elements"], round(m["volume_error"], 12), round(m["boundary_sdf_max"], 3)
+    (1, 0.0, 2.0)
+    """
+    from .quality import tet_quality
+
+    tets = tetra_cells(mesh)
+    points = np.asarray(mesh.points, dtype=np.float64)
+    quality = tet_quality(points, tets)
+    total = float(quality["volume"].sum())
+    surface, boundary_nodes = _boundary(mesh)
+    sdf_at_boundary = np.abs(np.asarray(model(points[boundary_nodes]), dtype=np.float64))
+
+    metrics: dict[str, float] = {
+        "elements": int(len(tets)),
+        "nodes": int(mesh.n_points),
+        "boundary_nodes": int(len(boundary_nodes)),
+        "volume": total,
+        "volume_error": (total - volume) / volume if volume else float("nan"),
+        "inverted": int(np.count_nonzero(quality["volume"] <= 0)),
+        "boundary_sdf_max": float(sdf_at_boundary.max()),
+        "boundary_sdf_mean": float(sdf_at_boundary.mean()),
+    }
+    if reference is not None:
+        to_reference, from_reference = hausdorff(surface, reference)
+        metrics.update(
+            hausdorff=max(to_reference, from_reference),
+            hausdorff_mesh_to_surface=to_reference,
+            hausdorff_surface_to_mesh=from_reference,
+        )
+    for name in ("min_dihedral_angle", "max_dihedral_angle", "radius_ratio", "volume_edge_ratio"):
+        values = quality[name]
+        metrics[f"{name}_min"] = float(values.min())
+        metrics[f"{name}_p1"] = float(np.percentile(values, 1))
+        metrics[f"{name}_mean"] = float(values.mean())
+        metrics[f"{name}_max"] = float(values.max())
+    metrics["below_10"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 10.0))
+    metrics["below_15"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 15.0))
+    metrics["seconds"] = float("nan") if seconds is None else float(seconds)
+    return metrics
+
+
+@dataclass
+class MeshResult:
+    """One mesher's mesh, its time and its measurements."""
+
+    name: str
+    mesh: Any
+    seconds: float | None
+    metrics: dict[str, float]
+
+
+# (row label, metric key, format) of the text and HTML tables
+TABLE_ROWS: list[tuple[str, str, str]] = [
+    ("tetrahedra", "elements", "{:d}"),
+    ("nodes", "nodes", "{:d}"),
+    ("time [s]", "seconds", "{:.2f}"),
+    ("volume", "volume", "{:.5g}"),
+    ("volume error", "volume_error", "{:+.3%}"),
+    ("inverted cells", "inverted", "{:d}"),
+    ("max |sdf| at boundary nodes", "boundary_sdf_max", "{:.2e}"),
+    ("mean |sdf| at boundary nodes", "boundary_sdf_mean", "{:.2e}"),
+    ("Hausdorff to fine surface", "hausdorff", "{:.2e}"),
+    ("min dihedral [deg]", "min_dihedral_angle_min", "{:.2f}"),
+    ("1st pct min dihedral [deg]", "min_dihedral_angle_p1", "{:.2f}"),
+    ("mean min dihedral [deg]", "min_dihedral_angle_mean", "{:.2f}"),
+    ("max dihedral [deg]", "max_dihedral_angle_max", "{:.2f}"),
+    ("cells below 10 deg", "below_10", "{:d}"),
+    ("cells below 15 deg", "below_15", "{:d}"),
+    ("min radius ratio", "radius_ratio_min", "{:.3f}"),
+    ("1st pct radius ratio", "radius_ratio_p1", "{:.3f}"),
+    ("mean radius ratio", "radius_ratio_mean", "{:.3f}"),
+    ("min volume-edge ratio", "volume_edge_ratio_min", "{:.3f}"),
+    ("mean volume-edge ratio", "volume_edge_ratio_mean", "{:.3f}"),
+]
+
+
+def format_metric(value: Any, spec: str) -> str:
+    """``value`` formatted with ``spec``, or '-' when it is missing or NaN."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    if spec.endswith("d}"):
+        value = int(value)
+    return spec.format(value)
+
+
+@dataclass
+class Comparison:
+    """Meshes of one model by fepre and the reference meshers, measured the same way.
+
+    Attributes
+    ----------
+    model : SDF
+    h : float
+    results : list of MeshResult
+        fepre first, then each reference.
+    surface : pyvista.PolyData
+        The fine flying-edges surface the references meshed (and the Hausdorff reference).
+    surface_check : SurfaceCheck or None
+        :func:`fepre.check_surface` of that surface.
+    volume_reference : float
+        Volume the errors are relative to.
+    volume_source : str
+        ``"exact"`` or how it was estimated.
+    settings : dict
+        The run's arguments and package versions.
+    """
+
+    model: Any
+    h: float
+    results: list[MeshResult]
+    surface: Any
+    surface_check: Any
+    volume_reference: float
+    volume_source: str
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> MeshResult:
+        for result in self.results:
+            if result.name == name:
+                return result
+        raise KeyError(f"no mesher named {name!r}; have {[r.name for r in self.results]}")
+
+    @property
+    def names(self) -> list[str]:
+        """Mesher names in table order."""
+        return [result.name for result in self.results]
+
+    def table(self) -> str:
+        """The measurements as a plain-text table (one column per mesher).
+
+        Examples
+        --------
+        >>> print(cmp.table())  # doctest: +SKIP
+        """
+        header = ["", *self.names]
+        rows = [header]
+        for label, key, spec in TABLE_ROWS:
+            rows.append([label, *(format_metric(r.metrics.get(key), spec) for r in self.results)])
+        widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
+        lines = []
+        for index, row in enumerate(rows):
+            cells = [row[0].ljust(widths[0])] + [cell.rjust(width) for cell, width in zip(row[1:], widths[1:])]
+            lines.append("  ".join(cells))
+            if index == 0:
+                lines.append("  ".join("-" * width for width in widths))
+        lines.append(
+            f"h = {self.h:g}; volume reference {self.volume_reference:.6g} ({self.volume_source}); "
+            f"Hausdorff against the flying-edges surface at spacing {self.settings.get('surface_spacing', float('nan')):g}"
+        )
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.table()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (JSON-serialisable): model, settings, and each mesher's metrics."""
+        check = self.surface_check
+        return {
+            "model": repr(self.model),
+            "h": self.h,
+            "volume_reference": self.volume_reference,
+            "volume_source": self.volume_source,
+            "settings": dict(self.settings),
+            "surface_check": _as_plain(check) if check is not None else None,
+            "meshes": {r.name: dict(r.metrics) for r in self.results},
+        }
+
+    def to_html(self, path: Any, *, title: str | None = None) -> Any:
+        """Write a self-contained HTML report (images embedded) to ``path``; returns the path."""
+        from .report import write_report
+
+        return write_report([self], path, title=title)
+
+
+def _as_plain(check: Any) -> dict[str, Any]:
+    import dataclasses
+
+    if dataclasses.is_dataclass(check):
+        items = dataclasses.asdict(check)
+    else:
+        items = dict(vars(check))
+    plain = {}
+    for key, value in items.items():
+        if isinstance(value, (np.generic,)):
+            value = value.item()
+        if isinstance(value, (bool, int, float, str)) or value is None:
+            plain[key] = value
+    return plain
+
+
+def versions() -> dict[str, str]:
+    """Versions of fepre and the packages a comparison depends on."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    found = {"python": platform.python_version()}
+    for package in ("fepre", "numpy", "scipy", "vtk", "pyvista", "pytetwild", "gmsh", "meshio", "matplotlib"):
+        try:
+            found[package] = version(package)
+        except PackageNotFoundError:
+            continue
+    return found
+
+
+def compare(
+    model: Any,
+    h: float,
+    *,
+    mesh: Any = None,
+    references: tuple[str, ...] | list[str] = ("pytetwild",),
+    surface_spacing: float | None = None,
+    exact_volume: float | None = None,
+    bounds: Any = None,
+    seed: int = 0,
+    progress: Callable[[str], None] | bool = False,
+    **distmesh_options: Any,
+) -> Comparison:
+    """Mesh ``model`` with fepre and with independent meshers, and measure all meshes alike.
+
+    Parameters
+    ----------
+    model : SDF
+        The part.
+    h : float
+        Target edge length, passed to every mesher (pytetwild's ``edge_length_abs``).
+    mesh : pyvista.UnstructuredGrid, optional
+        fepre's mesh, if already made; otherwise ``fepre.distmesh(model, h)`` runs and is timed.
+    references : sequence of str
+        Reference meshers: ``"pytetwild"``, ``"gmsh"``. Each meshes the same fine surface.
+    surface_spacing : float, optional
+        Grid spacing of that surface (default ``h / 4``).
+    exact_volume : float, optional
+        The part's exact volume; without it, the volume enclosed by the fine surface is used.
+    bounds : ((min...), (max...)), optional
+        Meshing box for unbounded models.
+    seed : int
+        Seed of every randomised mesher.
+    progress : bool or callable
+        True prints a line per step; a callable receives each step's message.
+    **distmesh_options
+        Passed to :func:`fepre.distmesh` when ``mesh`` is None.
+
+    Returns
+    -------
+    Comparison
+
+    Examples
+    --------
+    >>> import math, fepre
+    >>> from fepre import sdf
+    >>> result = fepre.compare(sdf.sphere(1.0), h=0.3, exact_volume=4 * math.pi / 3)  # doctest: +SKIP
+    >>> result["pytetwild"].metrics["elements"] > 0                                   # doctest: +SKIP
+    True
+    """
+    import pyvista as pv
+
+    from .sdf import SDF
+
+    if not isinstance(model, SDF):
+        raise TypeError(f"model must be an fepre SDF; got {type(model).__name__}")
+    h = positive_float(h, "h")
+    spacing = h / 4 if surface_spacing is None else positive_float(surface_spacing, "surface_spacing")
+    if isinstance(references, str):
+        references = (references,)
+    for name in references:
+        if name not in REFERENCES:
+            raise ValueError(f"references must name {', '.join(map(repr, REFERENCES))}; got {name!r}")
+    if mesh is not None and not isinstance(mesh, pv.UnstructuredGrid):
+        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid; got {type(mesh).__name__}")
+    if exact_volume is not None:
+        exact_volume = positive_float(exact_volume, "exact_volume")
+    if bounds is not None:
+        bounds = as_bounds(bounds)
+    report = progress if callable(progress) else (lambda message: print(message, flush=True)) if progress else (lambda message: None)
+
+    report(f"compare: fine surface at spacing {spacing:g} ...")
+    surface = reference_surface(model, spacing, bounds)
+    surface_check = _check_surface(surface, model)
+    if exact_volume is not None:
+        volume, source = exact_volume, "exact"
+    else:
+        volume, source = float(abs(surface.volume)), f"enclosed by the flying-edges surface at spacing {spacing:g}"
+
+    results = []
+    if mesh is None:
+        import fepre
+
+        report(f"compare: fepre.distmesh h={h:g} ...")
+        start = time.perf_counter()
+        mesh = fepre.distmesh(model, h, bounds=bounds, **({"seed": seed} | distmesh_options))
+        seconds: float | None = time.perf_counter() - start
+    else:
+        stored = mesh.field_data.get("distmesh_seconds") if hasattr(mesh, "field_data") else None
+        seconds = float(np.asarray(stored).ravel()[-1]) if stored is not None and np.size(stored) else None
+    report(f"compare: measuring fepre ({mesh.n_cells} cells) ...")
+    results.append(MeshResult("fepre", mesh, seconds, mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)))
+
+    for name in references:
+        report(f"compare: {name} h={h:g} ...")
+        reference_mesh, seconds = run_reference(name, surface, h, seed=seed)
+        report(f"compare: measuring {name} ({reference_mesh.n_cells} cells, {seconds:.1f} s) ...")
+        metrics = mesh_metrics(reference_mesh, model, reference=surface, volume=volume, seconds=seconds)
+        results.append(MeshResult(name, reference_mesh, seconds, metrics))
+
+    settings = {
+        "h": h,
+        "surface_spacing": spacing,
+        "references": list(references),
+        "seed": int(seed),
+        "bounds": bounds if bounds is not None else model.bounds,
+        "distmesh_options": {k: repr(v) for k, v in distmesh_options.items()},
+        "versions": versions(),
+        "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
+    }
+    return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+
+
+def _check_surface(surface: Any, model: Any) -> Any:
+    try:
+        from .surface import check_surface
+    except ImportError:  # the surface stage is not installed in this tree yet
+        return None
+    return check_surface(surface, model)

@@ -1,0 +1,164 @@
+"""Model files: Python files that define a part for the ``fepre`` command.
+
+A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` (target edge
+length), ``bounds`` (meshing box) and ``boundaries`` (name -> SDF for named boundary sets).
+Loading one runs it with ``runpy`` (``__name__`` is not ``"__main__"``, so a file can also be a
+script) and turns every failure into a :class:`ModelFileError` naming the file and the reason.
+
+Examples
+--------
+>>> import pathlib, tempfile
+>>> folder = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (folder / "ball.py").write_text("from fepre import sdf\\nmodel = sdf.sphere(1.0)\\nh = 0.2\\n")
+>>> part = load_model(folder / "ball.py")
+>>> part.h, part.model.bounds[1]
+(0.2, (1.0, 1.0, 1.0))
+"""
+
+from __future__ import annotations
+
+import os
+import runpy
+import sys
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .arguments import as_bounds, positive_float
+from .sdf import SDF
+
+__all__ = ["ModelFile", "ModelFileError", "load_model"]
+
+
+class ModelFileError(ValueError):
+    """A model file is missing, does not run, or does not define a usable ``model``."""
+
+
+@dataclass
+class ModelFile:
+    """What a model file defines.
+
+    Attributes
+    ----------
+    path : Path
+        The file that was run.
+    model : SDF
+        The part.
+    h : float or None
+        Target edge length, if the file sets ``h``.
+    bounds : ((min...), (max...)) or None
+        Meshing/sampling box, if the file sets ``bounds`` (else the model's own bounds).
+    boundaries : dict
+        Named boundary sets (name -> SDF or callable), possibly empty.
+    namespace : dict
+        Every global the file defined.
+    """
+
+    path: Path
+    model: SDF
+    h: float | None = None
+    bounds: Any = None
+    boundaries: dict[str, Any] = field(default_factory=dict)
+    namespace: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def name(self) -> str:
+        """The file's stem, used to name outputs."""
+        return self.path.stem
+
+    def domain_bounds(self):
+        """``bounds`` if the file set it, else the model's bounds; an error if neither exists."""
+        if self.bounds is not None:
+            return self.bounds
+        if self.model.bounds is None:
+            raise ModelFileError(
+                f"{self.path}: the model is unbounded; set `bounds = ((xmin, ymin, zmin), "
+                "(xmax, ymax, zmax))` in the model file"
+            )
+        return self.model.bounds
+
+
+def _error_line(exc: BaseException, path: Path) -> str:
+    """' (line N)' for the deepest traceback frame inside ``path``, or ''."""
+    line = None
+    for frame in traceback.extract_tb(exc.__traceback__):
+        if Path(frame.filename).resolve() == path:
+            line = frame.lineno
+    return f" (line {line})" if line is not None else ""
+
+
+def load_model(path: str | os.PathLike) -> ModelFile:
+    """Run a model file and return what it defines.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``.
+
+    Returns
+    -------
+    ModelFile
+
+    Raises
+    ------
+    ModelFileError
+        The file is missing, is not a ``.py`` file, has a syntax error, raises while running,
+        defines no ``model``, or defines values of the wrong kind. The message names the file,
+        the line where known, and the reason.
+
+    Examples
+    --------
+    >>> load_model("no/such/file.py")
+    Traceback (most recent call last):
+    ...
+    fepre.modelfile.ModelFileError: model file no/such/file.py does not exist
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ModelFileError(f"model file {path} does not exist")
+    if path.is_dir():
+        raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
+    if path.suffix != ".py":
+        raise ModelFileError(f"model file {path} must be a Python file ending in .py; got {path.suffix or 'no suffix'!r}")
+    resolved = path.resolve()
+    folder = str(resolved.parent)
+    sys.path.insert(0, folder)  # lets a model file import its neighbours
+    try:
+        namespace = runpy.run_path(str(resolved), run_name="__fepre_model__")
+    except SyntaxError as exc:
+        raise ModelFileError(f"{path}:{exc.lineno}: syntax error: {exc.msg}") from None
+    except SystemExit as exc:
+        raise ModelFileError(f"{path}: exited while loading (SystemExit {exc.code!r})") from None
+    except Exception as exc:  # the user's code may raise anything
+        raise ModelFileError(
+            f"{path}: failed to run{_error_line(exc, resolved)}: {type(exc).__name__}: {exc}"
+        ) from None
+    finally:
+        try:
+            sys.path.remove(folder)
+        except ValueError:  # pragma: no cover - the file removed it itself
+            pass
+
+    if "model" not in namespace:
+        raise ModelFileError(f"{path} defines no `model`; add a line such as `model = sdf.sphere(1.0)`")
+    model = namespace["model"]
+    if not isinstance(model, SDF):
+        raise ModelFileError(
+            f"{path}: `model` must be an fepre SDF (built with fepre.sdf); got {type(model).__name__}"
+        )
+    if model.dim != 3:
+        raise ModelFileError(f"{path}: `model` must be a 3D solid; got a {model.dim}D shape (extrude or revolve it)")
+
+    try:
+        h = namespace.get("h")
+        h = None if h is None else positive_float(h, "h")
+        bounds = namespace.get("bounds")
+        bounds = None if bounds is None else as_bounds(bounds, 3, "bounds")
+    except (TypeError, ValueError) as exc:
+        raise ModelFileError(f"{path}: {exc}") from None
+
+    boundaries = namespace.get("boundaries") or {}
+    if not isinstance(boundaries, dict) or not all(isinstance(k, str) and callable(v) for k, v in boundaries.items()):
+        raise ModelFileError(f"{path}: `boundaries` must be a dict of name -> SDF (or callable); got {boundaries!r:.80}")
+    return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), namespace=namespace)

@@ -1,0 +1,195 @@
+"""Independent reference meshers for :func:`fepre.compare`: pytetwild and gmsh.
+
+Both start from the same fine surface of the model (vtkFlyingEdges3D on a sampled grid), so
+they see the part exactly as a user exporting an STL would. Their tetrahedra are returned as a
+``pyvista.UnstructuredGrid`` of ``VTK_TETRA`` cells with positive volume (VTK's convention).
+
+Examples
+--------
+>>> from fepre import sdf
+>>> surface = reference_surface(sdf.sphere(1.0), spacing=0.1)
+>>> surface.n_cells > 1000 and round(surface.volume, 1) == 4.2
+True
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import tempfile
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from .arguments import as_bounds, positive_float
+from .errors import MeshingError
+
+__all__ = ["reference_surface", "pytetwild_mesh", "gmsh_mesh", "REFERENCES", "available_references"]
+
+
+def reference_surface(model: Any, spacing: float, bounds: Any = None):
+    """The model's zero level set by vtkFlyingEdges3D on a grid of ``spacing``.
+
+    The grid covers ``bounds`` (default: the model's bounds) plus two cells on every side, so
+    the surface is closed.
+
+    Parameters
+    ----------
+    model : SDF
+    spacing : float
+        Grid spacing; the surface's chords deviate from a curved boundary by O(spacing^2).
+    bounds : ((min...), (max...)), optional
+
+    Returns
+    -------
+    pyvista.PolyData
+        Closed triangle surface, outward normals.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> reference_surface(sdf.sphere(1.0), 0.2).is_all_triangles
+    True
+    """
+    import pyvista as pv
+
+    spacing = positive_float(spacing, "surface_spacing")
+    if bounds is None:
+        bounds = model.bounds
+        if bounds is None:
+            raise ValueError("bounds must be given for an unbounded model (its bounds are None)")
+    lo, hi = (np.asarray(b) for b in as_bounds(bounds))
+    lo = lo - 2 * spacing
+    counts = np.ceil((hi + 2 * spacing - lo) / spacing).astype(int) + 1
+    if np.prod(counts.astype(float)) * 4 > 2e9:
+        raise ValueError(
+            f"surface_spacing={spacing:g} needs a {counts[0]}x{counts[1]}x{counts[2]} grid; "
+            "use a larger spacing"
+        )
+    axes = [lo[i] + spacing * np.arange(counts[i]) for i in range(3)]
+    values = model.values_on_axes(*axes, dtype=np.float32)
+    grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=(spacing,) * 3, origin=tuple(lo))
+    grid.point_data["sdf"] = values.ravel()
+    surface = grid.contour([0.0], scalars="sdf", method="flying_edges")
+    if surface.n_cells == 0:
+        raise MeshingError("the model has no surface inside its bounds (the sampled values never change sign)")
+    # Flying edges orients normals along the gradient, i.e. outward for an SDF; keep only geometry.
+    surface.point_data.clear()
+    return surface
+
+
+def _positive_tets(points: np.ndarray, tets: np.ndarray):
+    """A VTK_TETRA grid with every cell turned to positive volume and unused points dropped."""
+    import pyvista as pv
+
+    tets = np.asarray(tets, dtype=np.int64).copy()
+    p0 = points[tets[:, 0]]
+    volume = np.einsum(
+        "ij,ij->i", np.cross(points[tets[:, 1]] - p0, points[tets[:, 2]] - p0), points[tets[:, 3]] - p0
+    )
+    negative = volume < 0
+    tets[negative, 1], tets[negative, 2] = tets[negative, 2].copy(), tets[negative, 1].copy()
+    used, inverse = np.unique(tets, return_inverse=True)
+    tets = inverse.reshape(-1, 4)
+    return pv.UnstructuredGrid({pv.CellType.TETRA: tets}, np.asarray(points[used], dtype=np.float64))
+
+
+def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
+    """Tetrahedralise ``surface`` with fTetWild (pytetwild) at ideal edge length ``h``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> mesh = pytetwild_mesh(reference_surface(sdf.sphere(1.0), 0.15), h=0.5)  # doctest: +SKIP
+    """
+    import warnings
+
+    import pytetwild
+
+    h = positive_float(h, "h")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pytetwild's use of a deprecated pyvista attribute
+        grid = pytetwild.tetrahedralize_pv(surface, edge_length_abs=h, quiet=True)
+    if grid.n_cells == 0:
+        raise MeshingError("pytetwild returned no tetrahedra")
+    tets = grid.cells_dict.get(10)
+    if tets is None:
+        raise MeshingError(f"pytetwild returned cells other than tetrahedra: {sorted(grid.cells_dict)}")
+    return _positive_tets(np.asarray(grid.points, dtype=np.float64), tets)
+
+
+def gmsh_mesh(surface: Any, h: float, *, seed: int = 0):
+    """Tetrahedralise ``surface`` with gmsh: the surface is remeshed at size ``h``, then meshed in 3D.
+
+    The triangles are classified into patches (``classifySurfaces``, 40 degree feature angle),
+    turned into a parametrised geometry, remeshed and filled with Delaunay tetrahedra.
+    """
+    import gmsh
+
+    h = positive_float(h, "h")
+    fd, path = tempfile.mkstemp(suffix=".stl", prefix="fepre-gmsh-")
+    os.close(fd)
+    initialised_here = not gmsh.isInitialized()
+    try:
+        surface.save(path, binary=True)
+        if initialised_here:
+            gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("Mesh.RandomSeed", int(seed) + 1)
+        gmsh.model.add("fepre-reference")
+        gmsh.merge(path)
+        gmsh.model.mesh.classifySurfaces(np.radians(40.0), True, True, np.pi)
+        gmsh.model.mesh.createGeometry()
+        surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
+        loop = gmsh.model.geo.addSurfaceLoop(surfaces)
+        gmsh.model.geo.addVolume([loop])
+        gmsh.model.geo.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.model.mesh.generate(3)
+        node_tags, coords, _ = gmsh.model.mesh.getNodes()
+        types, _, element_nodes = gmsh.model.mesh.getElements(3)
+        if 4 not in list(types):
+            raise MeshingError("gmsh produced no tetrahedra from the surface")
+        tet_nodes = np.asarray(element_nodes[list(types).index(4)], dtype=np.int64).reshape(-1, 4)
+        order = np.argsort(node_tags)
+        positions = np.searchsorted(node_tags[order], tet_nodes)
+        points = np.asarray(coords, dtype=np.float64).reshape(-1, 3)[order]
+        return _positive_tets(points, positions)
+    except Exception as exc:
+        if isinstance(exc, MeshingError):
+            raise
+        raise MeshingError(f"gmsh failed to mesh the surface: {exc}") from exc
+    finally:
+        try:
+            gmsh.model.remove()
+        except Exception:  # noqa: BLE001 - nothing to clean when gmsh failed early
+            pass
+        if initialised_here and gmsh.isInitialized():
+            gmsh.finalize()
+        os.unlink(path)
+
+
+REFERENCES: dict[str, tuple[str, Callable[..., Any]]] = {
+    "pytetwild": ("pytetwild", pytetwild_mesh),
+    "gmsh": ("gmsh", gmsh_mesh),
+}
+
+
+def available_references() -> list[str]:
+    """Names of the reference meshers whose package is installed."""
+    return [name for name, (package, _) in REFERENCES.items() if importlib.util.find_spec(package) is not None]
+
+
+def run_reference(name: str, surface: Any, h: float, seed: int = 0):
+    """Mesh ``surface`` with reference ``name``; returns ``(mesh, seconds)``."""
+    if name not in REFERENCES:
+        raise ValueError(f"references must name {', '.join(map(repr, REFERENCES))}; got {name!r}")
+    package, mesher = REFERENCES[name]
+    if importlib.util.find_spec(package) is None:
+        raise ValueError(f"reference {name!r} needs the package {package!r}, which is not installed")
+    start = time.perf_counter()
+    mesh = mesher(surface, h, seed=seed)
+    return mesh, time.perf_counter() - start
