@@ -1,0 +1,195 @@
+"""Export tetrahedral meshes to FEA solvers, with named boundary and region sets.
+
+fepre writes Abaqus/CalculiX ``.inp`` itself (C3D4/C3D10, ``*NSET``/``*ELSET``/``*SURFACE`` per
+named set) and lets meshio write Gmsh 2.2, VTU, XDMF (dolfinx), Nastran, Medit, MED and Exodus
+with the cell data each format needs for its named sets. Boundary faces are named by the SDF (or
+callable) nearest to zero at their centroid (:mod:`fepre.export.boundaries`); ``order=2`` adds
+curved midside nodes (:mod:`fepre.export.quadratic`). Every write is atomic.
+
+Examples
+--------
+>>> import fepre, pyvista as pv, pytetwild, tempfile, os
+>>> mesh = pytetwild.tetrahedralize_pv(pv.Cube().triangulate(), edge_length_fac=0.5)
+>>> path = os.path.join(tempfile.mkdtemp(), "cube.inp")
+>>> tagged = fepre.export(mesh, path, boundaries={"bottom": lambda p: p[:, 2] + 0.5})
+>>> tagged.field_data["boundary_names"].tolist()
+['bottom', 'boundary']
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import types
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from ..arguments import choice
+from .abaqus import RESERVED_NAMES
+from .atomic import staged_files
+from .boundaries import (
+    DEFAULT_REGION,
+    DEFAULT_TOLERANCE,
+    BoundaryWarning,
+    assign_boundaries,
+    assign_regions,
+    tag_boundaries,
+    tag_regions,
+)
+from .data import ExportData
+from .formats import FORMATS, Format, resolve_format
+from .meshio_formats import require_module
+from .quadratic import quadratic_tetrahedra
+from .tetmesh import tetra_arrays
+
+__all__ = ["export", "tag_boundaries", "tag_regions", "BoundaryWarning", "FORMATS", "Format"]
+
+_ASCII_TREE = str.maketrans({"└": "`", "├": "|", "│": "|", "─": "-"})
+
+
+def _check_name_clashes(region_names: list[str], boundary_names: list[str]) -> None:
+    upper_regions = {n.upper(): n for n in region_names}
+    for name in boundary_names:
+        if name.upper() in upper_regions:
+            raise ValueError(
+                f"boundaries: name {name!r} is also a region name ({upper_regions[name.upper()]!r}); "
+                f"formats such as Gmsh and MED keep one namespace, so use distinct names"
+            )
+    for name in region_names + boundary_names:
+        if name.upper() in RESERVED_NAMES:
+            raise ValueError(f"set name {name!r} is reserved (fepre writes {', '.join(RESERVED_NAMES)})")
+
+
+def _title(model: Any) -> tuple[str, str]:
+    from .. import __version__
+
+    if model is None:
+        return f"fepre {__version__} export", ""
+    describe = getattr(model, "describe", None)
+    label = describe() if callable(describe) else type(model).__name__
+    tree = repr(model).translate(_ASCII_TREE).encode("ascii", "replace").decode("ascii")
+    label = label.encode("ascii", "replace").decode("ascii")
+    return f"fepre {__version__} export of model {label}", "model:\n" + tree
+
+
+def _tagged_grid(data: ExportData, mesh: Any) -> Any:
+    import pyvista as pv
+
+    if data.order == 1:
+        grid = mesh.copy()
+    else:
+        grid = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: data.cells}, data.points)
+    grid.cell_data["region_id"] = data.region_ids
+    boundary_id = np.full(data.points.shape[0], -1, dtype=np.int64)
+    face_nodes = data.face_nodes
+    ids = np.repeat(data.faces.set_ids, face_nodes.shape[1])
+    order = np.argsort(-ids, kind="stable")  # smaller set index written last wins
+    boundary_id[face_nodes.ravel()[order]] = ids[order]
+    grid.point_data["boundary_id"] = boundary_id
+    grid.field_data["region_names"] = np.array(data.region_names)
+    grid.field_data["boundary_names"] = np.array(data.boundary_names)
+    return grid
+
+
+def export(
+    mesh: Any,
+    path: str | os.PathLike,
+    *,
+    format: str | None = None,
+    order: int = 1,
+    boundaries: Mapping[str, Callable] | None = None,
+    regions: Mapping[str, Callable] | None = None,
+    model: Any = None,
+    overwrite: bool = True,
+    boundary_tolerance: float = DEFAULT_TOLERANCE,
+    default_region: str = DEFAULT_REGION,
+) -> Any:
+    """Write a tetrahedral mesh for a solver, with named boundary and region sets.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+        Linear tetrahedra (``VTK_TETRA``) of positive volume, e.g. from :func:`fepre.distmesh`.
+    path : str or path-like
+        Output file. Its directory must exist. XDMF also writes ``<stem>.h5``,
+        ``<stem>_facets.xdmf`` and ``<stem>_facets.h5`` beside it.
+    format : str, optional
+        One of ``fepre.export.FORMATS`` (abaqus, gmsh22, vtu, xdmf, nastran, medit, med, exodus;
+        aliases calculix, gmsh); default from the extension.
+    order : {1, 2}
+        2 writes 10-node tetrahedra; boundary midside nodes are projected onto ``model`` (curved)
+        where that keeps every Jacobian positive, straight midpoints otherwise or without a model.
+    boundaries : dict name -> SDF or callable on (N, 3) points, optional
+        Each boundary face joins the set whose ``|value|`` at the face centroid is smallest, if at
+        most ``boundary_tolerance`` x the face's mean edge length; ties go to the first name; the
+        rest form ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface,
+        facet tag) and a node set.
+    regions : dict name -> SDF or callable, optional
+        Cells whose centroid value is negative (first match wins) form a region (``*ELSET``,
+        physical volume, cell tag); the rest form ``default_region``.
+    model : SDF, optional
+        The part's model: named in file headers and used for curved midside nodes.
+    overwrite : bool
+        If False, refuse (FileExistsError) to replace an existing file.
+    boundary_tolerance : float
+        Fraction of the local edge length within which a face is on a named boundary.
+    default_region : str
+        Name of the region of cells in no named region.
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
+        The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with cell data ``"region_id"``, point
+        data ``"boundary_id"`` (-1 inside) and field data ``"region_names"``/``"boundary_names"``.
+        :func:`tag_boundaries` gives the tagged boundary faces for viewing.
+
+    Examples
+    --------
+    >>> import fepre, pyvista as pv, pytetwild, tempfile, os
+    >>> mesh = pytetwild.tetrahedralize_pv(pv.Cube().triangulate(), edge_length_fac=0.5)
+    >>> out = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "cube.msh"), order=2)
+    >>> bool(out.celltypes[0] == pv.CellType.QUADRATIC_TETRA)
+    True
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    path = Path(os.fspath(path))
+    fmt = resolve_format(path, format)
+    if isinstance(order, bool):
+        raise TypeError("order must be 1 or 2; got a bool")
+    choice(order, "order", (1, 2))
+    if order not in fmt.orders:
+        raise ValueError(f"order: format {fmt.name!r} supports order {fmt.orders}; got {order}")
+    if not isinstance(overwrite, bool):
+        raise TypeError(f"overwrite must be True or False; got {overwrite!r}")
+    if model is not None and order == 2 and not callable(getattr(model, "project", None)):
+        raise TypeError(f"model must be a fepre SDF (with .project) for order=2; got {type(model).__name__}")
+    if fmt.backend is not None:
+        require_module(*fmt.backend, fmt.name)
+
+    points, cells = tetra_arrays(mesh)
+    faces = assign_boundaries(points, cells, boundaries, boundary_tolerance)
+    region_ids, region_names = assign_regions(points, cells, regions, default_region)
+    _check_name_clashes(region_names, faces.names)
+    if order == 2:
+        quadratic = quadratic_tetrahedra(points, cells, faces.triangles, model)
+        points, cells = quadratic.points, quadratic.cells
+    title, model_text = _title(model)
+    data = ExportData(points, cells, region_ids, region_names, faces, title, model_text)
+    with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
+        fmt.writer(stage, path.name, data)
+    return _tagged_grid(data, mesh)
+
+
+class _CallableModule(types.ModuleType):
+    """``fepre.export`` is both this package and the function: importing a submodule such as
+    ``fepre.export.boundaries`` binds the package to ``fepre.export``, so the package forwards
+    calls to :func:`export`."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return export(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

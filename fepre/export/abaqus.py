@@ -1,0 +1,82 @@
+"""fepre's own Abaqus/CalculiX ``.inp`` writer.
+
+meshio's Abaqus writer names 10-node tetrahedra ``C3D10MH``, writes no ``*SURFACE`` and prints
+coordinates wider than the 20 characters CalculiX reads per field. This writer emits:
+
+* ``*HEADING`` naming fepre and the model (the model tree follows as ``**`` comments);
+* ``*NODE, NSET=NALL`` with ``%.12e`` coordinates (at most 20 characters);
+* ``*ELEMENT, TYPE=C3D4`` or ``C3D10, ELSET=EALL`` (element id = cell index + 1, node order of
+  VTK which C3D10 shares), then one ``*ELSET`` per region;
+* for every named boundary a ``*NSET`` of its nodes and an element-face ``*SURFACE`` (``S1``..``S4``).
+
+The file holds the mesh only (no material or step), ready for ``*INCLUDE, INPUT=part.inp``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .data import ExportData
+
+__all__ = ["write_inp", "RESERVED_NAMES"]
+
+RESERVED_NAMES = ("NALL", "EALL")
+IDS_PER_LINE = 16
+
+
+def _rows(fmt: str, table: np.ndarray) -> str:
+    """Format every row of ``table`` with ``fmt`` in one C-level ``%`` operation."""
+    if table.shape[0] == 0:
+        return ""
+    return (fmt * table.shape[0]) % tuple(table.ravel().tolist())
+
+
+def _id_lines(ids: np.ndarray) -> str:
+    """1-based ids, ``IDS_PER_LINE`` per line, comma separated."""
+    ids = np.asarray(ids, dtype=np.int64)
+    full = ids.size // IDS_PER_LINE * IDS_PER_LINE
+    text = _rows(", ".join(["%d"] * IDS_PER_LINE) + "\n", ids[:full].reshape(-1, IDS_PER_LINE))
+    if full < ids.size:
+        text += ", ".join(map(str, ids[full:].tolist())) + "\n"
+    return text
+
+
+def inp_text(data: ExportData) -> str:
+    """The whole ``.inp`` file as a string."""
+    n_nodes = data.points.shape[0]
+    element_type = "C3D10" if data.order == 2 else "C3D4"
+    parts = ["*HEADING\n", data.title.replace("\n", " ")[:200], "\n"]
+    for line in data.model_text.splitlines():
+        parts.append(f"** {line}\n")
+    parts.append(
+        f"** {n_nodes} nodes, {data.cells.shape[0]} {element_type} elements, regions "
+        f"{', '.join(data.region_names)}; boundaries {', '.join(data.boundary_names)}\n"
+    )
+    parts.append("*NODE, NSET=NALL\n")
+    node_table = np.column_stack([np.arange(1, n_nodes + 1, dtype=np.float64), data.points])
+    parts.append(_rows("%d, %.12e, %.12e, %.12e\n", node_table))
+    parts.append(f"*ELEMENT, TYPE={element_type}, ELSET=EALL\n")
+    element_table = np.column_stack([np.arange(1, data.cells.shape[0] + 1), data.cells + 1])
+    parts.append(_rows(", ".join(["%d"] * element_table.shape[1]) + "\n", element_table))
+    for index, name in enumerate(data.region_names):
+        parts.append(f"*ELSET, ELSET={name}\n")
+        parts.append(_id_lines(np.flatnonzero(data.region_ids == index) + 1))
+    faces = data.faces
+    for index, name in enumerate(data.boundary_names):
+        members = faces.set_ids == index
+        if not members.any():
+            continue
+        parts.append(f"*NSET, NSET={name}\n")
+        parts.append(_id_lines(data.face_set_nodes(index) + 1))
+        parts.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT\n")
+        surface = np.column_stack([faces.elements[members] + 1, faces.local_faces[members] + 1])
+        parts.append(_rows("%d, S%d\n", surface))
+    return "".join(parts)
+
+
+def write_inp(directory: Path, filename: str, data: ExportData) -> None:
+    """Write ``directory / filename``."""
+    with open(directory / filename, "w", encoding="ascii", newline="\n") as handle:
+        handle.write(inp_text(data))

@@ -1,0 +1,131 @@
+"""Formats meshio writes correctly once given the right cell data: Gmsh 2.2, VTU, Nastran,
+Medit, MED and Exodus.
+
+Named sets travel as each format allows:
+
+* Gmsh 2.2: physical groups (``gmsh:physical``; regions dim 3, boundaries dim 2, ids from 1)
+  and their names in ``$PhysicalNames`` (meshio ``field_data`` name -> [id, dim]);
+* VTU: the boundary triangles are extra cells; cell data ``"region_id"`` / ``"boundary_id"``
+  (0 where not applicable) and the same ``field_data`` names as Gmsh;
+* MED: element families (negative numbers) with group names (``cell_tags``); tetrahedra are
+  written in MED's orientation, which is the opposite of VTK's;
+* Nastran and Medit: integer property/reference ids only (regions 1..R on the tetrahedra,
+  boundaries 1..B on the triangles); these formats hold no names.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from .data import ExportData
+
+__all__ = ["write_gmsh22", "write_vtu", "write_nastran", "write_medit", "write_med", "write_exodus",
+           "require_module", "named_field_data"]
+
+# VTK -> MED node order (self-inverse): MED numbers tetrahedra with the opposite orientation.
+MED_TETRA = np.array([0, 1, 3, 2])
+MED_TETRA10 = np.array([0, 1, 3, 2, 4, 8, 7, 6, 5, 9])
+
+
+def require_module(module: str, package: str, format_name: str) -> None:
+    """Raise ImportError naming the package to install when a writer's backend is missing."""
+    if importlib.util.find_spec(module) is None:
+        raise ImportError(
+            f"format {format_name!r} needs the Python package {package!r}, which is not installed; "
+            f"install it with `pip install {package}`"
+        )
+
+
+def _types(data: ExportData) -> tuple[str, str]:
+    return ("tetra10", "triangle6") if data.order == 2 else ("tetra", "triangle")
+
+
+def named_field_data(data: ExportData) -> dict[str, np.ndarray]:
+    """meshio/Gmsh style names: region -> [id, 3], boundary -> [id, 2] (ids from 1)."""
+    fields = {name: np.array([i + 1, 3]) for i, name in enumerate(data.region_names)}
+    fields.update({name: np.array([i + 1, 2]) for i, name in enumerate(data.boundary_names)})
+    return fields
+
+
+def _meshio_mesh(data: ExportData, cell_data: dict, **extra):
+    import meshio
+
+    volume, surface = _types(data)
+    return meshio.Mesh(
+        data.points,
+        [(volume, data.cells), (surface, data.face_nodes)],
+        cell_data=cell_data,
+        **extra,
+    )
+
+
+def _tags(data: ExportData) -> list[np.ndarray]:
+    return [data.region_ids + 1, data.faces.set_ids + 1]
+
+
+def write_gmsh22(directory: Path, filename: str, data: ExportData) -> None:
+    import meshio
+
+    tags = _tags(data)
+    mesh = _meshio_mesh(
+        data, {"gmsh:physical": tags, "gmsh:geometrical": tags}, field_data=named_field_data(data)
+    )
+    meshio.write(directory / filename, mesh, file_format="gmsh22", binary=False)
+
+
+def write_vtu(directory: Path, filename: str, data: ExportData) -> None:
+    import meshio
+
+    n_cells, n_faces = data.cells.shape[0], data.faces.set_ids.size
+    cell_data = {
+        "region_id": [data.region_ids + 1, np.zeros(n_faces, dtype=np.int64)],
+        "boundary_id": [np.zeros(n_cells, dtype=np.int64), data.faces.set_ids + 1],
+    }
+    mesh = _meshio_mesh(data, cell_data, field_data=named_field_data(data))
+    meshio.write(directory / filename, mesh, file_format="vtu")
+
+
+def write_nastran(directory: Path, filename: str, data: ExportData) -> None:
+    import meshio
+
+    mesh = _meshio_mesh(data, {"nastran:ref": _tags(data)})
+    meshio.write(directory / filename, mesh, file_format="nastran")
+
+
+def write_medit(directory: Path, filename: str, data: ExportData) -> None:
+    import meshio
+
+    mesh = _meshio_mesh(data, {"medit:ref": _tags(data)})
+    meshio.write(directory / filename, mesh, file_format="medit")
+
+
+def write_med(directory: Path, filename: str, data: ExportData) -> None:
+    require_module("h5py", "h5py", "med")
+    import meshio
+
+    volume_families = -(data.region_ids + 1)
+    face_families = -(len(data.region_names) + data.faces.set_ids + 1)
+    permutation = MED_TETRA10 if data.order == 2 else MED_TETRA
+    volume, surface = _types(data)
+    mesh = meshio.Mesh(
+        data.points,
+        [(volume, data.cells[:, permutation]), (surface, data.face_nodes)],
+        cell_data={"cell_tags": [volume_families, face_families]},
+    )
+    tags = {-(i + 1): [name] for i, name in enumerate(data.region_names)}
+    tags.update({-(len(data.region_names) + i + 1): [n] for i, n in enumerate(data.boundary_names)})
+    mesh.cell_tags = tags
+    mesh.point_tags = {}
+    meshio.write(directory / filename, mesh, file_format="med")
+
+
+def write_exodus(directory: Path, filename: str, data: ExportData) -> None:
+    require_module("netCDF4", "netCDF4", "exodus")
+    import meshio
+
+    point_sets = {name: data.face_set_nodes(i) for i, name in enumerate(data.boundary_names)}
+    mesh = _meshio_mesh(data, {"region_id": _tags(data)}, point_sets=point_sets)
+    meshio.write(directory / filename, mesh, file_format="exodus")

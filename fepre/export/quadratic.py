@@ -1,0 +1,122 @@
+"""Quadratic (10-node) tetrahedra with curved boundaries.
+
+Each edge gets a midside node. A boundary edge's midside node is projected onto the model's zero
+set (Newton steps of :meth:`fepre.sdf.SDF.project`), so the element faces follow curved surfaces;
+interior midside nodes stay at edge midpoints. The Jacobian determinant of every element with a
+moved node is then checked at the four Gauss points of C3D10 and at its corners; where it falls
+below ``MIN_JACOBIAN_RATIO`` times that of the straight-sided element, the element's moved nodes
+go back to their midpoints (repeated until no element is bad, which ends because the
+straight-sided mesh is valid).
+
+Node order is VTK's (and Abaqus/CalculiX C3D10's): corners 0-3, then edges (0,1), (1,2), (2,0),
+(0,3), (1,3), (2,3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .tetmesh import signed_volumes
+
+__all__ = ["QuadraticMesh", "quadratic_tetrahedra", "jacobian_ratios", "TET10_EDGES", "MIN_JACOBIAN_RATIO"]
+
+TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]], dtype=np.int64)
+MIN_JACOBIAN_RATIO = 0.1
+# Largest move of a projected midside node, as a fraction of its edge length; a longer move means
+# the projection jumped to another part of the surface.
+MAX_MOVE_FRACTION = 0.5
+
+_GAUSS_A, _GAUSS_B = 0.5854101966249685, 0.1381966011250105
+# Barycentric coordinates (L0, L1, L2, L3) of the check points: 4 Gauss points, then the corners.
+CHECK_POINTS = np.vstack(
+    [np.full((4, 4), _GAUSS_B) + np.eye(4) * (_GAUSS_A - _GAUSS_B), np.eye(4)]
+)
+_GRAD_L = np.array([[-1.0, -1.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class QuadraticMesh:
+    """Nodes (N + E, 3) and 10-node cells (M, 10) of a quadratic tetrahedral mesh.
+
+    ``curved`` counts midside nodes moved onto the model surface; ``straightened`` counts those
+    put back at their midpoint because an element's Jacobian went bad.
+    """
+
+    points: np.ndarray
+    cells: np.ndarray
+    curved: int
+    straightened: int
+
+
+def _shape_gradients(barycentric: np.ndarray) -> np.ndarray:
+    """Gradients (Q, 10, 3) of the tet10 shape functions w.r.t. reference coordinates."""
+    L = barycentric
+    corner = (4.0 * L - 1.0)[:, :, None] * _GRAD_L[None, :, :]
+    i, j = TET10_EDGES[:, 0], TET10_EDGES[:, 1]
+    edge = 4.0 * (L[:, j, None] * _GRAD_L[None, i, :] + L[:, i, None] * _GRAD_L[None, j, :])
+    return np.concatenate([corner, edge], axis=1)
+
+
+_DN = _shape_gradients(CHECK_POINTS)
+
+
+def jacobian_ratios(points: np.ndarray, cells10: np.ndarray) -> np.ndarray:
+    """Smallest det(J) over the check points divided by det(J) of the straight element, per cell.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> mids = (corners[TET10_EDGES[:, 0]] + corners[TET10_EDGES[:, 1]]) / 2
+    >>> float(jacobian_ratios(np.vstack([corners, mids]), np.arange(10)[None])[0])
+    1.0
+    """
+    nodes = points[cells10]  # (M, 10, 3)
+    jac = np.einsum("mak,qal->mqkl", nodes, _DN)
+    det = np.linalg.det(jac).min(axis=1)
+    straight = 6.0 * signed_volumes(points, cells10[:, :4])
+    return det / straight
+
+
+def quadratic_tetrahedra(
+    points: np.ndarray, cells: np.ndarray, boundary_triangles: np.ndarray, model: Any = None
+) -> QuadraticMesh:
+    """Add midside nodes; project boundary ones onto ``model`` (straight if ``model`` is None)."""
+    n_points = points.shape[0]
+    pairs = np.sort(cells[:, TET10_EDGES], axis=2)  # (M, 6, 2)
+    keys = pairs[:, :, 0] * n_points + pairs[:, :, 1]
+    unique_keys, edge_index = np.unique(keys.ravel(), return_inverse=True)
+    edge_index = edge_index.reshape(cells.shape[0], 6)
+    a, b = unique_keys // n_points, unique_keys % n_points
+    midpoints = 0.5 * (points[a] + points[b])
+    mids = midpoints.copy()
+    moved = np.zeros(unique_keys.size, dtype=bool)
+    if model is not None and boundary_triangles.size:
+        tri_pairs = np.sort(boundary_triangles[:, [[0, 1], [1, 2], [2, 0]]], axis=2).reshape(-1, 2)
+        boundary_edges = np.unique(
+            np.searchsorted(unique_keys, tri_pairs[:, 0] * n_points + tri_pairs[:, 1])
+        )
+        projected = np.asarray(model.project(midpoints[boundary_edges]), dtype=np.float64)
+        move = np.linalg.norm(projected - midpoints[boundary_edges], axis=1)
+        length = np.linalg.norm(points[a[boundary_edges]] - points[b[boundary_edges]], axis=1)
+        accept = np.isfinite(move) & (move <= MAX_MOVE_FRACTION * length) & (move > 0)
+        chosen = boundary_edges[accept]
+        mids[chosen] = projected[accept]
+        moved[chosen] = True
+    cells10 = np.hstack([cells, n_points + edge_index])
+    curved = int(moved.sum())
+    straightened = 0
+    while moved.any():
+        touched = np.flatnonzero(moved[edge_index].any(axis=1))
+        nodes = np.vstack([points, mids])
+        bad = touched[jacobian_ratios(nodes, cells10[touched]) < MIN_JACOBIAN_RATIO]
+        if bad.size == 0:
+            break
+        revert = np.unique(edge_index[bad][moved[edge_index[bad]]])
+        mids[revert] = midpoints[revert]
+        moved[revert] = False
+        straightened += int(revert.size)
+    return QuadraticMesh(np.vstack([points, mids]), cells10, curved - straightened, straightened)
