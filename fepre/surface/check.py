@@ -1,0 +1,208 @@
+"""``fepre.check_surface``: is a triangle surface closed, manifold, oriented, and how accurate?"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SurfaceCheck", "check_surface"]
+
+
+@dataclass
+class SurfaceCheck:
+    """Topology, geometry and accuracy figures of a triangle surface.
+
+    ``max_sdf_error``/``mean_sdf_error`` are ``|model(vertex)|`` divided by ``error_unit`` (the grid
+    spacing the surface was extracted at); ``hausdorff`` is the two-sided vertex-to-surface
+    distance to the reference, in world units. Figures that need a model or reference are None
+    without one.
+    """
+
+    points: int
+    triangles: int
+    watertight: bool
+    manifold: bool
+    oriented: bool
+    components: int
+    euler_characteristic: int
+    genus: float | None
+    area: float
+    volume: float
+    max_sdf_error: float | None
+    mean_sdf_error: float | None
+    error_unit: float | None
+    hausdorff: float | None
+    min_angle: float
+    degenerate_triangles: int
+
+    def __str__(self) -> str:
+        rows = []
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if isinstance(value, float):
+                text = f"{value:.6g}"
+            elif value is None:
+                text = "-"
+            else:
+                text = str(value)
+            rows.append((item.name.replace("_", " "), text))
+        width = max(len(name) for name, _ in rows)
+        return "\n".join(f"{name:<{width}}  {text}" for name, text in rows)
+
+
+def _triangles(surface) -> tuple[np.ndarray, np.ndarray]:
+    import pyvista as pv
+
+    if not isinstance(surface, pv.PolyData):
+        raise TypeError(f"surface must be a pyvista.PolyData; got {type(surface).__name__}")
+    if surface.n_cells and not surface.is_all_triangles:
+        surface = surface.triangulate()
+    points = np.asarray(surface.points, dtype=np.float64)
+    faces = np.asarray(surface.regular_faces, dtype=np.int64) if surface.n_cells else np.empty((0, 3), np.int64)
+    return points, faces
+
+
+def _corner_fans(faces: np.ndarray, directed: np.ndarray, key: np.ndarray, order: np.ndarray, count: np.ndarray):
+    """Number of (vertex, fan) pairs: corners joined across edges shared by two triangles."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n_corners = faces.size
+    position = np.arange(directed.shape[0])
+    corner_start = position  # directed edge 3t+p starts at corner 3t+p
+    corner_end = 3 * (position // 3) + (position % 3 + 1) % 3
+    sorted_keys = key[order]
+    first = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
+    pairs = first[count == 2]
+    i, j = order[pairs], order[pairs + 1]
+    same = directed[i, 0] == directed[j, 0]
+    a = np.concatenate([corner_start[i], corner_end[i]])
+    b = np.concatenate([np.where(same, corner_start[j], corner_end[j]), np.where(same, corner_end[j], corner_start[j])])
+    graph = coo_matrix((np.ones(a.size), (a, b)), shape=(n_corners, n_corners))
+    _, labels = connected_components(graph, directed=False)
+    vertex = faces.reshape(-1)
+    return np.unique(vertex.astype(np.int64) * n_corners + labels).size
+
+
+def _hausdorff(surface, reference) -> float:
+    from vtkmodules.vtkFiltersModeling import vtkHausdorffDistancePointSetFilter
+
+    hausdorff = vtkHausdorffDistancePointSetFilter()
+    hausdorff.SetInputData(0, surface)
+    hausdorff.SetInputData(1, reference)
+    hausdorff.SetTargetDistanceMethod(1)  # point to cell
+    hausdorff.Update()
+    return float(hausdorff.GetOutput(0).GetFieldData().GetArray("HausdorffDistance").GetValue(0))
+
+
+def _flying_edges_reference(surface, model):
+    from ..sampling import sample
+    from .extract import isosurface
+
+    origin = np.asarray(surface.field_data["surface_grid_origin"], dtype=float)
+    step = np.asarray(surface.field_data["surface_spacing"], dtype=float)
+    dims = np.asarray(surface.field_data["surface_grid_dimensions"], dtype=np.int64)
+    level = float(np.asarray(surface.field_data["surface_level"])[0]) if "surface_level" in surface.field_data else 0.0
+    grid = sample(model, shape=tuple(int(d) for d in dims), bounds=(origin, origin + step * (dims - 1)))
+    return isosurface(grid, method="flying_edges", level=level)
+
+
+def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -> SurfaceCheck:
+    """Check a triangle surface; compare it with a model and a reference surface.
+
+    Parameters
+    ----------
+    surface : pyvista.PolyData
+    model : fepre.sdf.SDF, optional
+        Gives ``max_sdf_error``/``mean_sdf_error`` and, for a surface made by
+        :func:`fepre.isosurface`, the default reference: flying edges on the same grid.
+    reference : pyvista.PolyData, optional
+        Surface to measure the two-sided Hausdorff distance to.
+    spacing : float, optional
+        Unit of the sdf errors (default: the grid spacing stored on the surface).
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> ball = sdf.sphere(1.0)
+    >>> check = fepre.check_surface(fepre.isosurface(ball, spacing=0.1), ball)
+    >>> check.watertight, check.euler_characteristic, check.max_sdf_error < 0.1
+    (True, 2, True)
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    points, faces = _triangles(surface)
+    used = np.unique(faces)
+    n_vertices = points.shape[0]
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = directed.min(axis=1), directed.max(axis=1)
+    key = low * n_vertices + high
+    order = np.argsort(key, kind="stable")
+    _, count = np.unique(key[order], return_counts=True)
+    edges = count.size
+    watertight = bool(faces.size) and bool(np.all(count == 2))
+    manifold = bool(np.all(count <= 2)) and _corner_fans(faces, directed, key, order, count) == used.size
+    directed_key = directed[:, 0] * n_vertices + directed[:, 1]
+    oriented = bool(np.unique(directed_key).size == directed_key.size)
+    graph = coo_matrix((np.ones(low.size), (low, high)), shape=(n_vertices, n_vertices))
+    _, labels = connected_components(graph, directed=False)
+    components = int(np.unique(labels[used]).size)
+    euler = int(used.size - edges + faces.shape[0])
+    genus = components - euler / 2 if watertight and oriented and manifold else None
+
+    p = points[faces]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    double_area = np.linalg.norm(cross, axis=1)
+    area = float(double_area.sum() / 2)
+    volume = float(np.einsum("ij,ij->i", p[:, 0], cross).sum() / 6)
+    sides = np.stack([np.linalg.norm(p[:, (k + 1) % 3] - p[:, (k + 2) % 3], axis=1) for k in range(3)], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosines = [
+            (sides[:, (k + 1) % 3] ** 2 + sides[:, (k + 2) % 3] ** 2 - sides[:, k] ** 2)
+            / (2 * sides[:, (k + 1) % 3] * sides[:, (k + 2) % 3])
+            for k in range(3)
+        ]
+    angles = np.degrees(np.arccos(np.clip(np.nan_to_num(np.stack(cosines, axis=1), nan=1.0), -1, 1)))
+    scale = float(sides.mean()) if sides.size else 0.0
+    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
+    degenerate = int(np.count_nonzero(repeated | (double_area <= 1e-12 * scale * scale)))
+
+    unit = None
+    if spacing is not None:
+        from ..arguments import positive_float
+
+        unit = positive_float(spacing, "spacing")
+    elif "surface_spacing" in surface.field_data:
+        unit = float(np.max(surface.field_data["surface_spacing"]))
+    max_error = mean_error = None
+    if model is not None and used.size:
+        error = np.abs(model(points[used])) / (unit if unit else 1.0)
+        max_error, mean_error = float(error.max()), float(error.mean())
+    if reference is None and model is not None and "surface_grid_dimensions" in surface.field_data:
+        reference = _flying_edges_reference(surface, model)
+    hausdorff = None
+    if reference is not None and faces.size and reference.n_cells:
+        hausdorff = _hausdorff(surface, reference)
+
+    return SurfaceCheck(
+        points=int(used.size),
+        triangles=int(faces.shape[0]),
+        watertight=watertight,
+        manifold=manifold,
+        oriented=oriented,
+        components=components,
+        euler_characteristic=euler,
+        genus=genus,
+        area=area,
+        volume=volume,
+        max_sdf_error=max_error,
+        mean_sdf_error=mean_error,
+        error_unit=unit if model is not None else None,
+        hausdorff=hausdorff,
+        min_angle=float(angles.min()) if angles.size else 0.0,
+        degenerate_triangles=degenerate,
+    )

@@ -1,0 +1,180 @@
+"""``fepre.isosurface``: sample if needed, run one extractor, return an outward PolyData."""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..arguments import choice, finite_float
+from ..config import config
+from ..sdf.core import SDF
+from .flying_edges import flying_edges
+from .marching_cubes import marching_cubes
+from .marching_tetrahedra import marching_tetrahedra
+from .surface_nets import surface_nets
+
+__all__ = ["isosurface", "METHODS", "triangle_polydata"]
+
+METHODS = ("flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets")
+_NUMPY_METHODS = {
+    "marching_cubes": marching_cubes,
+    "marching_tetrahedra": marching_tetrahedra,
+    "surface_nets": surface_nets,
+}
+
+
+def triangle_polydata(points: np.ndarray, triangles: np.ndarray):
+    """A :class:`pyvista.PolyData` of triangles (built without a Python loop)."""
+    import pyvista as pv
+
+    if len(triangles) == 0:
+        return pv.PolyData()
+    return pv.PolyData.from_regular_faces(np.asarray(points), np.asarray(triangles, dtype=np.int64))
+
+
+def _grid_values(grid, scalars: str | None) -> tuple[np.ndarray, str]:
+    import pyvista as pv
+
+    if not isinstance(grid, pv.ImageData):
+        raise TypeError(f"source must be a fepre.sdf.SDF or a pyvista.ImageData; got {type(grid).__name__}")
+    name = "sdf" if scalars is None else scalars
+    if name not in grid.point_data:
+        available = ", ".join(repr(k) for k in grid.point_data.keys()) or "none"
+        if scalars is None:
+            raise ValueError(
+                f"the ImageData has no point array 'sdf'; pass scalars= naming the array to contour "
+                f"(point arrays: {available})"
+            )
+        raise ValueError(f"scalars={scalars!r} is not a point array of the ImageData (point arrays: {available})")
+    array = np.asarray(grid.point_data[name])
+    if array.ndim != 1:
+        raise ValueError(f"scalars {name!r} must be a scalar array; got shape {array.shape}")
+    if not np.issubdtype(array.dtype, np.floating):
+        array = array.astype(np.float64)
+    if np.any(np.asarray(grid.direction_matrix) != np.eye(3)):
+        raise ValueError("source ImageData must have the identity direction matrix")
+    nx, ny, nz = grid.dimensions
+    if min(nx, ny, nz) < 2:
+        raise ValueError(f"source ImageData must have at least 2 nodes per axis; got dimensions {grid.dimensions}")
+    if np.isnan(array).any():
+        where = int(np.flatnonzero(np.isnan(array))[0])
+        raise ValueError(
+            f"the {name!r} samples contain NaN (first at point {where}, {grid.points[where].tolist()}); "
+            f"fix the model or the array so every node has a value"
+        )
+    return array.reshape(nz, ny, nx), name
+
+
+def isosurface(
+    source: Any,
+    *,
+    method: str = "flying_edges",
+    level: float = 0.0,
+    spacing: Any = None,
+    shape: Any = None,
+    bounds: Any = None,
+    scalars: str | None = None,
+    normals: bool = False,
+    band: float | None = None,
+    workers: int | None = None,
+):
+    """Extract the ``level`` set of a model or an image grid as outward triangles.
+
+    Parameters
+    ----------
+    source : fepre.sdf.SDF or pyvista.ImageData
+        A model (sampled first with :func:`fepre.sample` and ``spacing``/``shape``/``bounds``/
+        ``band``) or a sampled grid.
+    method : {"flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets"}
+        ``"flying_edges"`` is VTK's vtkFlyingEdges3D (the reference); the others are fepre's.
+    level : float
+        The iso value (a node with value >= level counts as outside).
+    scalars : str, optional
+        Point array of an ImageData source (default ``"sdf"``).
+    normals : bool
+        Add point normals ``"Normals"``: the model's normalised gradient for a model source,
+        area-weighted triangle normals for a grid source.
+    workers : int, optional
+        Threads (default ``fepre.config.workers``).
+
+    Returns
+    -------
+    pyvista.PolyData
+        Triangles with normals pointing to positive values, in world coordinates; field data
+        ``"surface_method"``, ``"surface_level"``, ``"surface_spacing"`` and the grid's
+        ``"surface_grid_origin"``/``"surface_grid_dimensions"``. Empty (with a warning) when the
+        level is not crossed.
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> surface = fepre.isosurface(sdf.sphere(1.0), spacing=0.1, method="marching_cubes")
+    >>> surface.is_all_triangles, round(surface.area, 1)
+    (True, 12.5)
+    """
+    method = choice(method, "method", METHODS)
+    level = finite_float(level, "level")
+    workers = config.resolve_workers(workers)
+    model = None
+    if isinstance(source, SDF):
+        from ..sampling import sample
+
+        model = source
+        grid = sample(model, spacing=spacing, shape=shape, bounds=bounds, band=band, workers=workers)
+        name = "sdf"
+        values = np.asarray(grid.point_data[name]).reshape(tuple(reversed(grid.dimensions)))
+    else:
+        for option, value in (("spacing", spacing), ("shape", shape), ("bounds", bounds), ("band", band)):
+            if value is not None:
+                raise ValueError(f"{option} applies only when source is a model; the ImageData is already sampled")
+        grid = source
+        values, name = _grid_values(grid, scalars)
+    if "sdf_band" in grid.field_data and name == "sdf":
+        width = float(np.asarray(grid.field_data["sdf_band"])[0])
+        if abs(level) >= width - float(np.linalg.norm(grid.spacing)):
+            warnings.warn(
+                f"level {level:g} is not inside the sampled band (half-width {width:g}); the surface "
+                f"may be wrong: sample with a wider band",
+                UserWarning,
+                stacklevel=2,
+            )
+    if method == "flying_edges":
+        points, triangles = flying_edges(grid, name, level, workers)
+    else:
+        origin = np.asarray(grid.origin, dtype=float)
+        step = np.asarray(grid.spacing, dtype=float)
+        points, triangles = _NUMPY_METHODS[method](values, level, origin, step, workers)
+    surface = triangle_polydata(points, triangles)
+    if surface.n_points == 0:
+        low, high = float(values.min()), float(values.max())
+        warnings.warn(
+            f"the surface is empty: level {level:g} is not crossed by the samples (range "
+            f"[{low:g}, {high:g}]); choose a level inside that range or check the model and bounds",
+            UserWarning,
+            stacklevel=2,
+        )
+    elif normals:
+        surface.point_data["Normals"] = _point_normals(surface, model, points, triangles)
+    surface.field_data["surface_method"] = np.array([method])
+    surface.field_data["surface_level"] = np.array([level])
+    surface.field_data["surface_spacing"] = np.asarray(grid.spacing, dtype=float)
+    surface.field_data["surface_grid_origin"] = np.asarray(grid.origin, dtype=float)
+    surface.field_data["surface_grid_dimensions"] = np.asarray(grid.dimensions, dtype=np.int64)
+    return surface
+
+
+def _point_normals(surface, model: SDF | None, points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    if model is not None:
+        gradient = model.gradient(np.asarray(points, dtype=float))
+    else:
+        p = np.asarray(points, dtype=float)[triangles]
+        face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # length = 2 * area
+        gradient = np.stack(
+            [np.bincount(triangles.ravel(), weights=np.repeat(face[:, a], 3), minlength=len(points)) for a in range(3)],
+            axis=1,
+        )
+    length = np.linalg.norm(gradient, axis=1, keepdims=True)
+    return gradient / np.where(length > 0, length, 1.0)

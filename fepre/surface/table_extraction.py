@@ -1,0 +1,134 @@
+"""Case-table isosurface extraction with one shared vertex per crossing grid edge.
+
+Marching cubes and marching tetrahedra differ only in their tables: which local edges of a cube
+a case cuts and which triangles join them. This module runs either table on a grid scan
+(:mod:`fepre.surface.grid_scan`), visiting only the active cells. A vertex is created once per
+crossing edge, in the order of the scan's edge lists, so its id follows from the edge id (a
+sorted search) and no merging pass is needed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .grid_scan import GridScan, scan_grid
+
+__all__ = ["CaseTable", "extract_with_table", "edge_points"]
+
+
+@dataclass
+class CaseTable:
+    """Triangles per corner case in terms of local cube edges.
+
+    Parameters
+    ----------
+    directions : (D, 3) int
+        Edge direction vectors (components 0 or 1) of the global edge families.
+    edge_start : (L, 3) int
+        Start corner (di, dj, dk) of each local edge.
+    edge_direction : (L,) int
+        Index into ``directions`` of each local edge.
+    triangles : sequence of 256 sequences of int
+        Local edges, three per outward triangle, for each corner case.
+    """
+
+    directions: np.ndarray
+    edge_start: np.ndarray
+    edge_direction: np.ndarray
+    triangles: tuple
+    triangle_count: np.ndarray = field(init=False)
+    triangle_edges: np.ndarray = field(init=False)
+    cut_count: np.ndarray = field(init=False)
+    cut_edges: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.directions = np.asarray(self.directions, dtype=np.int64)
+        self.edge_start = np.asarray(self.edge_start, dtype=np.int64)
+        self.edge_direction = np.asarray(self.edge_direction, dtype=np.int64)
+        counts = np.array([len(t) // 3 for t in self.triangles])
+        table = np.zeros((256, max(1, counts.max()), 3), dtype=np.int64)
+        for case, flat in enumerate(self.triangles):
+            if flat:
+                table[case, : counts[case]] = np.reshape(flat, (-1, 3))
+        self.triangle_count, self.triangle_edges = counts, table
+        corner_bit = self.edge_start @ np.array([1, 2, 4])
+        end = self.edge_start + self.directions[self.edge_direction]
+        end_bit = end @ np.array([1, 2, 4])
+        bits = (np.arange(256)[:, None] >> corner_bit[None, :]) & 1
+        end_bits = (np.arange(256)[:, None] >> end_bit[None, :]) & 1
+        cut = bits != end_bits
+        self.cut_count = cut.sum(axis=1)
+        order = np.argsort(~cut, axis=1, kind="stable")
+        self.cut_edges = np.where(np.take_along_axis(cut, order, axis=1), order, 0)
+
+
+def edge_points(
+    ids: np.ndarray,
+    direction: np.ndarray,
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+) -> np.ndarray:
+    """World coordinates of the level crossing on the edges starting at node ``ids``."""
+    nz, ny, nx = values.shape
+    flat = values.reshape(-1)
+    di, dj, dk = (int(v) for v in direction)
+    s0 = flat[ids].astype(np.float64)
+    s1 = flat[ids + (di + dj * nx + dk * nx * ny)].astype(np.float64)
+    t = (level - s0) / (s1 - s0)
+    k, rest = np.divmod(ids, nx * ny)
+    j, i = np.divmod(rest, nx)
+    points = np.empty((ids.size, 3))
+    points[:, 0] = origin[0] + spacing[0] * (i + t * di)
+    points[:, 1] = origin[1] + spacing[1] * (j + t * dj)
+    points[:, 2] = origin[2] + spacing[2] * (k + t * dk)
+    return points
+
+
+def cell_edge_vertices(scan: GridScan, table: CaseTable, offsets: np.ndarray):
+    """Vertex ids of every cut local edge of every active cell.
+
+    Returns ``(cell, local_edge, vertex)`` triples as three arrays (one row per cut edge).
+    """
+    _, ny, nx = scan.shape
+    cut_count = table.cut_count[scan.cases]
+    cell = np.repeat(np.arange(scan.cells.size), cut_count)
+    first = np.repeat(np.cumsum(cut_count) - cut_count, cut_count)
+    local = table.cut_edges[scan.cases[cell], np.arange(cell.size) - first]
+    start_offset = table.edge_start @ np.array([1, nx, nx * ny])
+    start = scan.cells[cell] + start_offset[local]
+    family = table.edge_direction[local]
+    vertex = np.empty(cell.size, dtype=np.int64)
+    for d, edges in enumerate(scan.edges):
+        chosen = np.flatnonzero(family == d)
+        vertex[chosen] = offsets[d] + np.searchsorted(edges, start[chosen])
+    return cell, local, vertex
+
+
+def extract_with_table(
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    table: CaseTable,
+    workers: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points (V, 3) and outward triangles (T, 3) of the ``level`` set of a (nz, ny, nx) grid."""
+    scan = scan_grid(values, level, [tuple(d) for d in table.directions], workers)
+    sizes = np.array([e.size for e in scan.edges])
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    points = np.concatenate(
+        [edge_points(e, d, values, level, origin, spacing) for e, d in zip(scan.edges, table.directions)]
+    ) if sizes.sum() else np.empty((0, 3))
+    cell, local, vertex = cell_edge_vertices(scan, table, offsets)
+    lookup = np.zeros((scan.cells.size, table.edge_start.shape[0]), dtype=np.int64)
+    lookup[cell, local] = vertex
+    count = table.triangle_count[scan.cases]
+    tri_cell = np.repeat(np.arange(scan.cells.size), count)
+    first = np.repeat(np.cumsum(count) - count, count)
+    edges = table.triangle_edges[scan.cases[tri_cell], np.arange(tri_cell.size) - first]
+    triangles = np.take_along_axis(lookup[tri_cell], edges, axis=1)
+    return points, triangles
