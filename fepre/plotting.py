@@ -1,0 +1,241 @@
+"""PyVista views of models and meshes: the interior of a tetrahedral mesh coloured by quality.
+
+Examples
+--------
+>>> import fepre
+>>> from fepre import sdf
+>>> fepre.plot_model(sdf.sphere(1.0), screenshot="sphere.png")   # doctest: +SKIP
+>>> fepre.plot(mesh, metric="radius_ratio")                        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from .arguments import choice
+
+__all__ = ["plot", "plot_model", "quality_plotter", "QUALITY_METRICS"]
+
+# metric -> (colour bar title, colour range, low values are bad)
+QUALITY_METRICS: dict[str, tuple[str, tuple[float, float] | None]] = {
+    "min_dihedral_angle": ("worst dihedral angle [deg]", (0.0, 70.528779)),
+    "max_dihedral_angle": ("largest dihedral angle [deg]", (70.528779, 180.0)),
+    "radius_ratio": ("radius ratio 3 r_in / R_circ", (0.0, 1.0)),
+    "volume_edge_ratio": ("volume-edge ratio", (0.0, 1.0)),
+    "volume": ("volume", None),
+}
+
+
+def _with_quality(mesh: Any, metric: str) -> Any:
+    """``mesh`` with ``metric`` in its cell data (computed by fepre.quality when missing)."""
+    if metric in mesh.cell_data:
+        return mesh
+    from .quality import add_quality
+
+    return add_quality(mesh)
+
+
+def _display_offscreen(off_screen: bool | None) -> bool:
+    import pyvista as pv
+
+    if off_screen is not None:
+        return bool(off_screen)
+    return bool(pv.OFF_SCREEN) or (os.name == "posix" and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"))
+
+
+def quality_plotter(
+    mesh: Any,
+    *,
+    metric: str = "min_dihedral_angle",
+    clip: bool = True,
+    off_screen: bool | None = None,
+    window_size: tuple[int, int] = (900, 700),
+    title: str = "",
+    clim: tuple[float, float] | None = None,
+    worst: float | None = 15.0,
+):
+    """A ``pyvista.Plotter`` showing ``mesh`` coloured by the cell quality ``metric``.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+        Tetrahedra (quality arrays are computed when missing).
+    metric : str
+        One of :data:`QUALITY_METRICS`.
+    clip : bool
+        Cut the mesh with a plane through its centre (normal +x), keeping whole cells, so the
+        interior shows.
+    off_screen : bool, optional
+        Render without a window (default: off screen when there is no display).
+    window_size : (int, int)
+    title : str
+        Text in the upper left corner.
+    clim : (float, float), optional
+        Colour range (default: the metric's natural range, so the worst elements stand out).
+    worst : float or None
+        For ``min_dihedral_angle``: also draw, opaque and outlined, every cell of the *whole*
+        mesh whose worst dihedral is below this angle (None: don't).
+
+    Returns
+    -------
+    pyvista.Plotter
+    """
+    import pyvista as pv
+
+    choice(metric, "metric", tuple(QUALITY_METRICS))
+    if not isinstance(mesh, pv.UnstructuredGrid):
+        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid of tetrahedra; got {type(mesh).__name__}")
+    mesh = _with_quality(mesh, metric)
+    bar_title, natural = QUALITY_METRICS[metric]
+    if clim is None:
+        values = np.asarray(mesh.cell_data[metric])
+        clim = natural if natural is not None else (float(values.min()), float(values.max()))
+    shown = mesh.clip(normal="x", origin=mesh.center, crinkle=True) if clip else mesh
+    if shown.n_cells == 0:
+        shown = mesh
+    plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
+    plotter.set_background("white")
+    cmap = "RdYlBu" if metric != "max_dihedral_angle" else "RdYlBu_r"
+    scalar_bar = dict(title=bar_title + "\n", color="black", vertical=False, position_x=0.15, position_y=0.03,
+                      width=0.7, height=0.1, title_font_size=15, label_font_size=13, n_labels=6, fmt="%.0f"
+                      if metric.endswith("angle") else "%.2f")
+    plotter.add_mesh(shown, scalars=metric, cmap=cmap, clim=clim, show_edges=True, edge_color="#444444",
+                     line_width=0.6, scalar_bar_args=scalar_bar, preference="cell", ambient=0.35, diffuse=0.75,
+                     specular=0.0)
+    if clip:
+        removed = mesh.clip(normal="x", origin=mesh.center, invert=False).extract_surface(algorithm="dataset_surface")
+        if removed.n_cells:
+            plotter.add_mesh(removed, color="#bbbbbb", opacity=0.15, show_scalar_bar=False)
+    if worst is not None and metric == "min_dihedral_angle":
+        bad = np.flatnonzero(np.asarray(mesh.cell_data[metric]) < worst)
+        if bad.size:
+            plotter.add_mesh(mesh.extract_cells(bad), color="#d62728", show_edges=True, edge_color="black",
+                             line_width=1.0, ambient=0.35)
+            plotter.add_text(f"red, opaque: {bad.size} cell{'s' if bad.size > 1 else ''} below {worst:g} deg",
+                             position="upper_right", font_size=9, color="#d62728")
+    if title:
+        plotter.add_text(title, font_size=11, color="black")
+    center = np.asarray(mesh.center)
+    plotter.camera_position = [tuple(center + np.array([3.0, 1.3, 1.1])), tuple(center), (0.0, 0.0, 1.0)]
+    plotter.reset_camera()
+    plotter.camera.zoom(1.2)
+    return plotter
+
+
+def plot(
+    mesh: Any,
+    metric: str = "min_dihedral_angle",
+    clip: bool = True,
+    *,
+    off_screen: bool | None = None,
+    screenshot: str | os.PathLike | None = None,
+    window_size: tuple[int, int] = (900, 700),
+    clim: tuple[float, float] | None = None,
+    title: str = "",
+):
+    """Show the interior of a tetrahedral mesh coloured by a quality metric.
+
+    The colour range is the metric's natural range (0 to 70.5 degrees for the worst dihedral
+    angle), so poor elements stand out in red; cells under 15 degrees are drawn on top.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+    metric : str
+        ``"min_dihedral_angle"`` (default), ``"max_dihedral_angle"``, ``"radius_ratio"``,
+        ``"volume_edge_ratio"`` or ``"volume"``.
+    clip : bool
+        Cut through the centre to show the interior (whole cells kept).
+    off_screen : bool, optional
+        No window (default: off screen only when there is no display).
+    screenshot : path, optional
+        Save a PNG of the view.
+    window_size, clim, title
+        See :func:`quality_plotter`.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The screenshot's path when one was written.
+
+    Examples
+    --------
+    >>> import fepre
+    >>> fepre.plot(mesh, screenshot="mesh.png", off_screen=True)  # doctest: +SKIP
+    """
+    plotter = quality_plotter(mesh, metric=metric, clip=clip, off_screen=_display_offscreen(off_screen),
+                              window_size=window_size, clim=clim, title=title)
+    return _show(plotter, screenshot)
+
+
+def _show(plotter: Any, screenshot: str | os.PathLike | None):
+    from pathlib import Path
+
+    if screenshot is None:
+        plotter.show()
+        return None
+    path = Path(screenshot)
+    if not path.parent.exists():
+        plotter.close()
+        raise FileNotFoundError(f"screenshot folder {path.parent} does not exist")
+    if plotter.off_screen:
+        plotter.screenshot(str(path))
+        plotter.close()
+    else:
+        plotter.show(screenshot=str(path))
+    return path
+
+
+def plot_model(
+    model: Any,
+    *,
+    spacing: float | None = None,
+    bounds: Any = None,
+    off_screen: bool | None = None,
+    screenshot: str | os.PathLike | None = None,
+    window_size: tuple[int, int] = (900, 700),
+    color: str = "#8fb4d9",
+):
+    """Show a model's surface quickly (flying edges on a grid of about 100 cells per side).
+
+    Parameters
+    ----------
+    model : SDF
+    spacing : float, optional
+        Grid spacing (default: the largest extent / 100).
+    bounds : ((min...), (max...)), optional
+        Needed for unbounded models.
+    off_screen, screenshot, window_size
+        See :func:`plot`.
+    color : str
+
+    Returns
+    -------
+    pathlib.Path or None
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> fepre.plot_model(sdf.sphere(1.0), screenshot="ball.png", off_screen=True)  # doctest: +SKIP
+    """
+    import pyvista as pv
+
+    from .arguments import as_bounds, positive_float
+    from .references import reference_surface
+
+    box = bounds if bounds is not None else model.bounds
+    if box is None:
+        raise ValueError("bounds must be given for an unbounded model (its bounds are None)")
+    lo, hi = as_bounds(box)
+    spacing = max(np.subtract(hi, lo)) / 100 if spacing is None else positive_float(spacing, "spacing")
+    surface = reference_surface(model, spacing, (lo, hi))
+    plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
+    plotter.set_background("white")
+    plotter.add_mesh(surface, color=color, smooth_shading=True, specular=0.3)
+    plotter.add_axes()
+    plotter.view_isometric()
+    return _show(plotter, screenshot)
