@@ -462,3 +462,13 @@ def _check_surface(surface: Any, model: Any) -> Any:
     except ImportError:  # the surface stage is not installed in this tree yet
         return None
     return check_surface(surface, model)
+
+
+class _CallableModule(__import__("types").ModuleType):
+    """``fepre.compare`` is both this module and the function (importing the module sets the attribute)."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Comparison:
+        return compare(*args, **kwargs)
+
+
+__import__("sys").modules[__name__].__class__ = _CallableModule
