@@ -39,6 +39,10 @@ _LAZY: dict[str, str] = {
     "DistMeshOptions": "fepre.distmesh",
     "improve": "fepre.distmesh",
     "export": "fepre.export",
+    "compare": "fepre.compare",
+    "Comparison": "fepre.compare",
+    "plot": "fepre.plotting",
+    "plot_model": "fepre.plotting",
 }
 _SUBMODULES = {"quality", "sampling", "surface", "distmesh", "export", "bench", "cli"}
 
@@ -59,3 +63,8 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(__all__)
+
+
+# The PyVista plugin (``dataset.fepre`` accessors, ``.inp`` writer): registered now if PyVista is
+# loaded, else as soon as it is imported; fepre.accessors itself does not import PyVista.
+from . import accessors as _accessors  # noqa: E402,F401  (registers on import)
