@@ -64,6 +64,12 @@ def _triangles(surface) -> tuple[np.ndarray, np.ndarray]:
     return points, faces
 
 
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """Sorted distinct values (by sorting: numpy's hash-based ``unique`` is slow on big int arrays)."""
+    ordered = np.sort(values, kind="stable")
+    return ordered[np.r_[True, ordered[1:] != ordered[:-1]]] if ordered.size else ordered
+
+
 def _corner_fans(faces: np.ndarray, directed: np.ndarray, key: np.ndarray, order: np.ndarray, count: np.ndarray):
     """Number of (vertex, fan) pairs: corners joined across edges shared by two triangles."""
     from scipy.sparse import coo_matrix
@@ -83,7 +89,7 @@ def _corner_fans(faces: np.ndarray, directed: np.ndarray, key: np.ndarray, order
     graph = coo_matrix((np.ones(a.size), (a, b)), shape=(n_corners, n_corners))
     _, labels = connected_components(graph, directed=False)
     vertex = faces.reshape(-1)
-    return np.unique(vertex.astype(np.int64) * n_corners + labels).size
+    return _distinct(vertex.astype(np.int64) * n_corners + labels).size
 
 
 def _hausdorff(surface, reference) -> float:
@@ -136,21 +142,23 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
     from scipy.sparse.csgraph import connected_components
 
     points, faces = _triangles(surface)
-    used = np.unique(faces)
+    used = _distinct(faces.reshape(-1))
     n_vertices = points.shape[0]
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    low, high = directed.min(axis=1), directed.max(axis=1)
+    low, high = np.minimum(directed[:, 0], directed[:, 1]), np.maximum(directed[:, 0], directed[:, 1])
     key = low * n_vertices + high
     order = np.argsort(key, kind="stable")
-    _, count = np.unique(key[order], return_counts=True)
+    sorted_key = key[order]
+    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if key.size else np.empty(0, np.int64)
+    count = np.diff(np.r_[starts, key.size])
     edges = count.size
     watertight = bool(faces.size) and bool(np.all(count == 2))
     manifold = bool(np.all(count <= 2)) and _corner_fans(faces, directed, key, order, count) == used.size
     directed_key = directed[:, 0] * n_vertices + directed[:, 1]
-    oriented = bool(np.unique(directed_key).size == directed_key.size)
+    oriented = bool(_distinct(directed_key).size == directed_key.size)
     graph = coo_matrix((np.ones(low.size), (low, high)), shape=(n_vertices, n_vertices))
     _, labels = connected_components(graph, directed=False)
-    components = int(np.unique(labels[used]).size)
+    components = int(_distinct(labels[used]).size)
     euler = int(used.size - edges + faces.shape[0])
     genus = components - euler / 2 if watertight and oriented and manifold else None
 
