@@ -134,7 +134,7 @@ def isosurface(
         values, name = _grid_values(grid, scalars)
     if "sdf_band" in grid.field_data and name == "sdf":
         width = float(np.asarray(grid.field_data["sdf_band"])[0])
-        if abs(level) >= width - float(np.linalg.norm(grid.spacing)):
+        if abs(level) > width - float(np.linalg.norm(grid.spacing)):
             warnings.warn(
                 f"level {level:g} is not inside the sampled band (half-width {width:g}); the surface "
                 f"may be wrong: sample with a wider band",
