@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["tet_quality", "add_quality", "summary", "QualitySummary", "METRICS"]
+__all__ = ["tet_quality", "dihedral_angles", "signed_volumes", "add_quality", "summary", "QualitySummary", "METRICS"]
 
 METRICS = ("min_dihedral_angle", "max_dihedral_angle", "radius_ratio", "volume_edge_ratio", "volume")
 
@@ -47,6 +47,29 @@ def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", np.cross(a, b), c) / 6.0
 
 
+def _dihedral_from_normals(normals: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = normals / areas[:, :, None]
+        cosines = -np.einsum("mek,mek->me", unit[:, _EDGE_FACES[:, 0]], unit[:, _EDGE_FACES[:, 1]])
+        dihedral = np.degrees(np.arccos(np.clip(cosines, -1.0, 1.0)))
+    return np.where(np.isfinite(dihedral), dihedral, 0.0)
+
+
+def dihedral_angles(points: Any, tets: Any) -> np.ndarray:
+    """The six dihedral angles (M, 6) in degrees, at edges 01 02 03 12 13 23.
+
+    Examples
+    --------
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> dihedral_angles(p, [[0, 1, 2, 3]]).round(2).tolist()
+    [[90.0, 90.0, 90.0, 54.74, 54.74, 54.74]]
+    """
+    points, tets = _check(points, tets)
+    f = points[tets][:, _FACES]
+    normals = 0.5 * np.cross(f[:, :, 1] - f[:, :, 0], f[:, :, 2] - f[:, :, 0])
+    return _dihedral_from_normals(normals, np.linalg.norm(normals, axis=2))
+
+
 def tet_quality(points: Any, tets: Any) -> dict[str, np.ndarray]:
     """Quality arrays of the tetrahedra ``tets`` (M, 4) over ``points`` (N, 3).
 
@@ -57,7 +80,7 @@ def tet_quality(points: Any, tets: Any) -> dict[str, np.ndarray]:
     --------
     >>> import numpy as np
     >>> p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
-    >>> q = tet_quality(p, [[0, 1, 2, 3]])
+    >>> q = tet_quality(p, [[0, 2, 1, 3]])
     >>> round(float(q["radius_ratio"][0]), 6), round(float(q["min_dihedral_angle"][0]), 2)
     (1.0, 70.53)
     """
@@ -73,13 +96,8 @@ def tet_quality(points: Any, tets: Any) -> dict[str, np.ndarray]:
     f = corners[:, _FACES]  # (M, 4, 3, 3)
     normals = 0.5 * np.cross(f[:, :, 1] - f[:, :, 0], f[:, :, 2] - f[:, :, 0])
     areas = np.linalg.norm(normals, axis=2)  # (M, 4)
+    dihedral = _dihedral_from_normals(normals, areas)
     with np.errstate(divide="ignore", invalid="ignore"):
-        unit = normals / areas[:, :, None]
-        n1 = unit[:, _EDGE_FACES[:, 0]]
-        n2 = unit[:, _EDGE_FACES[:, 1]]
-        cosines = -np.einsum("mek,mek->me", n1, n2)
-        dihedral = np.degrees(np.arccos(np.clip(cosines, -1.0, 1.0)))
-        dihedral = np.where(np.isfinite(dihedral), dihedral, 0.0)
 
         # inradius 3V/sum(A); circumradius sqrt(s(s-a)(s-b)(s-c))/(6V) with a, b, c the
         # products of opposite edge lengths

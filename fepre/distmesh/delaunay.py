@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import MeshingError
@@ -10,6 +12,7 @@ from ..quality import signed_volumes
 __all__ = ["tetrahedralize", "gmsh_available"]
 
 
+@functools.lru_cache(maxsize=1)
 def gmsh_available() -> bool:
     """True when the optional ``gmsh`` package can be imported."""
     try:
@@ -41,7 +44,8 @@ def _gmsh(points: np.ndarray) -> np.ndarray:
         gmsh.initialize(readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
     try:
-        tets = np.asarray(gmsh.algorithm.tetrahedralize(points.ravel()), dtype=np.int64)
+        result = gmsh.algorithm.tetrahedralize(points.ravel())
+        tets = np.asarray(result[0] if isinstance(result, tuple) else result, dtype=np.int64)
     except Exception as exc:  # gmsh raises plain Exception
         raise MeshingError(f"gmsh tetrahedralize failed on {len(points)} points: {exc}") from exc
     finally:
@@ -66,6 +70,8 @@ def tetrahedralize(points: np.ndarray, backend: str = "scipy", scale: float = 1.
     """
     if len(points) < 4:
         raise MeshingError(f"Delaunay triangulation needs at least 4 points; got {len(points)}")
+    if backend == "auto":
+        backend = "gmsh" if gmsh_available() else "scipy"
     tets = _gmsh(points) if backend == "gmsh" else _scipy(points)
     volumes = signed_volumes(points, tets)
     negative = volumes < 0

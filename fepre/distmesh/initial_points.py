@@ -6,7 +6,7 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["lattice", "initial_points", "evaluate_size"]
+__all__ = ["lattice", "initial_points", "evaluate_size", "surface_points"]
 
 # lattice constant (cube side) per unit edge length, chosen so that every lattice has about
 # the point density of a regular-ish tetrahedral mesh with edges h (1.4 points per h^3)
@@ -33,6 +33,33 @@ def lattice(lower: np.ndarray, upper: np.ndarray, h: float, distribution: str) -
     points = (grid[None, :, :] + a * _BASIS[distribution][:, None, :]).reshape(-1, 3)
     inside = np.all(points <= upper + 1e-9 * a, axis=1)
     return points[inside]
+
+
+def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -> np.ndarray:
+    """Points on the zero set about ``h`` apart: ``candidates`` (lattice points near the
+    surface) are projected, one is kept per cube of side ``1.1 h`` (the one nearest the cube's
+    centre; a surface meets about 1.5 such cubes per ``(1.1 h)^2``, the vertex density of
+    equilateral triangles of side h), and of any pair closer than ``h/2`` the later is dropped.
+    """
+    if len(candidates) == 0:
+        return candidates
+    from scipy.spatial import cKDTree
+
+    projected = model.project(candidates, iterations=8, tol=1e-6 * h)
+    projected = projected[np.abs(model(projected)) < 1e-3 * h]
+    side = 1.1 * h
+    cells = np.floor((projected - lower) / side).astype(np.int64)
+    cells -= cells.min(axis=0)
+    span = cells.max(axis=0) + 1
+    codes = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+    offset = np.linalg.norm(projected - (lower + (cells + 0.5) * side), axis=1)
+    order = np.lexsort((offset, codes))
+    _, first = np.unique(codes[order], return_index=True)
+    surface = projected[np.sort(order[first])]
+    pairs = cKDTree(surface).query_pairs(0.5 * h, output_type="ndarray")
+    keep = np.ones(len(surface), bool)
+    keep[pairs.max(axis=1) if len(pairs) else []] = False
+    return surface[keep]
 
 
 def evaluate_size(size: Callable, points: np.ndarray) -> np.ndarray:
@@ -64,20 +91,30 @@ def initial_points(
     size: Callable | None,
     fixed: np.ndarray,
     rng: np.random.Generator,
+    boundary_layer: bool = False,
 ) -> np.ndarray:
     """Fixed points followed by lattice points with sdf < ``geps``, thinned by ``size``.
 
     With a size function a lattice point is kept with probability ``min(size)^3 / size^3``
     (Persson's rejection), so the edge length where ``size`` is smallest is ``h``. Lattice points
-    closer than ``h/2`` to a fixed point are dropped.
+    closer than ``h/2`` to a fixed point are dropped. With ``boundary_layer`` the lattice keeps
+    only points deeper than ``h/2`` and the surface gets its own points (:func:`surface_points`).
     """
-    points = lattice(lower, upper, h, distribution)
+    margin = h if boundary_layer else 0.0
+    points = lattice(lower - margin, upper + margin, h, distribution)
     if jitter > 0:
         points = points + rng.uniform(-jitter * h, jitter * h, size=points.shape)
-    points = points[model(points) < geps] if len(points) else points
+    values = model(points) if len(points) else np.zeros(0)
+    if boundary_layer:
+        surface = surface_points(model, points[np.abs(values) < h], lower, h)
+        points = np.concatenate([surface, points[values < -0.5 * h]])
+        dimension = np.concatenate([np.full(len(surface), 2.0), np.full(len(points) - len(surface), 3.0)])
+    else:
+        points = points[values < geps]
+        dimension = np.full(len(points), 3.0)
     if size is not None and len(points):
         r0 = evaluate_size(size, points)
-        keep = rng.random(len(points)) < (r0.min() / r0) ** 3
+        keep = rng.random(len(points)) < (r0.min() / r0) ** dimension
         points = points[keep]
     if len(fixed) and len(points):
         from scipy.spatial import cKDTree

@@ -28,7 +28,7 @@ def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) ->
             f"the model's negative region misses the bounds {(tuple(lower), tuple(upper))}: "
             "nothing to mesh (check the model's sign and the bounds)"
         )
-    raise ValueError(f"h={h!r} is too large for the domain: no lattice point falls inside; use a smaller h")
+    raise ValueError(f"h={h!r} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
 
 
 def distmesh(
@@ -121,11 +121,11 @@ def distmesh(
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
 
     rng = np.random.default_rng(o.seed)
-    points = initial_points(model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng)
-    if int((model(points[len(fixed_points):]) < 0).sum()) == 0 if len(points) > len(fixed_points) else True:
+    points = initial_points(
+        model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng, o.boundary_layer
+    )
+    if len(points) - len(fixed_points) < 4:
         _check_domain(model, lower, upper, h)
-    if len(points) < 4:
-        raise ValueError(f"h={h!r} is too large for the domain: only {len(points)} points fit; use a smaller h")
     fixed_mask = np.zeros(len(points), bool)
     fixed_mask[: len(fixed_points)] = True
 

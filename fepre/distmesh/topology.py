@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -15,7 +15,19 @@ _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unique faces of ``tets``: (sorted vertex triples (F, 3), use counts (F,), inverse (M*4,))."""
     oriented = tets[:, _FACES].reshape(-1, 3)
-    keys = np.sort(oriented, axis=1)
+    keys = np.sort(oriented, axis=1).astype(np.int64)
+    n = int(keys.max()) + 1 if len(keys) else 1
+    if n < 2_000_000:  # n^3 fits in int64: one code per face, one sort
+        codes = (keys[:, 0] * n + keys[:, 1]) * n + keys[:, 2]
+        order = np.argsort(codes, kind="stable")
+        sorted_codes = codes[order]
+        starts = np.concatenate([[True], sorted_codes[1:] != sorted_codes[:-1]]) if len(codes) else np.zeros(0, bool)
+        group = np.cumsum(starts) - 1
+        inverse = np.empty(len(codes), np.int64)
+        inverse[order] = group
+        counts = np.bincount(group) if len(codes) else np.zeros(0, np.int64)
+        unique = keys[order[starts]]
+        return unique, counts, inverse
     unique, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
     return unique, counts, inverse.ravel()
 
@@ -41,7 +53,7 @@ class TopologyReport:
     nonmanifold_edges: int
     pinched_vertices: int
     unused_points: int
-    boundary_faces: np.ndarray
+    boundary_faces: np.ndarray = field(repr=False)
 
     @property
     def ok(self) -> bool:
