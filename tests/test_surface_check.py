@@ -1,0 +1,79 @@
+"""fepre.check_surface against meshes whose answers are known."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import fepre
+from fepre import sdf
+
+
+def octahedron(center=(0.0, 0.0, 0.0)):
+    points = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float) + center
+    faces = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    return points, faces
+
+
+def polydata(points, faces):
+    return pv.PolyData.from_regular_faces(points, faces)
+
+
+def test_octahedron_figures_are_exact():
+    check = fepre.check_surface(polydata(*octahedron()))
+    assert check.watertight and check.manifold and check.oriented
+    assert (check.points, check.triangles, check.components) == (6, 8, 1)
+    assert check.euler_characteristic == 2 and check.genus == 0
+    assert check.area == pytest.approx(8 * math.sqrt(3) / 2)
+    assert check.volume == pytest.approx(4 / 3)
+    assert check.min_angle == pytest.approx(60.0)
+    assert check.degenerate_triangles == 0
+
+
+def test_flipped_triangle_is_not_oriented_and_inverted_surface_has_negative_volume():
+    points, faces = octahedron()
+    flipped = faces.copy()
+    flipped[0] = flipped[0, ::-1]
+    check = fepre.check_surface(polydata(points, flipped))
+    assert check.watertight and not check.oriented and check.genus is None
+    assert fepre.check_surface(polydata(points, faces[:, ::-1])).volume == pytest.approx(-4 / 3)
+
+
+def test_open_surface_and_two_components_and_pinched_vertex():
+    points, faces = octahedron()
+    assert not fepre.check_surface(polydata(points, faces[1:])).watertight
+    second_points, second_faces = octahedron(center=(3.0, 0.0, 0.0))
+    pair = polydata(np.vstack([points, second_points]), np.vstack([faces, second_faces + 6]))
+    check = fepre.check_surface(pair)
+    assert check.components == 2 and check.euler_characteristic == 4 and check.manifold
+    # two octahedra sharing one vertex: every edge still has two triangles, but the vertex is not manifold
+    touching_points, touching_faces = octahedron(center=(2.0, 0.0, 0.0))
+    touching_faces = np.where(touching_faces == 1, 0, touching_faces + 6)
+    pinched = polydata(np.vstack([points, touching_points]), np.vstack([faces, touching_faces]))
+    check = fepre.check_surface(pinched)
+    assert check.watertight and not check.manifold
+
+
+def test_degenerate_triangles_are_counted():
+    points = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]], float)
+    check = fepre.check_surface(polydata(points, np.array([[0, 1, 3], [0, 1, 2], [1, 1, 3]])))
+    assert check.degenerate_triangles == 2
+
+
+def test_model_errors_and_hausdorff_to_a_shifted_copy():
+    ball = sdf.sphere(1.0)
+    surface = fepre.isosurface(ball, spacing=0.1, method="marching_cubes")
+    check = fepre.check_surface(surface, ball)
+    assert check.error_unit == pytest.approx(0.1)
+    assert 0 < check.mean_sdf_error <= check.max_sdf_error < 0.1
+    assert check.hausdorff < 1e-6  # the default reference is flying edges on the same grid
+    shifted = surface.translate((0.05, 0.0, 0.0), inplace=False)
+    assert fepre.check_surface(surface, reference=shifted).hausdorff == pytest.approx(0.05, rel=0.05)
+
+
+def test_str_is_a_readable_table():
+    text = str(fepre.check_surface(polydata(*octahedron())))
+    assert "watertight" in text and "euler characteristic  2" in text and "hausdorff" in text
