@@ -28,7 +28,8 @@ class Polygon(SDF):
     def __init__(self, vertices: np.ndarray) -> None:
         self.vertices = vertices
         self._start = vertices
-        self._edge = np.roll(vertices, -1, axis=0) - vertices
+        self._end = np.roll(vertices, -1, axis=0)
+        self._edge = self._end - vertices
         self._inverse_length2 = 1.0 / np.einsum("ij,ij->i", self._edge, self._edge)
         self.area = 0.5 * float(np.sum(vertices[:, 0] * self._edge[:, 1] - vertices[:, 1] * self._edge[:, 0]))
         # Outward unit normals (for the gradient on the boundary itself).
@@ -50,6 +51,7 @@ class Polygon(SDF):
         nearest = np.empty(count, dtype=np.intp)
         sx, sy = self._start[:, 0], self._start[:, 1]
         ex, ey = self._edge[:, 0], self._edge[:, 1]
+        ty = self._end[:, 1]
         step = max(1, _BLOCK_ELEMENTS // len(self._start))
         for lo in range(0, count, step):
             hi = min(lo + step, count)
@@ -63,7 +65,7 @@ class Polygon(SDF):
             rows = np.arange(hi - lo)
             # Even-odd rule: edge (s, s + e) crosses the ray from p in +x when p.y lies between
             # its end points' y (half-open) and p is left of the edge in the edge's direction.
-            up = (py[lo:hi, None] >= sy) != (py[lo:hi, None] >= sy + ey)
+            up = (py[lo:hi, None] >= sy) != (py[lo:hi, None] >= ty)
             crossing = up & ((ex * wy - ey * wx) * np.sign(ey) > 0)
             inside = np.count_nonzero(crossing, axis=1) % 2 == 1
             d = np.sqrt(squared[rows, index])
