@@ -359,6 +359,11 @@ def test_grid_sampling_matches_point_evaluation_and_keeps_float32(name):
     single = model.values_on_axes(x, y, z)
     assert single.dtype == np.float32
     np.testing.assert_allclose(single, grid, atol=1e-5)
+    # The arithmetic itself stays in float32 (no silent promotion by float64 constants).
+    axes32 = [a.astype(np.float32) for a in (x[None, None, :], y[None, :, None], z[:, None, None])]
+    assert model._values(*axes32).dtype == np.float32
+    values, gradient = model._values_and_gradient(*axes32)
+    assert values.dtype == np.float32 and all(np.asarray(g).dtype == np.float32 for g in gradient)
 
 
 ANALYTIC = ["sphere", "box", "rounded_box", "cylinder", "capsule", "torus", "plane", "slab"]

@@ -320,6 +320,9 @@ def test_bounds_contain_the_negative_region_and_grids_match_points(name):
     coords = np.column_stack([m.ravel() for m in reversed(mesh)])
     np.testing.assert_allclose(grid.ravel(), model(coords), atol=1e-12)
     assert model.values_on_axes(*axes).dtype == np.float32
+    shaped = [a.astype(np.float32).reshape([-1 if i == axis else 1 for i in range(model.dim)][::-1]) for axis, a in enumerate(axes)]
+    assert model._values(*shaped).dtype == np.float32
+    assert all(np.asarray(g).dtype == np.float32 for g in model._values_and_gradient(*shaped)[1])
 
 
 def test_repr_shows_the_tree():

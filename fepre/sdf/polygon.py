@@ -90,7 +90,11 @@ class Polygon(SDF):
         # Outside, the gradient points away from the nearest point; inside, towards it.
         direction = np.where(distance < 0, -1.0, 1.0) / np.where(on_boundary, 1.0, length)
         gradient = np.where(on_boundary[:, None], self._outward[nearest], offset * direction[:, None])
-        return distance.reshape(shape), (gradient[:, 0].reshape(shape), gradient[:, 1].reshape(shape))
+        dtype = np.result_type(x, y, 1.0)
+        return (
+            distance.reshape(shape).astype(dtype, copy=False),
+            tuple(gradient[:, axis].reshape(shape).astype(dtype, copy=False) for axis in range(2)),
+        )
 
 
 def _orientation(ax, ay, bx, by, cx, cy):

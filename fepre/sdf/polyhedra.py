@@ -8,6 +8,7 @@ perpendicular lies inside a face, to that face's plane.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -110,7 +111,7 @@ class Octahedron(SDF):
         s = self.radius
         px, py, pz = (np.abs(u - c) for u, c in zip((x, y, z), self._c))
         m = px + py + (pz - s)
-        face = m * (1.0 / np.sqrt(3.0))
+        face = m * (1.0 / math.sqrt(3.0))
         # Candidate nearest edges: the edge of the face's triangle in the plane where the
         # first-listed coordinate would be zero, i.e. q = (px, py, pz), (py, pz, px), (pz, px, py).
         result = face
