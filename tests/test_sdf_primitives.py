@@ -366,7 +366,7 @@ def test_grid_sampling_matches_point_evaluation_and_keeps_float32(name):
     assert values.dtype == np.float32 and all(np.asarray(g).dtype == np.float32 for g in gradient)
 
 
-ANALYTIC = ["sphere", "box", "rounded_box", "cylinder", "capsule", "torus", "plane", "slab"]
+ANALYTIC = ["sphere", "box", "rounded_box", "cylinder", "capsule", "cone", "torus", "plane", "slab"]
 
 
 @pytest.mark.parametrize("name", sorted(PRIMITIVES))
@@ -459,3 +459,13 @@ BAD = [
 def test_bad_parameters_are_refused_naming_the_parameter(make, error, fragment):
     with pytest.raises(error, match=fragment):
         make()
+
+
+def test_docstring_examples_run():
+    import doctest
+    import importlib
+
+    names = ["solids", "radial", "halfspaces", "polyhedra", "shapes2d", "polygon", "extrusions"]
+    for name in names:
+        result = doctest.testmod(importlib.import_module(f"fepre.sdf.{name}"))
+        assert result.attempted > 0 and result.failed == 0, name

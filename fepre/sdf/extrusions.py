@@ -8,8 +8,8 @@ import numpy as np
 
 from ..arguments import finite_float, positive_float
 from .core import SDF, Coords
-from .orthant import orthant_distance, orthant_gradient
-from .solids import _axis_sign, _radial, _radial_direction
+from .orthant import axis_sign, orthant_distance, orthant_gradient
+from .radial import radial, radial_direction
 
 __all__ = ["extrude", "revolve"]
 
@@ -19,7 +19,8 @@ def _shape2d(shape: Any, name: str = "shape2d") -> SDF:
         raise TypeError(f"{name} must be a 2D fepre.sdf shape (e.g. sdf.circle); got {type(shape).__name__}")
     if shape.dim != 2:
         raise ValueError(
-            f"{name} must be a 2D shape (dim 2, e.g. sdf.circle, sdf.polygon); got a {shape.dim}D {shape.describe()}"
+            f"{name} must be a 2D shape (dim 2, e.g. sdf.circle, sdf.polygon); "
+            f"got a {shape.dim}D {shape.describe()}"
         )
     return shape
 
@@ -48,7 +49,7 @@ class Extrusion(SDF):
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         values, (gx, gy) = self.shape._values_and_gradient(x, y)
         parts = [values, np.abs(z) - self.height / 2.0]
-        return orthant_gradient(parts, [(gx, gy, 0.0), (0.0, 0.0, _axis_sign(z))])
+        return orthant_gradient(parts, [(gx, gy, 0.0), (0.0, 0.0, axis_sign(z))])
 
 
 def extrude(shape2d: SDF, height: float) -> SDF:
@@ -98,12 +99,12 @@ class Revolution(SDF):
         return "revolve"
 
     def _values(self, x, y, z):
-        _, _, r = _radial(x, y, 0.0, 0.0)
+        _, _, r = radial(x, y, 0.0, 0.0)
         return self.shape._values(r - self.offset, z)
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
-        dx, dy, r = _radial(x, y, 0.0, 0.0)
-        ux, uy = _radial_direction(dx, dy, r)
+        dx, dy, r = radial(x, y, 0.0, 0.0)
+        ux, uy = radial_direction(dx, dy, r)
         values, (gr, gz) = self.shape._values_and_gradient(r - self.offset, z)
         values, gr, gz, ux, uy = np.broadcast_arrays(values, gr, gz, ux, uy)
         return values, (gr * ux, gr * uy, gz.copy())

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["orthant_distance", "orthant_gradient"]
+__all__ = ["orthant_distance", "orthant_gradient", "axis_sign"]
 
 
 def orthant_distance(parts: Sequence[np.ndarray]) -> np.ndarray:
@@ -55,7 +55,8 @@ def _pair(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _combine(ufunc: np.ufunc, fresh: np.ndarray, other: np.ndarray) -> np.ndarray:
     """``ufunc(fresh, other)``, in place when ``fresh`` (a temporary) already has the result shape."""
-    if fresh.shape == np.broadcast_shapes(fresh.shape, np.shape(other)) and fresh.dtype == np.result_type(fresh, other):
+    same_shape = fresh.shape == np.broadcast_shapes(fresh.shape, np.shape(other))
+    if same_shape and fresh.dtype == np.result_type(fresh, other):
         return ufunc(fresh, other, out=fresh)
     return ufunc(fresh, other)
 
@@ -89,3 +90,8 @@ def orthant_gradient(
             component += weight * g
         components.append(component)
     return values.astype(dtype, copy=False), tuple(components)
+
+
+def axis_sign(d):
+    """sign(d) with +1 at 0: the gradient of ``|d|``, never zero."""
+    return np.where(d >= 0, 1.0, -1.0).astype(np.result_type(d, 1.0), copy=False)

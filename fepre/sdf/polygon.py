@@ -115,7 +115,9 @@ def check_simple(vertices: np.ndarray, name: str = "vertices") -> None:
     folded = (cross == 0) & (np.einsum("ij,ij->i", edge, following) < 0)
     if np.any(folded):
         i = (int(np.argmax(folded)) + 1) % count
-        raise ValueError(f"{name} must describe a simple polygon; the boundary folds back on itself at vertex {i}")
+        raise ValueError(
+            f"{name} must describe a simple polygon; the boundary folds back on itself at vertex {i}"
+        )
     a, b = vertices, vertices + edge
     index = np.arange(count)
     step = max(1, _BLOCK_ELEMENTS // count)

@@ -1,9 +1,10 @@
 """Regular convex polyhedra (tetrahedron, octahedron) with exact distances.
 
-For a general convex polyhedron (:class:`ConvexPolyhedron`): inside a convex polyhedron the distance to the boundary is the distance to the nearest face
-plane, ``-max(plane values)``. Outside, it is the distance to the nearest point of the surface:
-the smallest of the distances to the edges (as segments) and, where the foot of the
-perpendicular lies inside a face, to that face's plane.
+For a general convex polyhedron (:class:`ConvexPolyhedron`): inside, the distance to the
+boundary is the distance to the nearest face plane, ``-max(plane values)``. Outside, it is the
+distance to the nearest point of the surface: the smallest of the distances to the edges (as
+segments) and, where the foot of the perpendicular lies inside a face, to that face's plane.
+The octahedron has a cheaper closed form (:class:`Octahedron`).
 """
 
 from __future__ import annotations
@@ -142,7 +143,8 @@ def tetrahedron(radius: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
     radius = positive_float(radius, "radius")
     center = as_vector(center, 3, "center")
     directions = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float) / np.sqrt(3.0)
-    return ConvexPolyhedron(center + radius * directions, "tetrahedron", {"radius": radius, "center": center})
+    parameters = {"radius": radius, "center": center}
+    return ConvexPolyhedron(center + radius * directions, "tetrahedron", parameters)
 
 
 def octahedron(radius: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:

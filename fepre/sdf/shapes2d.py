@@ -14,7 +14,8 @@ import numpy as np
 from ..arguments import as_vector, finite_float, positive_float, positive_int
 from .core import SDF, Coords
 from .polygon import Polygon, polygon
-from .solids import Box, _floats, _positive_vector
+from .parameters import floats, positive_vector
+from .solids import Box
 
 __all__ = ["circle", "rectangle", "rounded_rectangle", "polygon", "regular_polygon"]
 
@@ -27,7 +28,7 @@ class Circle(SDF):
 
     def __init__(self, radius: float, center: np.ndarray) -> None:
         self.radius, self.center = radius, center
-        self._c = _floats(center)
+        self._c = floats(center)
         super().__init__(bounds=(tuple(center - radius), tuple(center + radius)), exact=True)
 
     def _parameters(self) -> dict[str, Any]:
@@ -69,7 +70,7 @@ def rectangle(size: Any = (1.0, 1.0), center: Any = (0.0, 0.0)) -> SDF:
     >>> float(sdf.rectangle((2, 2))([4.0, 5.0]))  # to the corner (1, 1)
     5.0
     """
-    return Box(_positive_vector(size, 2, "size"), as_vector(center, 2, "center"), dim=2)
+    return Box(positive_vector(size, 2, "size"), as_vector(center, 2, "center"), dim=2)
 
 
 def rounded_rectangle(size: Any = (1.0, 1.0), radius: float = 0.1, center: Any = (0.0, 0.0)) -> SDF:
@@ -84,7 +85,7 @@ def rounded_rectangle(size: Any = (1.0, 1.0), radius: float = 0.1, center: Any =
     >>> float(slot([3.0, 0.0])), float(slot([0.0, 2.0]))
     (1.0, 1.0)
     """
-    size = _positive_vector(size, 2, "size")
+    size = positive_vector(size, 2, "size")
     radius = positive_float(radius, "radius")
     if radius > float(size.min()) / 2.0:
         raise ValueError(f"radius must be <= half the shorter side ({float(size.min()) / 2:g}); got {radius:g}")

@@ -3,7 +3,9 @@
 Every primitive is centred at the origin unless ``center=`` says otherwise. Evaluation keeps
 work that depends on one axis on that axis' array (a grid passes ``x`` as (1, 1, nx), ``y`` as
 (1, ny, 1), ``z`` as (nz, 1, 1)), and uses Python floats for constants so float32 grids stay
-float32.
+float32. This module holds the sphere, boxes, capsule and ellipsoid and gathers the other 3D
+primitives: :mod:`.radial` (cylinder, cone, torus), :mod:`.halfspaces` (plane, slab) and
+:mod:`.polyhedra` (tetrahedron, octahedron).
 """
 
 from __future__ import annotations
@@ -14,8 +16,11 @@ import numpy as np
 
 from ..arguments import as_vector, positive_float
 from .core import SDF, Coords
-from .orthant import orthant_distance, orthant_gradient
+from .halfspaces import plane, slab
+from .orthant import axis_sign, orthant_distance, orthant_gradient
+from .parameters import floats, positive_vector
 from .polyhedra import octahedron, tetrahedron
+from .radial import cone, cylinder, torus
 
 __all__ = [
     "sphere",
@@ -33,35 +38,6 @@ __all__ = [
 ]
 
 
-def _floats(vector: np.ndarray) -> tuple[float, ...]:
-    return tuple(float(v) for v in vector)
-
-
-def _unit(vector: np.ndarray, name: str) -> np.ndarray:
-    length = float(np.linalg.norm(vector))
-    if length == 0.0 or not np.isfinite(length):
-        raise ValueError(f"{name} must be a non-zero finite vector; got {vector.tolist()}")
-    return vector / length
-
-
-def _radial(x, y, cx: float, cy: float):
-    """Offsets from the axis through (cx, cy) and the distance to it."""
-    dx, dy = x - cx, y - cy
-    return dx, dy, np.sqrt(dx * dx + dy * dy)
-
-
-def _radial_direction(dx, dy, rho):
-    """Unit radial components (x/rho, y/rho), with (1, 0) on the axis itself."""
-    on_axis = rho == 0
-    safe = np.where(on_axis, 1.0, rho)
-    return np.where(on_axis, 1.0, dx / safe), np.where(on_axis, 0.0, dy / safe)
-
-
-def _axis_sign(d):
-    """sign(d) with +1 at 0, so a gradient never vanishes."""
-    return np.where(d >= 0, 1.0, -1.0).astype(np.result_type(d, 1.0), copy=False)
-
-
 class Sphere(SDF):
     """Ball of ``radius`` around ``center`` (exact)."""
 
@@ -70,7 +46,7 @@ class Sphere(SDF):
     def __init__(self, radius: float, center: np.ndarray) -> None:
         self.radius = radius
         self.center = center
-        self._c = _floats(center)
+        self._c = floats(center)
         super().__init__(bounds=(tuple(center - radius), tuple(center + radius)), exact=True)
 
     def _parameters(self) -> dict[str, Any]:
@@ -120,8 +96,8 @@ class Box(SDF):
         self.size = size
         self.center = center
         self.rounding = rounding
-        self._c = _floats(center)
-        self._h = _floats(size / 2.0 - rounding)
+        self._c = floats(center)
+        self._h = floats(size / 2.0 - rounding)
         half = size / 2.0
         super().__init__(bounds=(tuple(center - half), tuple(center + half)), exact=True)
 
@@ -149,7 +125,7 @@ class Box(SDF):
         gradients = []
         for axis, (u, c) in enumerate(zip(coords, self._c)):
             unit: list[Any] = [0.0] * self.dim
-            unit[axis] = _axis_sign(u - c)
+            unit[axis] = axis_sign(u - c)
             gradients.append(unit)
         values, gradient = orthant_gradient(parts, gradients)
         return values - self.rounding, gradient
@@ -171,15 +147,8 @@ def box(size: Any = (1.0, 1.0, 1.0), center: Any = (0.0, 0.0, 0.0)) -> SDF:
     >>> float(cube([2.0, 2.0, 0.0]))  # distance to the edge at (1, 1, z)
     1.4142135623730951
     """
-    size = _positive_vector(size, 3, "size")
+    size = positive_vector(size, 3, "size")
     return Box(size, as_vector(center, 3, "center"))
-
-
-def _positive_vector(value: Any, dim: int, name: str) -> np.ndarray:
-    vector = as_vector(value, dim, name, allow_scalar=True)
-    if np.any(vector <= 0):
-        raise ValueError(f"{name} must have every entry > 0; got {np.asarray(value).tolist()}")
-    return vector
 
 
 def rounded_box(size: Any = (1.0, 1.0, 1.0), radius: float = 0.1, center: Any = (0.0, 0.0, 0.0)) -> SDF:
@@ -195,60 +164,11 @@ def rounded_box(size: Any = (1.0, 1.0, 1.0), radius: float = 0.1, center: Any = 
     >>> round(float(part([1.0, 1.0, 1.0])), 6)  # corner: sqrt(3) * 0.5 - 0.5
     0.366025
     """
-    size = _positive_vector(size, 3, "size")
+    size = positive_vector(size, 3, "size")
     radius = positive_float(radius, "radius")
     if radius > float(size.min()) / 2.0:
         raise ValueError(f"radius must be <= half the smallest edge ({float(size.min()) / 2:g}); got {radius:g}")
     return Box(size, as_vector(center, 3, "center"), rounding=radius)
-
-
-class Cylinder(SDF):
-    """Capped cylinder with axis z (exact)."""
-
-    analytic_gradient = True
-
-    def __init__(self, radius: float, height: float, center: np.ndarray) -> None:
-        self.radius = radius
-        self.height = height
-        self.center = center
-        self._c = _floats(center)
-        extent = np.array([radius, radius, height / 2.0])
-        super().__init__(bounds=(tuple(center - extent), tuple(center + extent)), exact=True)
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"radius": self.radius, "height": self.height, "center": self.center}
-
-    def _label(self) -> str:
-        return "cylinder"
-
-    def _values(self, x, y, z):
-        cx, cy, cz = self._c
-        _, _, rho = _radial(x, y, cx, cy)
-        return orthant_distance([rho - self.radius, np.abs(z - cz) - self.height / 2.0])
-
-    def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
-        cx, cy, cz = self._c
-        dx, dy, rho = _radial(x, y, cx, cy)
-        ux, uy = _radial_direction(dx, dy, rho)
-        parts = [rho - self.radius, np.abs(z - cz) - self.height / 2.0]
-        return orthant_gradient(parts, [(ux, uy, 0.0), (0.0, 0.0, _axis_sign(z - cz))])
-
-
-def cylinder(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Capped cylinder with axis z: ``radius`` around (cx, cy), z from cz - height/2 to cz + height/2.
-
-    Exact, including the rims.
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> rod = sdf.cylinder(radius=1.0, height=2.0)
-    >>> float(rod([0.0, 0.0, 3.0])), float(rod([4.0, 0.0, 0.0]))
-    (2.0, 3.0)
-    """
-    return Cylinder(
-        positive_float(radius, "radius"), positive_float(height, "height"), as_vector(center, 3, "center")
-    )
 
 
 class Capsule(SDF):
@@ -258,8 +178,8 @@ class Capsule(SDF):
 
     def __init__(self, a: np.ndarray, b: np.ndarray, radius: float) -> None:
         self.a, self.b, self.radius = a, b, radius
-        self._a = _floats(a)
-        self._e = _floats(b - a)
+        self._a = floats(a)
+        self._e = floats(b - a)
         self._inverse_length2 = 1.0 / float(np.dot(b - a, b - a))
         lo, hi = np.minimum(a, b) - radius, np.maximum(a, b) + radius
         super().__init__(bounds=(tuple(lo), tuple(hi)), exact=True)
@@ -313,111 +233,6 @@ def capsule(a: Any = (0.0, 0.0, -0.5), b: Any = (0.0, 0.0, 0.5), radius: float =
     return Capsule(a, b, radius)
 
 
-class Cone(SDF):
-    """Solid right circular cone: base disk at z = cz, apex at z = cz + height (exact)."""
-
-    def __init__(self, radius: float, height: float, center: np.ndarray) -> None:
-        self.radius, self.height, self.center = radius, height, center
-        self._c = _floats(center)
-        lo = center - np.array([radius, radius, 0.0])
-        hi = center + np.array([radius, radius, height])
-        super().__init__(bounds=(tuple(lo), tuple(hi)), exact=True)
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"radius": self.radius, "height": self.height, "center": self.center}
-
-    def _label(self) -> str:
-        return "cone"
-
-    def _values(self, x, y, z):
-        cx, cy, cz = self._c
-        radius, height = self.radius, self.height
-        _, _, r = _radial(x, y, cx, cy)
-        h = z - cz
-        # Meridian half-plane (r, h): nearest points on the slanted edge from the apex (0, height)
-        # to the rim (radius, 0), and on the base segment from (0, 0) to (radius, 0).
-        wr, wh = r, h - height
-        t = (wr * radius - wh * height) * (1.0 / (radius * radius + height * height))
-        np.clip(t, 0.0, 1.0, out=t)
-        ar, ah = wr - radius * t, wh + height * t
-        slant = ar * ar + ah * ah
-        br = np.maximum(r - radius, 0.0)
-        base = br * br + h * h
-        distance = np.sqrt(np.minimum(slant, base))
-        outside = np.maximum(r * height + h * radius - radius * height, -h) > 0
-        return np.where(outside, distance, -distance)
-
-
-def cone(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Solid cone with axis z: base disk of ``radius`` at z = cz, apex at z = cz + height (exact).
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> tip = sdf.cone(radius=1.0, height=2.0)
-    >>> float(tip([0.0, 0.0, 3.0])), float(tip([0.0, 0.0, -1.0]))
-    (1.0, 1.0)
-    """
-    return Cone(positive_float(radius, "radius"), positive_float(height, "height"), as_vector(center, 3, "center"))
-
-
-class Torus(SDF):
-    """Ring torus in the plane z = cz around (cx, cy) (exact)."""
-
-    analytic_gradient = True
-
-    def __init__(self, major_radius: float, minor_radius: float, center: np.ndarray) -> None:
-        self.major_radius, self.minor_radius, self.center = major_radius, minor_radius, center
-        self._c = _floats(center)
-        outer = major_radius + minor_radius
-        extent = np.array([outer, outer, minor_radius])
-        super().__init__(bounds=(tuple(center - extent), tuple(center + extent)), exact=True)
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"major_radius": self.major_radius, "minor_radius": self.minor_radius, "center": self.center}
-
-    def _label(self) -> str:
-        return "torus"
-
-    def _values(self, x, y, z):
-        cx, cy, cz = self._c
-        _, _, rho = _radial(x, y, cx, cy)
-        ring = rho - self.major_radius
-        dz = z - cz
-        return np.sqrt(ring * ring + dz * dz) - self.minor_radius
-
-    def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
-        cx, cy, cz = self._c
-        dx, dy, rho = _radial(x, y, cx, cy)
-        ux, uy = _radial_direction(dx, dy, rho)
-        ring, dz, ux, uy = np.broadcast_arrays(rho - self.major_radius, z - cz, ux, uy)
-        length = np.sqrt(ring * ring + dz * dz)
-        on_circle = length == 0
-        safe = np.where(on_circle, 1.0, length)
-        gr = np.where(on_circle, 1.0, ring / safe)
-        gz = np.where(on_circle, 0.0, dz / safe)
-        return length - self.minor_radius, (gr * ux, gr * uy, gz)
-
-
-def torus(major_radius: float = 1.0, minor_radius: float = 0.25, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Torus in the xy-plane: a tube of ``minor_radius`` around a circle of ``major_radius`` (exact).
-
-    ``minor_radius`` must be smaller than ``major_radius`` (a ring torus).
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> ring = sdf.torus(2.0, 0.5)
-    >>> float(ring([2.0, 0.0, 0.0])), float(ring([0.0, 0.0, 0.0]))
-    (-0.5, 1.5)
-    """
-    major = positive_float(major_radius, "major_radius")
-    minor = positive_float(minor_radius, "minor_radius")
-    if minor >= major:
-        raise ValueError(f"minor_radius must be < major_radius ({major:g}) for a ring torus; got {minor:g}")
-    return Torus(major, minor, as_vector(center, 3, "center"))
-
-
 class Ellipsoid(SDF):
     """Ellipsoid with semi-axes ``radii`` (a 1-Lipschitz lower bound of the distance).
 
@@ -429,8 +244,8 @@ class Ellipsoid(SDF):
 
     def __init__(self, radii: np.ndarray, center: np.ndarray) -> None:
         self.radii, self.center = radii, center
-        self._c = _floats(center)
-        self._inverse = _floats(1.0 / radii)
+        self._c = floats(center)
+        self._inverse = floats(1.0 / radii)
         self._smallest = float(radii.min())
         self._largest = float(radii.max())
         super().__init__(bounds=(tuple(center - radii), tuple(center + radii)), exact=False)
@@ -463,98 +278,4 @@ def ellipsoid(radii: Any = (1.0, 0.5, 0.25), center: Any = (0.0, 0.0, 0.0)) -> S
     >>> egg.exact, float(egg([0.0, 0.0, 0.0]))
     (False, -1.0)
     """
-    return Ellipsoid(_positive_vector(radii, 3, "radii"), as_vector(center, 3, "center"))
-
-
-class Plane(SDF):
-    """Half-space below a plane: negative on the side opposite ``normal`` (exact, unbounded)."""
-
-    analytic_gradient = True
-
-    def __init__(self, normal: np.ndarray, point: np.ndarray) -> None:
-        self.normal, self.point = normal, point
-        self._n = _floats(normal)
-        self._offset = float(np.dot(normal, point))
-        super().__init__(bounds=None, exact=True)
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"normal": self.normal, "point": self.point}
-
-    def _label(self) -> str:
-        return "plane"
-
-    def _height(self, x, y, z):
-        nx, ny, nz = self._n
-        return x * nx + y * ny + (z * nz - self._offset)
-
-    def _values(self, x, y, z):
-        return self._height(x, y, z)
-
-    def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
-        values = np.asarray(self._height(x, y, z))
-        return values, tuple(np.full(values.shape, n, dtype=values.dtype) for n in self._n)
-
-
-def plane(normal: Any = (0.0, 0.0, 1.0), point: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Half-space ``dot(p - point, normal) <= 0``: the solid lies opposite the (normalised) ``normal``.
-
-    Exact; unbounded (``bounds`` is None). Intersect it with a bounded solid to cut that solid.
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> ground = sdf.plane(normal=(0, 0, 2), point=(0, 0, 1))
-    >>> float(ground([5.0, 5.0, 4.0])), ground.bounds
-    (3.0, None)
-    """
-    return Plane(_unit(as_vector(normal, 3, "normal"), "normal"), as_vector(point, 3, "point"))
-
-
-class Slab(SDF):
-    """Region between two parallel planes (exact, unbounded)."""
-
-    analytic_gradient = True
-
-    def __init__(self, normal: np.ndarray, thickness: float, center: np.ndarray) -> None:
-        self.normal, self.thickness, self.center = normal, thickness, center
-        self._n = _floats(normal)
-        self._offset = float(np.dot(normal, center))
-        super().__init__(bounds=None, exact=True)
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"normal": self.normal, "thickness": self.thickness, "center": self.center}
-
-    def _label(self) -> str:
-        return "slab"
-
-    def _height(self, x, y, z):
-        nx, ny, nz = self._n
-        return x * nx + y * ny + (z * nz - self._offset)
-
-    def _values(self, x, y, z):
-        height = self._height(x, y, z)
-        return np.abs(height) - self.thickness / 2.0
-
-    def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
-        height = np.asarray(self._height(x, y, z))
-        sign = _axis_sign(height)
-        return np.abs(height) - self.thickness / 2.0, tuple(sign * n for n in self._n)
-
-
-def slab(normal: Any = (0.0, 0.0, 1.0), thickness: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Points within ``thickness / 2`` of the plane through ``center`` with ``normal`` (exact).
-
-    The slab is unbounded (``bounds`` is None); intersect it with a bounded solid.
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> layer = sdf.slab(normal=(0, 0, 1), thickness=2.0, center=(0, 0, 1))
-    >>> float(layer([3.0, 0.0, 5.0])), float(layer([3.0, 0.0, 1.0]))
-    (3.0, -1.0)
-    """
-    return Slab(
-        _unit(as_vector(normal, 3, "normal"), "normal"),
-        positive_float(thickness, "thickness"),
-        as_vector(center, 3, "center"),
-    )
+    return Ellipsoid(positive_vector(radii, 3, "radii"), as_vector(center, 3, "center"))
