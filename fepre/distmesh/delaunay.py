@@ -73,7 +73,11 @@ def tetrahedralize(points: np.ndarray, backend: str = "scipy", scale: float = 1.
     if backend == "auto":
         backend = "gmsh" if gmsh_available() else "scipy"
     tets = _gmsh(points) if backend == "gmsh" else _scipy(points)
+    # canonical form (sorted corners, then the orientation fixed by swapping the last two, rows
+    # sorted): the result does not depend on the backend's output order
+    tets = np.sort(tets, axis=1)
     volumes = signed_volumes(points, tets)
     negative = volumes < 0
-    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
-    return tets[np.abs(volumes) > 1e-10 * scale**3]
+    tets[negative] = tets[negative][:, [0, 1, 3, 2]]
+    tets = tets[np.abs(volumes) > 1e-10 * scale**3]
+    return tets[np.lexsort(tets.T[::-1])]
