@@ -8,9 +8,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
+from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from . import __version__
+from .errors import MeshingError
 
 Command = tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]
 COMMANDS: dict[str, tuple[str, Command]] = {}
@@ -46,6 +51,259 @@ def _run_bench(args: argparse.Namespace) -> int:
     return bench.run(args.name, args.args)
 
 
+def _say(message: str) -> None:
+    """Progress on stderr, so stdout keeps only results."""
+    print(message, file=sys.stderr, flush=True)
+
+
+def _write_atomically(save: Callable[[Path], None], path: Path) -> None:
+    """Call ``save(temporary)`` then rename onto ``path`` (nothing half-written)."""
+    from .export.atomic import staged_files
+
+    with staged_files(path, [path.name], overwrite=True) as stage:
+        save(stage / path.name)
+
+
+def _model_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", metavar="MODEL.py", help="Python file defining `model` (and optionally h, bounds, boundaries)")
+
+
+def _default_spacing(part) -> float:
+    lo, hi = part.domain_bounds()
+    return max(b - a for a, b in zip(lo, hi)) / 100.0
+
+
+def _configure_surface(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("-o", "--output", required=True, help="surface file: .stl, .ply, .obj or .vtp")
+    parser.add_argument("--method", default="flying_edges",
+                        choices=("flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets"))
+    parser.add_argument("--spacing", type=float, help="grid spacing (default: largest extent / 100)")
+
+
+@command("surface", "extract the surface of a model file and write it (STL, PLY, OBJ, VTP)")(_configure_surface)
+def _run_surface(args: argparse.Namespace) -> int:
+    from .modelfile import load_model
+    from .surface import check_surface, isosurface
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".stl", ".ply", ".obj", ".vtp", ".vtk"):
+        raise ValueError(f"--output must end in .stl, .ply, .obj, .vtp or .vtk; got {output.name!r}")
+    part = load_model(args.model)
+    spacing = args.spacing if args.spacing is not None else _default_spacing(part)
+    _say(f"fepre surface: {args.method} at spacing {spacing:g} ...")
+    start = time.perf_counter()
+    surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=part.bounds)
+    _say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s; checking ...")
+    print(check_surface(surface, part.model))
+    _write_atomically(lambda path: surface.save(str(path)), output)
+    print(f"wrote {output}")
+    return 0
+
+
+def _configure_mesh(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("-o", "--output", required=True, help="solver file: .inp, .msh, .vtu, .xdmf, .bdf, .mesh, .med")
+    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
+    parser.add_argument("--seed", type=int, default=0)
+
+
+def _edge_length(args: argparse.Namespace, part) -> float:
+    h = args.h if args.h is not None else part.h
+    if h is None:
+        raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+    if not h > 0:
+        raise ValueError(f"--h must be > 0; got {h}")
+    return float(h)
+
+
+@command("mesh", "mesh a model file with tetrahedra and write a solver file")(_configure_mesh)
+def _run_mesh(args: argparse.Namespace) -> int:
+    import fepre
+
+    from .modelfile import load_model
+    from .quality import summary
+
+    part = load_model(args.model)
+    h = _edge_length(args, part)
+    _say(f"fepre mesh: DistMesh h={h:g} ...")
+    start = time.perf_counter()
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed)
+    _say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
+    print(summary(mesh))
+    written = fepre.export(mesh, args.output, order=args.order, boundaries=part.boundaries or None, model=part.model)
+    print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    return 0
+
+
+def _configure_compare(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--report", help="write a self-contained HTML report here")
+    parser.add_argument("--references", nargs="*", default=["pytetwild"], metavar="NAME",
+                        help="reference meshers: pytetwild, gmsh (default: pytetwild)")
+    parser.add_argument("--surface-spacing", type=float, help="spacing of the surface the references mesh (default h/4)")
+    parser.add_argument("--exact-volume", type=float, help="the part's exact volume, if known")
+    parser.add_argument("--json", help="write the figures as JSON here")
+    parser.add_argument("--seed", type=int, default=0)
+
+
+@command("compare", "mesh a model file with fepre and reference meshers and compare them")(_configure_compare)
+def _run_compare(args: argparse.Namespace) -> int:
+    from .compare import compare
+    from .modelfile import load_model
+
+    part = load_model(args.model)
+    h = _edge_length(args, part)
+    result = compare(part.model, h, references=tuple(args.references), surface_spacing=args.surface_spacing,
+                     exact_volume=args.exact_volume, bounds=part.bounds, seed=args.seed, progress=_say)
+    print(result.table())
+    if args.json:
+        import json
+
+        text = json.dumps(result.to_dict(), indent=2, default=str)
+        _write_atomically(lambda path: path.write_text(text), Path(args.json))
+        print(f"wrote {args.json}")
+    if args.report:
+        from .report import write_report
+
+        write_report({part.name: result}, args.report, progress=_say)
+        print(f"wrote {args.report}")
+    return 0
+
+
+def _configure_view(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", metavar="FILE", help="a mesh or surface file (VTU, VTK, STL, INP, MSH, ...) or a MODEL.py")
+    parser.add_argument("--screenshot", metavar="PNG", help="render off screen and save a PNG instead of opening a window")
+    parser.add_argument("--metric", default="min_dihedral_angle",
+                        help="cell quality to colour tetrahedra by (default min_dihedral_angle)")
+    parser.add_argument("--no-clip", action="store_true", help="show the whole mesh instead of its interior")
+
+
+@command("view", "show a mesh (its interior coloured by quality), a surface or a model file")(_configure_view)
+def _run_view(args: argparse.Namespace) -> int:
+    from . import plotting
+
+    off_screen = True if args.screenshot else None
+    if args.file.endswith(".py"):
+        from .modelfile import load_model
+
+        part = load_model(args.file)
+        path = plotting.plot_model(part.model, bounds=part.bounds, off_screen=off_screen, screenshot=args.screenshot)
+    else:
+        mesh, _ = _read_mesh(args.file)
+        if plotting.is_tetrahedral(mesh):
+            path = plotting.plot(mesh, metric=args.metric, clip=not args.no_clip, off_screen=off_screen,
+                                 screenshot=args.screenshot, title=Path(args.file).name)
+        else:
+            path = plotting.plot_surface(mesh, off_screen=off_screen, screenshot=args.screenshot,
+                                         title=Path(args.file).name)
+    if path is not None:
+        print(f"wrote {path}")
+    return 0
+
+
+def _configure_info(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", metavar="FILE", help="a mesh or surface file (VTU, VTK, STL, INP, MSH, ...)")
+
+
+@command("info", "print a mesh file's counts, cell types, quality summary and named sets")(_configure_info)
+def _run_info(args: argparse.Namespace) -> int:
+    print(_describe_file(args.file))
+    return 0
+
+
+_VTK_SUFFIXES = (".vtu", ".vtk", ".vtp", ".stl", ".ply", ".obj", ".vti")
+
+
+def _read_mesh(name: str):
+    """(pyvista dataset, named sets {kind: {name: count}}) of a mesh file, VTK or meshio formats."""
+    import pyvista as pv
+
+    path = Path(name)
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist")
+    if path.is_dir():
+        raise ValueError(f"{path} is a directory; give a mesh file")
+    sets: dict[str, dict[str, int]] = {}
+    if path.suffix.lower() in _VTK_SUFFIXES:
+        mesh = pv.read(str(path))
+        names = {key: [str(v) for v in mesh.field_data[key]] for key in ("region_names", "boundary_names") if key in mesh.field_data}
+        for key, array, kind in (("region_names", "region_id", "cell"), ("boundary_names", "boundary_id", "point")):
+            data = mesh.cell_data if kind == "cell" else mesh.point_data
+            if key in names and array in data:
+                values = np.asarray(data[array])
+                sets[f"{kind} sets"] = {n: int(np.count_nonzero(values == i)) for i, n in enumerate(names[key])}
+    else:
+        import meshio
+
+        try:
+            raw = meshio.read(str(path))
+        except Exception as exc:  # meshio raises its own ReadError and others
+            raise ValueError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") from None
+        mesh = pv.from_meshio(raw)
+        if raw.cell_sets:
+            sets["element/face sets"] = {k: int(sum(len(np.asarray(b)) for b in v)) for k, v in raw.cell_sets.items()}
+        if raw.point_sets:
+            sets["node sets"] = {k: int(len(v)) for k, v in raw.point_sets.items()}
+        if raw.field_data:
+            sets["physical groups"] = {k: int(np.asarray(v).ravel()[0]) for k, v in raw.field_data.items()}
+    if mesh.n_points == 0:
+        raise ValueError(f"{path} holds no points (empty, or not a valid {path.suffix} file)")
+    return mesh, sets
+
+
+def _describe_file(name: str) -> str:
+    import pyvista as pv
+
+    from .plotting import is_tetrahedral
+
+    mesh, sets = _read_mesh(name)
+    celltypes = np.asarray(mesh.celltypes if isinstance(mesh, pv.UnstructuredGrid) else mesh.cast_to_unstructured_grid().celltypes)
+    types = {pv.CellType(int(t)).name: int(n) for t, n in zip(*np.unique(celltypes, return_counts=True))}
+    lo, hi = np.asarray(mesh.bounds).reshape(3, 2).T
+    lines = [
+        f"{name}: {type(mesh).__name__}",
+        f"points     {mesh.n_points}",
+        f"cells      {mesh.n_cells}  ({', '.join(f'{k} {v}' for k, v in types.items())})",
+        f"bounds     ({lo[0]:.6g}, {lo[1]:.6g}, {lo[2]:.6g}) to ({hi[0]:.6g}, {hi[1]:.6g}, {hi[2]:.6g})",
+    ]
+    if is_tetrahedral(mesh):
+        from .quality import summary
+
+        total = float(mesh.compute_cell_sizes(length=False, area=False)["Volume"].sum())
+        lines.append(f"volume     {total:.6g}")
+        lines.append("quality:")
+        lines.extend("  " + line for line in str(summary(mesh)).splitlines())
+    elif isinstance(mesh, pv.PolyData):
+        lines.append(f"area       {mesh.area:.6g}")
+        if mesh.n_open_edges == 0 and mesh.is_all_triangles:
+            lines.append(f"volume     {mesh.volume:.6g} (closed surface)")
+        else:
+            lines.append(f"open edges {mesh.n_open_edges}")
+    for kind, named in sets.items():
+        lines.append(f"{kind}: " + (", ".join(f"{k} ({v})" for k, v in named.items()) or "none"))
+    if not sets:
+        lines.append("named sets: none")
+    return "\n".join(lines)
+
+
+def _configure_demo(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("outdir", nargs="?", default="fepre-demo", help="output folder (default ./fepre-demo)")
+    parser.add_argument("--quick", action="store_true", help="coarse settings (seconds, for tests)")
+    parser.add_argument("--no-references", action="store_true", help="skip the pytetwild/gmsh reference meshes")
+
+
+@command("demo", "mesh the demo parts; write STL, VTU, INP and one HTML report")(_configure_demo)
+def _run_demo(args: argparse.Namespace) -> int:
+    from .demo import run_demo
+
+    run_demo(args.outdir, quick=args.quick, references=not args.no_references, progress=_say)
+    return 0
+
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fepre",
@@ -68,7 +326,7 @@ def main(argv: list[str] | None = None) -> int:
     _, (_, run) = COMMANDS[args.command]
     try:
         return int(run(args) or 0)
-    except (ValueError, TypeError, FileNotFoundError, PermissionError) as exc:
+    except (ValueError, TypeError, OSError, MeshingError) as exc:
         print(f"fepre {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # pragma: no cover

@@ -23,163 +23,11 @@ from typing import Any, Callable
 import numpy as np
 
 from .arguments import as_bounds, positive_float
+from .errors import MeshingError
+from .mesh_metrics import mesh_metrics
 from .references import REFERENCES, reference_surface, run_reference
 
-__all__ = ["compare", "Comparison", "MeshResult", "mesh_metrics", "boundary_surface"]
-
-# face opposite each vertex, outward for a positive (VTK) tetrahedron
-_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
-
-
-def tetra_cells(mesh: Any) -> np.ndarray:
-    """Corner connectivity (M, 4) of a grid of linear or quadratic tetrahedra."""
-    import pyvista as pv
-
-    if not isinstance(mesh, pv.UnstructuredGrid):
-        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid; got {type(mesh).__name__}")
-    cells = mesh.cells_dict
-    kinds = set(cells)
-    allowed = {int(pv.CellType.TETRA), int(pv.CellType.QUADRATIC_TETRA)}
-    if not kinds or not kinds <= allowed or len(kinds) > 1:
-        raise ValueError(f"mesh must hold only tetrahedra (VTK_TETRA or VTK_QUADRATIC_TETRA); got cell types {sorted(kinds)}")
-    return np.asarray(next(iter(cells.values()))[:, :4], dtype=np.int64)
-
-
-def boundary_faces(tets: np.ndarray) -> np.ndarray:
-    """Faces (K, 3) used by exactly one tetrahedron, oriented outward."""
-    faces = tets[:, _FACES].reshape(-1, 3)
-    key = np.sort(faces, axis=1)
-    _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
-    return faces[first[counts == 1]]
-
-
-def boundary_surface(mesh: Any):
-    """The boundary triangles of a tetrahedral grid as a ``pyvista.PolyData`` (outward).
-
-    Examples
-    --------
-    >>> import numpy as np, pyvista as pv
-    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
-    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
-    >>> boundary_surface(grid).n_cells
-    4
-    """
-    return _boundary(mesh)[0]
-
-
-def _boundary(mesh: Any) -> tuple[Any, np.ndarray]:
-    """Boundary surface and the mesh's indices of its nodes."""
-    import pyvista as pv
-
-    faces = boundary_faces(tetra_cells(mesh))
-    used, inverse = np.unique(faces, return_inverse=True)
-    points = np.asarray(mesh.points, dtype=np.float64)[used]
-    return pv.PolyData.from_regular_faces(points, inverse.reshape(-1, 3)), used
-
-
-def _surface_samples(surface: Any) -> np.ndarray:
-    """Vertices, edge midpoints and centroids of a triangle surface (dense Hausdorff samples)."""
-    points = np.asarray(surface.points, dtype=np.float64)
-    triangles = np.asarray(surface.regular_faces, dtype=np.int64)
-    corners = points[triangles]
-    midpoints = 0.5 * (corners + corners[:, [1, 2, 0]])
-    return np.concatenate([points, midpoints.reshape(-1, 3), corners.mean(axis=1)])
-
-
-def _distances_to_surface(points: np.ndarray, surface: Any) -> np.ndarray:
-    """Unsigned distance from each point to the triangles of ``surface`` (VTK cell locator)."""
-    import pyvista as pv
-
-    cloud = pv.PolyData(points)
-    return np.abs(np.asarray(cloud.compute_implicit_distance(surface)["implicit_distance"]))
-
-
-def hausdorff(a: Any, b: Any) -> tuple[float, float]:
-    """Directed distances (max over samples of ``a`` to ``b``, max over ``b`` to ``a``)."""
-    return (
-        float(_distances_to_surface(_surface_samples(a), b).max()),
-        float(_distances_to_surface(_surface_samples(b), a).max()),
-    )
-
-
-def mesh_metrics(
-    mesh: Any,
-    model: Any,
-    *,
-    reference: Any = None,
-    volume: float | None = None,
-    seconds: float | None = None,
-) -> dict[str, float]:
-    """Measure one tetrahedral mesh.
-
-    Parameters
-    ----------
-    mesh : pyvista.UnstructuredGrid
-        Linear or quadratic tetrahedra.
-    model : SDF
-        The part; boundary nodes are scored by ``|model|``.
-    reference : pyvista.PolyData, optional
-        Surface for the two-sided Hausdorff distance of the mesh boundary.
-    volume : float, optional
-        The part's volume (exact or estimated) for the volume error.
-    seconds : float, optional
-        Meshing time, copied into the result.
-
-    Returns
-    -------
-    dict
-        Keys ``elements``, ``nodes``, ``volume``, ``volume_error`` (relative), ``inverted``,
-        ``boundary_sdf_max``, ``boundary_sdf_mean``, ``hausdorff`` (and its two directions),
-        ``<metric>_<stat>`` for every quality metric, ``below_10``/``below_15`` (cells with a
-        dihedral angle under 10/15 degrees) and ``seconds``.
-
-    Examples
-    --------
-    >>> import numpy as np, pyvista as pv
-    >>> from fepre import sdf
-    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
-    >>> grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, p)
-    >>> m = mesh_metrics(grid, sdf.sphere(2.0), volume=1 / 6)
-    >>> m["elements"], round(m["volume_error"], 12), round(m["boundary_sdf_max"], 3)
-    (1, 0.0, 2.0)
-    """
-    from .quality import tet_quality
-
-    tets = tetra_cells(mesh)
-    points = np.asarray(mesh.points, dtype=np.float64)
-    quality = tet_quality(points, tets)
-    total = float(quality["volume"].sum())
-    surface, boundary_nodes = _boundary(mesh)
-    sdf_at_boundary = np.abs(np.asarray(model(points[boundary_nodes]), dtype=np.float64))
-
-    metrics: dict[str, float] = {
-        "elements": int(len(tets)),
-        "nodes": int(mesh.n_points),
-        "boundary_nodes": int(len(boundary_nodes)),
-        "volume": total,
-        "volume_error": (total - volume) / volume if volume else float("nan"),
-        "inverted": int(np.count_nonzero(quality["volume"] <= 0)),
-        "boundary_sdf_max": float(sdf_at_boundary.max()),
-        "boundary_sdf_mean": float(sdf_at_boundary.mean()),
-    }
-    if reference is not None:
-        to_reference, from_reference = hausdorff(surface, reference)
-        metrics.update(
-            hausdorff=max(to_reference, from_reference),
-            hausdorff_mesh_to_surface=to_reference,
-            hausdorff_surface_to_mesh=from_reference,
-        )
-    for name in ("min_dihedral_angle", "max_dihedral_angle", "radius_ratio", "volume_edge_ratio"):
-        values = quality[name]
-        metrics[f"{name}_min"] = float(values.min())
-        metrics[f"{name}_p1"] = float(np.percentile(values, 1))
-        metrics[f"{name}_mean"] = float(values.mean())
-        metrics[f"{name}_max"] = float(values.max())
-    metrics["below_10"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 10.0))
-    metrics["below_15"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 15.0))
-    metrics["seconds"] = float("nan") if seconds is None else float(seconds)
-    return metrics
-
+__all__ = ["compare", "Comparison", "MeshResult"]
 
 @dataclass
 class MeshResult:
@@ -189,6 +37,7 @@ class MeshResult:
     mesh: Any
     seconds: float | None
     metrics: dict[str, float]
+    error: str | None = None  #: why a reference mesher failed (then ``mesh`` is None)
 
 
 # (row label, metric key, format) of the text and HTML tables
@@ -285,6 +134,9 @@ class Comparison:
             lines.append("  ".join(cells))
             if index == 0:
                 lines.append("  ".join("-" * width for width in widths))
+        for result in self.results:
+            if result.error:
+                lines.append(f"{result.name} failed: {result.error}")
         lines.append(
             f"h = {self.h:g}; volume reference {self.volume_reference:.6g} ({self.volume_source}); "
             f"Hausdorff against the flying-edges surface at spacing {self.settings.get('surface_spacing', float('nan')):g}"
@@ -305,6 +157,7 @@ class Comparison:
             "settings": dict(self.settings),
             "surface_check": _as_plain(check) if check is not None else None,
             "meshes": {r.name: dict(r.metrics) for r in self.results},
+            "failed": {r.name: r.error for r in self.results if r.error},
         }
 
     def to_html(self, path: Any, *, title: str | None = None) -> Any:
@@ -348,6 +201,7 @@ def compare(
     h: float,
     *,
     mesh: Any = None,
+    seconds: float | None = None,
     references: tuple[str, ...] | list[str] = ("pytetwild",),
     surface_spacing: float | None = None,
     exact_volume: float | None = None,
@@ -366,6 +220,8 @@ def compare(
         Target edge length, passed to every mesher (pytetwild's ``edge_length_abs``).
     mesh : pyvista.UnstructuredGrid, optional
         fepre's mesh, if already made; otherwise ``fepre.distmesh(model, h)`` runs and is timed.
+    seconds : float, optional
+        Time it took to make ``mesh`` (default: its ``distmesh_seconds`` field data, if any).
     references : sequence of str
         Reference meshers: ``"pytetwild"``, ``"gmsh"``. Each meshes the same fine surface.
     surface_spacing : float, optional
@@ -430,15 +286,22 @@ def compare(
         start = time.perf_counter()
         mesh = fepre.distmesh(model, h, bounds=bounds, **({"seed": seed} | distmesh_options))
         seconds: float | None = time.perf_counter() - start
-    else:
-        stored = mesh.field_data.get("distmesh_seconds") if hasattr(mesh, "field_data") else None
+    elif seconds is None:
+        stored = mesh.field_data.get("distmesh_seconds")
         seconds = float(np.asarray(stored).ravel()[-1]) if stored is not None and np.size(stored) else None
+    else:
+        seconds = positive_float(seconds, "seconds")
     report(f"compare: measuring fepre ({mesh.n_cells} cells) ...")
     results.append(MeshResult("fepre", mesh, seconds, mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)))
 
     for name in references:
         report(f"compare: {name} h={h:g} ...")
-        reference_mesh, seconds = run_reference(name, surface, h, seed=seed)
+        try:
+            reference_mesh, seconds = run_reference(name, surface, h, seed=seed)
+        except MeshingError as exc:  # a reference's failure is a finding, not the end of the comparison
+            report(f"compare: {name} failed: {exc}")
+            results.append(MeshResult(name, None, None, {}, error=str(exc)))
+            continue
         report(f"compare: measuring {name} ({reference_mesh.n_cells} cells, {seconds:.1f} s) ...")
         metrics = mesh_metrics(reference_mesh, model, reference=surface, volume=volume, seconds=seconds)
         results.append(MeshResult(name, reference_mesh, seconds, metrics))
@@ -457,10 +320,8 @@ def compare(
 
 
 def _check_surface(surface: Any, model: Any) -> Any:
-    try:
-        from .surface import check_surface
-    except ImportError:  # the surface stage is not installed in this tree yet
-        return None
+    from .surface import check_surface
+
     return check_surface(surface, model)
 
 

@@ -39,11 +39,17 @@ def _with_quality(mesh: Any, metric: str) -> Any:
 
 
 def _display_offscreen(off_screen: bool | None) -> bool:
+    """Whether to render off screen; on a machine without a display, also quiets VTK's X warning."""
     import pyvista as pv
 
+    headless = os.name == "posix" and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY")
+    if headless:
+        import vtk
+
+        vtk.vtkLogger.SetStderrVerbosity(vtk.vtkLogger.VERBOSITY_ERROR)
     if off_screen is not None:
         return bool(off_screen)
-    return bool(pv.OFF_SCREEN) or (os.name == "posix" and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"))
+    return bool(pv.OFF_SCREEN) or headless
 
 
 def quality_plotter(
@@ -121,7 +127,7 @@ def quality_plotter(
     center = np.asarray(mesh.center)
     plotter.camera_position = [tuple(center + np.array([3.0, 1.3, 1.1])), tuple(center), (0.0, 0.0, 1.0)]
     plotter.reset_camera()
-    plotter.camera.zoom(1.2)
+    plotter.camera.zoom(1.05)
     return plotter
 
 
@@ -236,6 +242,44 @@ def plot_model(
     plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
     plotter.set_background("white")
     plotter.add_mesh(surface, color=color, smooth_shading=True, specular=0.3)
+    plotter.add_axes()
+    plotter.view_isometric()
+    return _show(plotter, screenshot)
+
+
+def is_tetrahedral(mesh: Any) -> bool:
+    """True for an UnstructuredGrid whose cells are all (linear or quadratic) tetrahedra."""
+    import pyvista as pv
+
+    if not isinstance(mesh, pv.UnstructuredGrid) or mesh.n_cells == 0:
+        return False
+    kinds = set(np.unique(np.asarray(mesh.celltypes)).tolist())
+    return len(kinds) == 1 and kinds <= {int(pv.CellType.TETRA), int(pv.CellType.QUADRATIC_TETRA)}
+
+
+def plot_surface(
+    dataset: Any,
+    *,
+    off_screen: bool | None = None,
+    screenshot: str | os.PathLike | None = None,
+    window_size: tuple[int, int] = (900, 700),
+    title: str = "",
+    color: str = "#8fb4d9",
+):
+    """Show any dataset (a surface, or a mesh of other cells) with its edges.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> plot_surface(pv.Sphere(), screenshot="s.png", off_screen=True)  # doctest: +SKIP
+    """
+    import pyvista as pv
+
+    plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
+    plotter.set_background("white")
+    plotter.add_mesh(dataset, color=color, show_edges=dataset.n_cells < 200_000, edge_color="#555555", line_width=0.4)
+    if title:
+        plotter.add_text(title, font_size=11, color="black")
     plotter.add_axes()
     plotter.view_isometric()
     return _show(plotter, screenshot)

@@ -31,8 +31,8 @@ __all__ = ["reference_surface", "pytetwild_mesh", "gmsh_mesh", "REFERENCES", "av
 def reference_surface(model: Any, spacing: float, bounds: Any = None):
     """The model's zero level set by vtkFlyingEdges3D on a grid of ``spacing``.
 
-    The grid covers ``bounds`` (default: the model's bounds) plus two cells on every side, so
-    the surface is closed.
+    :func:`fepre.isosurface` with ``method="flying_edges"``; the grid covers ``bounds`` (default:
+    the model's bounds) plus padding, so the surface is closed.
 
     Parameters
     ----------
@@ -52,30 +52,19 @@ def reference_surface(model: Any, spacing: float, bounds: Any = None):
     >>> reference_surface(sdf.sphere(1.0), 0.2).is_all_triangles
     True
     """
-    import pyvista as pv
+    import warnings
+
+    from .surface import isosurface
 
     spacing = positive_float(spacing, "surface_spacing")
-    if bounds is None:
-        bounds = model.bounds
-        if bounds is None:
-            raise ValueError("bounds must be given for an unbounded model (its bounds are None)")
-    lo, hi = (np.asarray(b) for b in as_bounds(bounds))
-    lo = lo - 2 * spacing
-    counts = np.ceil((hi + 2 * spacing - lo) / spacing).astype(int) + 1
-    if np.prod(counts.astype(float)) * 4 > 2e9:
-        raise ValueError(
-            f"surface_spacing={spacing:g} needs a {counts[0]}x{counts[1]}x{counts[2]} grid; "
-            "use a larger spacing"
-        )
-    axes = [lo[i] + spacing * np.arange(counts[i]) for i in range(3)]
-    values = model.values_on_axes(*axes, dtype=np.float32)
-    grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=(spacing,) * 3, origin=tuple(lo))
-    grid.point_data["sdf"] = values.ravel()
-    surface = grid.contour([0.0], scalars="sdf", method="flying_edges")
+    if bounds is None and model.bounds is None:
+        raise ValueError("bounds must be given for an unbounded model (its bounds are None)")
+    bounds = as_bounds(bounds if bounds is not None else model.bounds)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # an empty surface is reported below as a MeshingError
+        surface = isosurface(model, method="flying_edges", spacing=spacing, bounds=bounds)
     if surface.n_cells == 0:
         raise MeshingError("the model has no surface inside its bounds (the sampled values never change sign)")
-    # Flying edges orients normals along the gradient, i.e. outward for an SDF; keep only geometry.
-    surface.point_data.clear()
     return surface
 
 

@@ -1,0 +1,215 @@
+"""``fepre demo``: the demo parts meshed end to end, with one HTML report.
+
+Parts: the seed's cube with a hole, a sphere, a torus, an L-bracket with a filleted inner edge
+(smooth union) and a bolt hole, and a gyroid-infilled block. For each part the demo writes the
+surface (STL), the tetrahedral mesh (VTU) and a CalculiX/Abaqus solver file (INP, with named
+boundary sets), compares the mesh with reference meshers, and finally writes ``report.html``.
+
+Examples
+--------
+>>> from fepre.demo import demo_parts
+>>> [part.name for part in demo_parts(quick=True)][:2]
+['cube_with_hole', 'sphere']
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from . import sdf
+
+__all__ = ["DemoPart", "demo_parts", "run_demo", "DemoResult"]
+
+
+@dataclass
+class DemoPart:
+    """One demo part and its settings.
+
+    Attributes
+    ----------
+    name : str
+    model : SDF
+    h : float
+        Target edge length.
+    spacing : float
+        Grid spacing of the STL surface.
+    exact_volume : float or None
+    boundaries : dict
+        Named boundary sets written to the INP file.
+    references : tuple of str
+        Reference meshers it is compared with.
+    description : str
+    """
+
+    name: str
+    model: Any
+    h: float
+    spacing: float
+    exact_volume: float | None = None
+    boundaries: dict[str, Any] = field(default_factory=dict)
+    references: tuple[str, ...] = ()
+    description: str = ""
+
+
+def cube_with_hole() -> tuple[Any, Any]:
+    """The seed's first example: [0, 5]^3 minus a radius-1 cylinder along z at x = y = 2.5."""
+    hole = sdf.cylinder(radius=1.0, height=7.0, center=(2.5, 2.5, 2.5))
+    return sdf.box((5, 5, 5), center=(2.5, 2.5, 2.5)) - hole, hole
+
+
+def l_bracket() -> tuple[Any, Any, Any]:
+    """An L-bracket: base plate and upright joined with a 0.3 fillet (smooth union), a bolt hole."""
+    base = sdf.box((4.0, 2.0, 0.6), center=(2.0, 1.0, 0.3))
+    upright = sdf.box((0.6, 2.0, 3.0), center=(0.3, 1.0, 1.5))
+    hole = sdf.cylinder(radius=0.4, height=2.0, center=(2.8, 1.0, 0.3))
+    return sdf.difference(sdf.union(base, upright, k=0.3), hole), hole, base
+
+
+def gyroid_block() -> Any:
+    """A 2 x 2 x 1 block: a shell of wall 0.2 filled with a gyroid sheet (period 1, thickness 0.25)."""
+    block = sdf.box((2.0, 2.0, 1.0))
+    return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.25), wall=0.2)
+
+
+def demo_parts(quick: bool = False) -> list[DemoPart]:
+    """The demo parts with edge lengths chosen so the whole demo takes under two minutes.
+
+    ``quick=True`` uses coarse edge lengths (seconds; used by the tests).
+    """
+    cube, hole = cube_with_hole()
+    bracket, bolt_hole, _ = l_bracket()
+    scale = 2.0 if quick else 1.0
+    parts = [
+        DemoPart("cube_with_hole", cube, 0.5 * scale, 0.05 * scale, 125.0 - 5.0 * math.pi,
+                 {"hole": hole, "bottom": sdf.plane((0, 0, -1), (0, 0, 0)), "top": sdf.plane((0, 0, 1), (0, 0, 5))},
+                 ("gmsh",), "the seed's example: [0,5]^3 minus a radius-1 cylinder"),
+        DemoPart("sphere", sdf.sphere(1.0), 0.2 * scale, 0.025 * scale, 4.0 * math.pi / 3.0, {},
+                 ("gmsh",) if quick else ("pytetwild", "gmsh"), "unit sphere"),
+        DemoPart("torus", sdf.torus(1.0, 0.4), 0.15 * scale, 0.02 * scale, 2.0 * math.pi**2 * 1.0 * 0.4**2, {},
+                 ("gmsh",), "torus R=1, r=0.4"),
+        DemoPart("l_bracket", bracket, 0.2 * scale, 0.03 * scale, None,
+                 {"bolt_hole": bolt_hole, "mount": sdf.plane((-1, 0, 0), (0, 0, 0))},
+                 ("gmsh",), "L-bracket, 0.3 fillet (smooth union), bolt hole"),
+    ]
+    if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
+        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.1 * scale, 0.02 * scale, None, {}, (),
+                              "2x2x1 block, 0.2 wall, gyroid sheet infill"))
+    return parts
+
+
+@dataclass
+class DemoResult:
+    """What the demo wrote: per part its files and comparison, and the report."""
+
+    outdir: Path
+    files: dict[str, list[Path]]
+    comparisons: dict[str, Any]
+    report: Path
+    seconds: float
+
+
+def _summary_rows(parts: list[DemoPart], comparisons: dict[str, Any]) -> list[list[str]]:
+    rows = [["part", "h", "tets", "nodes", "fepre s", "min dihedral", "mean radius ratio", "volume error", "Hausdorff"]]
+    for part in parts:
+        metrics = comparisons[part.name]["fepre"].metrics
+        error = metrics["volume_error"]
+        rows.append([
+            part.name, f"{part.h:g}", str(metrics["elements"]), str(metrics["nodes"]), f"{metrics['seconds']:.1f}",
+            f"{metrics['min_dihedral_angle_min']:.1f}", f"{metrics['radius_ratio_mean']:.3f}",
+            "-" if math.isnan(error) else f"{error:+.2%}", f"{metrics['hausdorff']:.2e}",
+        ])
+    return rows
+
+
+def _text_table(rows: list[list[str]]) -> str:
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))) for row in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _html_table(rows: list[list[str]], parts: list[DemoPart]) -> str:
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
+    body = "".join(
+        f'<tr><th><a href="#{html.escape(row[0])}">{html.escape(row[0])}</a><br><span class="note">'
+        f"{html.escape(part.description)}</span></th>" + "".join(f'<td class="num">{html.escape(c)}</td>' for c in row[1:]) + "</tr>"
+        for row, part in zip(rows[1:], parts)
+    )
+    return f"<h2>Summary</h2><table><tr>{head}</tr>{body}</table>"
+
+
+def run_demo(
+    outdir: str | Path = "fepre-demo",
+    *,
+    quick: bool = False,
+    references: bool = True,
+    parts: list[DemoPart] | None = None,
+    progress: Callable[[str], None] | None = print,
+) -> DemoResult:
+    """Mesh every demo part; write STL, VTU, INP files and ``report.html`` into ``outdir``.
+
+    Parameters
+    ----------
+    outdir : path
+        Created if missing.
+    quick : bool
+        Coarse settings (used by the tests).
+    references : bool
+        Compare with the reference meshers (pytetwild for the sphere, gmsh for every part).
+    parts : list of DemoPart, optional
+        Default :func:`demo_parts`.
+    progress : callable or None
+        Receives a message before every long step.
+
+    Returns
+    -------
+    DemoResult
+
+    Examples
+    --------
+    >>> result = run_demo("fepre-demo", quick=True)  # doctest: +SKIP
+    """
+    import fepre
+
+    from .compare import compare
+    from .export.atomic import staged_files
+    from .report import write_report
+
+    say = progress or (lambda message: None)
+    start = time.perf_counter()
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    parts = demo_parts(quick) if parts is None else parts
+    files: dict[str, list[Path]] = {}
+    comparisons: dict[str, Any] = {}
+    for index, part in enumerate(parts, 1):
+        label = f"demo [{index}/{len(parts)}] {part.name}"
+        say(f"{label}: surface (flying edges, spacing {part.spacing:g}) ...")
+        surface = fepre.isosurface(part.model, spacing=part.spacing)
+        stl = outdir / f"{part.name}.stl"
+        with staged_files(stl, [stl.name], overwrite=True) as stage:
+            surface.save(str(stage / stl.name))
+        say(f"{label}: DistMesh h={part.h:g} ...")
+        mesh_start = time.perf_counter()
+        mesh = fepre.distmesh(part.model, part.h, progress=True)
+        seconds = time.perf_counter() - mesh_start
+        say(f"{label}: {mesh.n_cells} tetrahedra in {seconds:.1f} s; writing VTU and INP ...")
+        vtu, inp = outdir / f"{part.name}.vtu", outdir / f"{part.name}.inp"
+        fepre.export(mesh, vtu, boundaries=part.boundaries or None, model=part.model)
+        fepre.export(mesh, inp, boundaries=part.boundaries or None, model=part.model)
+        files[part.name] = [stl, vtu, inp]
+        chosen = part.references if references else ()
+        comparisons[part.name] = compare(part.model, part.h, mesh=mesh, seconds=seconds, references=chosen,
+                                         exact_volume=part.exact_volume, progress=lambda m: say(f"{label}: {m}"))
+    rows = _summary_rows(parts, comparisons)
+    report = write_report(comparisons, outdir / "report.html", title="fepre demo: meshes of the demo parts",
+                          summary_html=_html_table(rows, parts), progress=say)
+    print(_text_table(rows))
+    total = time.perf_counter() - start
+    print(f"\nwrote {sum(len(f) for f in files.values())} files and {report} into {outdir} in {total:.0f} s")
+    return DemoResult(outdir, files, comparisons, report, total)
