@@ -108,6 +108,44 @@ def _box_distance(coords: Coords, bounds: Bounds) -> np.ndarray:
     return box_distance(coords, bounds)
 
 
+def coordinate_extent(coords: Coords, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Box spanned by grid-like (broadcasting) coordinates, or None for point columns.
+
+    Only worth it on grids, where each coordinate array is much smaller than the block.
+    """
+    total = int(np.prod(shape))
+    if total < 4096 or sum(np.size(c) for c in coords) * 4 > total:
+        return None
+    return np.array([float(np.min(c)) for c in coords]), np.array([float(np.max(c)) for c in coords])
+
+
+def gap_to_box(extent: tuple[np.ndarray, np.ndarray], bounds: Bounds | None) -> float:
+    """Euclidean distance between the box ``extent`` and ``bounds`` (0 when they touch)."""
+    if bounds is None:
+        return 0.0
+    lo, hi = extent
+    gap = np.maximum(np.maximum(np.asarray(bounds[0]) - hi, lo - np.asarray(bounds[1])), 0.0)
+    return float(np.sqrt(np.dot(gap, gap)))
+
+
+def above_box_distance(node: SDF) -> bool:
+    """True when ``node``'s value is at least the distance to its bounding box outside it.
+
+    Holds for exact nodes (the distance to a solid is at least the distance to a box holding
+    it) and is kept by sharp unions and by differences of such a base. Booleans use it to skip
+    an operand on a grid block where it provably cannot change the result.
+    """
+    if node.bounds is None:
+        return False
+    if node.exact:
+        return True
+    if isinstance(node, Union) and node.k == 0:
+        return all(above_box_distance(c) for c in node.children)
+    if isinstance(node, Difference) and node.k == 0:
+        return above_box_distance(node.children[0])
+    return False
+
+
 # ---------------------------------------------------------------------- nodes
 class Union(SDF):
     """Union of children: ``min`` (sharp) or the chained smooth minimum of radius ``k``."""
@@ -129,6 +167,8 @@ class Union(SDF):
                 self._guard = bounds
         exact = k == 0 and all(c.exact for c in children) and _disjoint(boxes)
         super().__init__(bounds=bounds, exact=exact, children=children)
+        skippable = [k == 0 and above_box_distance(c) for c in children]
+        self._skippable = skippable if any(skippable[1:]) else None
 
     def _label(self) -> str:
         return "union"
@@ -138,8 +178,18 @@ class Union(SDF):
 
     def _values(self, *coords):
         shape = full_shape(coords)
+        extent = coordinate_extent(coords, shape) if self.k == 0 and self._skippable else None
         out = None
-        for child in self.children:
+        largest = None
+        for child, skippable in zip(self.children, self._skippable or [False] * len(self.children)):
+            if out is not None and extent is not None and skippable:
+                # child >= gap >= every value so far on this block: it cannot lower the minimum.
+                gap = gap_to_box(extent, child.bounds)
+                if gap > 0:
+                    if largest is None:
+                        largest = float(out.max())
+                    if largest <= gap:
+                        continue
             values = child._values(*coords)
             if out is None:
                 out = writable(values, shape)
@@ -147,6 +197,7 @@ class Union(SDF):
                 out, _ = smooth_min(out, values, self.k)
             else:
                 np.minimum(out, values, out=out)
+                largest = None
         if self._guard is not None:
             out = np.maximum(out, _box_distance(coords, self._guard))
         return out
@@ -225,6 +276,8 @@ class Difference(SDF):
         self.dim = base.dim
         self.k = k
         super().__init__(bounds=base.bounds, exact=False, children=(base, *others))
+        skippable = [k == 0 and above_box_distance(c) for c in others]
+        self._skippable = skippable if any(skippable) else None
 
     def _label(self) -> str:
         return "difference"
@@ -241,16 +294,35 @@ class Difference(SDF):
                 out, _ = smooth_min(-out, other._values(*coords), self.k)
                 np.negative(out, out=out)
             return out
-        cut = None
-        for other in others:
-            values = other._values(*coords)
-            if cut is None:
-                cut = writable(values, shape)
-            else:
-                np.minimum(cut, values, out=cut)
-        np.negative(cut, out=cut)
-        np.maximum(cut, base._values(*coords), out=cut)
-        return cut
+        if self._skippable is None:
+            cut = None
+            for other in others:
+                values = other._values(*coords)
+                if cut is None:
+                    cut = writable(values, shape)
+                else:
+                    np.minimum(cut, values, out=cut)
+            np.negative(cut, out=cut)
+            np.maximum(cut, base._values(*coords), out=cut)
+            return cut
+        # Base first; an operand whose box is ``gap`` away from this block has -other <= -gap,
+        # so it changes nothing where the base is already >= -gap everywhere on the block.
+        out = writable(base._values(*coords), shape)
+        extent = coordinate_extent(coords, shape)
+        smallest = None
+        for other, skippable in zip(others, self._skippable):
+            if extent is not None and skippable:
+                gap = gap_to_box(extent, other.bounds)
+                if gap > 0:
+                    if smallest is None:
+                        smallest = float(out.min())
+                    if smallest >= -gap:
+                        continue
+            values = writable(other._values(*coords), shape)
+            np.negative(values, out=values)
+            np.maximum(out, values, out=out)
+            smallest = None
+        return out
 
     def _values_and_gradient(self, *coords):
         base, *others = self.children

@@ -242,19 +242,20 @@ class SDF:
         elif out.shape != shape:
             raise ValueError(f"out must have shape {shape}; got {out.shape}")
 
-        # Blocks run over the two slowest axes; the fastest (x) is always whole.
+        # Blocks run over the two slowest axes; the fastest (x) is always whole. In 3D a block
+        # is a stack of ``depth`` z-slices of a few y-rows: work that depends on x and y only
+        # (radii, box cross-sections) is done once per block and shared by its slices.
         row = shape[-1]
         rows_per_block = max(1, int(config.chunk_points) // row)
         if self.dim == 3:
             nz, ny = shape[0], shape[1]
-            if rows_per_block >= ny:
-                kz = max(1, rows_per_block // ny)
-                blocks = [(z, min(z + kz, nz), 0, ny) for z in range(0, nz, kz)]
-            else:
-                blocks = [
-                    (z, z + 1, y, min(y + rows_per_block, ny))
-                    for z, y in itertools.product(range(nz), range(0, ny, rows_per_block))
-                ]
+            depth = max(1, min(nz, int(config.block_depth), rows_per_block))
+            ky = max(1, min(ny, rows_per_block // depth))
+            kz = max(1, min(nz, rows_per_block // ky))
+            blocks = [
+                (z, min(z + kz, nz), y, min(y + ky, ny))
+                for z, y in itertools.product(range(0, nz, kz), range(0, ny, ky))
+            ]
             x = vectors[0][None, None, :]
 
             def run(block: tuple[int, int, int, int]) -> None:

@@ -1,0 +1,137 @@
+"""Grid sampling of a six-node SDF model: fepre vs vtkSampleFunction vs a numpy copy.
+
+The model is ``(box | sphere.translate) - cylinder`` (box, translated sphere, capped cylinder,
+union, difference: six nodes), sampled on an N^3 float32 grid over [-2, 2]^3. The peer is
+vtkSampleFunction on the equivalent VTK implicit functions (vtkImplicitBoolean of vtkBox, a
+vtkSphere behind a vtkTransform, and vtkCylinder capped by two vtkPlanes) with the same bounds,
+dimensions and float output. The memory floor is a numpy copy of an array of the grid's size.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from . import median_time
+
+BOUNDS = (-2.0, 2.0)
+
+
+def fepre_model():
+    """The benchmark model built with fepre.sdf."""
+    from .. import sdf
+
+    return (sdf.box((2.0, 2.0, 2.0)) | sdf.sphere(0.8).translate((1.0, 1.0, 1.0))) - sdf.cylinder(
+        radius=0.5, height=3.0
+    )
+
+
+def vtk_model():
+    """The same model as VTK implicit functions (returned with the objects it keeps alive)."""
+    import vtk
+
+    box = vtk.vtkBox()
+    box.SetBounds(-1.0, 1.0, -1.0, 1.0, -1.0, 1.0)
+    ball = vtk.vtkSphere()
+    ball.SetRadius(0.8)
+    move = vtk.vtkTransform()
+    move.Translate(-1.0, -1.0, -1.0)  # implicit functions apply the transform to the point
+    ball.SetTransform(move)
+    solid = vtk.vtkImplicitBoolean()
+    solid.SetOperationTypeToUnion()
+    solid.AddFunction(box)
+    solid.AddFunction(ball)
+
+    tube = vtk.vtkCylinder()
+    tube.SetRadius(0.5)
+    tube.SetAxis(0.0, 0.0, 1.0)
+    top, bottom = vtk.vtkPlane(), vtk.vtkPlane()
+    top.SetOrigin(0.0, 0.0, 1.5)
+    top.SetNormal(0.0, 0.0, 1.0)
+    bottom.SetOrigin(0.0, 0.0, -1.5)
+    bottom.SetNormal(0.0, 0.0, -1.0)
+    capped = vtk.vtkImplicitBoolean()
+    capped.SetOperationTypeToIntersection()
+    for function in (tube, top, bottom):
+        capped.AddFunction(function)
+
+    part = vtk.vtkImplicitBoolean()
+    part.SetOperationTypeToDifference()
+    part.AddFunction(solid)
+    part.AddFunction(capped)
+    return part, (box, ball, move, solid, tube, top, bottom, capped)
+
+
+def vtk_sampler(size: int):
+    """A configured vtkSampleFunction for the VTK model on the benchmark grid."""
+    import vtk
+
+    part, keep = vtk_model()
+    sampler = vtk.vtkSampleFunction()
+    sampler.SetImplicitFunction(part)
+    lo, hi = BOUNDS
+    sampler.SetModelBounds(lo, hi, lo, hi, lo, hi)
+    sampler.SetSampleDimensions(size, size, size)
+    sampler.SetOutputScalarTypeToFloat()
+    sampler.ComputeNormalsOff()
+    sampler.CappingOff()
+    sampler._fepre_keep = keep  # keep the Python wrappers of the functions alive
+    return sampler
+
+
+def vtk_values(sampler) -> np.ndarray:
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    sampler.Modified()
+    sampler.Update()
+    return vtk_to_numpy(sampler.GetOutput().GetPointData().GetScalars())
+
+
+def run(size: int, repeat: int, workers: int | None = None) -> dict[str, float]:
+    """Measure the three figures and the sign agreement; returns them in a dict."""
+    model = fepre_model()
+    axis = np.linspace(BOUNDS[0], BOUNDS[1], size)
+    sample = lambda: model.values_on_axes(axis, axis, axis, dtype=np.float32, workers=workers)  # noqa: E731
+    sampler = vtk_sampler(size)
+    floor_source = np.ones((size, size, size), dtype=np.float32)
+
+    fepre_time = median_time(sample, repeat=repeat)
+    vtk_time = median_time(lambda: vtk_values(sampler), repeat=repeat)
+    copy_time = median_time(floor_source.copy, repeat=repeat)
+
+    ours = sample().ravel()
+    theirs = vtk_values(sampler)
+    agree = float(np.mean((ours < 0) == (theirs < 0)))
+    return {
+        "points": float(size**3),
+        "fepre": fepre_time,
+        "vtk": vtk_time,
+        "copy": copy_time,
+        "sign_agreement": agree,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="fepre bench sdf", description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=256, help="grid points per axis (default 256)")
+    parser.add_argument("--repeat", type=int, default=5, help="timed runs per method (median; default 5)")
+    parser.add_argument("--workers", type=int, default=None, help="fepre threads (default fepre.config.workers)")
+    args = parser.parse_args(argv)
+    if args.size < 2 or args.repeat < 1:
+        parser.error("--size must be >= 2 and --repeat >= 1")
+    figures = run(args.size, args.repeat, args.workers)
+    print(f"model: {fepre_model().describe()} with {sum(1 for _ in fepre_model().walk())} nodes")
+    print(f"grid: {args.size}^3 = {int(figures['points']):,} points, float32, median of {args.repeat}")
+    print(f"{'method':34s} {'median s':>10s} {'Mpts/s':>9s} {'ratio':>12s}")
+    rows = [
+        ("fepre values_on_axes", figures["fepre"], ""),
+        ("vtkSampleFunction", figures["vtk"], f"{figures['vtk'] / figures['fepre']:.1f}x fepre"),
+        ("numpy copy (memory floor)", figures["copy"], f"{figures['fepre'] / figures['copy']:.2f}x (fepre/floor)"),
+    ]
+    for name, seconds, ratio in rows:
+        print(f"{name:34s} {seconds:10.4f} {figures['points'] / seconds / 1e6:9.1f} {ratio:>12s}")
+    print(f"speed-up over VTK: {figures['vtk'] / figures['fepre']:.1f}x (target >= 10x)")
+    print(f"fepre / memory floor: {figures['fepre'] / figures['copy']:.2f}x (target <= 5x)")
+    print(f"inside/outside agreement with VTK: {100 * figures['sign_agreement']:.3f}% of nodes (need > 99.9%)")
+    return 0 if figures["sign_agreement"] > 0.999 else 1
