@@ -32,6 +32,10 @@ Coords = tuple[np.ndarray, ...]
 
 _pools: dict[int, ThreadPoolExecutor] = {}
 
+#: z-slices per block when sampling a 3D grid: work that depends on x and y only is shared by
+#: the slices of a block (measured: 4 to 16 are best for 32768-point blocks).
+GRID_BLOCK_DEPTH = 16
+
 
 def thread_pool(workers: int) -> ThreadPoolExecutor:
     """A shared pool with ``workers`` threads (created once per size)."""
@@ -249,7 +253,7 @@ class SDF:
         rows_per_block = max(1, int(config.chunk_points) // row)
         if self.dim == 3:
             nz, ny = shape[0], shape[1]
-            depth = max(1, min(nz, int(config.block_depth), rows_per_block))
+            depth = max(1, min(nz, GRID_BLOCK_DEPTH, rows_per_block))
             ky = max(1, min(ny, rows_per_block // depth))
             kz = max(1, min(nz, rows_per_block // ky))
             blocks = [
