@@ -4,7 +4,7 @@ The grid is a :class:`pyvista.ImageData` with the point array ``"sdf"`` in VTK o
 sampling goes through :meth:`fepre.sdf.SDF.values_on_axes`, which never materialises the
 coordinates of the whole grid.
 
-Narrow band: the grid is cut into blocks of 8^3 nodes and the model is first evaluated at each
+Narrow band: the grid is cut into blocks of about 8^3 nodes and the model is first evaluated at each
 block's centre. Because every model is 1-Lipschitz, a block whose centre value ``c`` satisfies
 ``|c| > r + w`` (``r`` its half-diagonal, ``w`` the band) has ``|value| > w`` at all its nodes, all
 of the sign of ``c``; such a block is filled with ``±w`` instead of being evaluated. With ``w`` at
@@ -26,7 +26,6 @@ from .sdf.core import SDF, thread_pool
 __all__ = ["sample", "grid_geometry"]
 
 BLOCK = 8
-_BLOCKS_PER_BATCH = 64
 
 
 def _format_bytes(count: float) -> str:
@@ -134,57 +133,78 @@ def _check_memory(counts: np.ndarray, dtype: np.dtype) -> None:
 
 
 def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: float, dtype, workers: int):
-    """Banded sampling on (x, y, z) axes; returns the array and the number of evaluations."""
-    nx, ny, nz = (a.size for a in axes)
-    out = np.empty((nz, ny, nx), dtype=dtype)
-    starts, owners = [], []
-    for axis in axes:
-        n = axis.size
-        count = max(1, math.ceil(n / BLOCK))
-        starts.append(np.minimum(np.arange(count) * BLOCK, max(n - BLOCK, 0)))
-        owners.append(np.minimum(np.arange(n) // BLOCK, count - 1))
-    width = [min(BLOCK, a.size) for a in axes]
+    """Banded sampling on (x, y, z) axes; returns the array and the number of evaluations.
+
+    Blocks are aligned (the last one per axis may be short) and about ``BLOCK`` nodes wide along
+    the finest axis, fewer along coarser axes, so they stay roughly cubic in world units. Runs of
+    all active blocks of a z slab are evaluated in one broadcast call; each run of consecutive
+active blocks along x is then copied into the output with one strided copy.
+    """
+    counts = [a.size for a in axes]
+    finest = float(step.min())
+    width = [max(2, min(n, 1 + int(round((BLOCK - 1) * finest / h)))) for n, h in zip(counts, step)]
+    nblocks = [-(-n // w) for n, w in zip(counts, width)]
+    starts = [np.arange(b) * w for b, w in zip(nblocks, width)]
+    sizes = [np.minimum(w, n - s) for w, n, s in zip(width, counts, starts)]
     centres = [
-        axis[s].astype(np.float64) + (w - 1) / 2 * h for axis, s, w, h in zip(axes, starts, width, step)
+        axis[s].astype(np.float64) + (size - 1) / 2 * h for axis, s, size, h in zip(axes, starts, sizes, step)
     ]
     centre_values = model.values_on_axes(*centres, dtype=np.float64, workers=workers)
     half_diagonal = 0.5 * float(np.sqrt(np.sum(((np.array(width) - 1) * step) ** 2)))
     margin = half_diagonal + band + 1e-6 * (half_diagonal + band)
-    active = np.abs(centre_values) <= margin
+    active = np.abs(centre_values) <= margin  # (blocks z, blocks y, blocks x)
     fill = np.where(centre_values > 0, band, -band).astype(dtype)
+    owner_x = np.arange(counts[0]) // width[0]
+    owner_y = np.arange(counts[1]) // width[1]
+    row_fill = fill[:, :, owner_x]  # (blocks z, blocks y, nx)
 
-    slab_fill = fill[:, :, owners[0]]  # (blocks z, blocks y, nx)
-    slab_starts = list(range(0, nz, BLOCK))
-
-    def fill_slab(z0: int) -> None:
-        bz = owners[2][z0]
-        out[z0 : z0 + BLOCK] = slab_fill[bz][owners[1]][None, :, :]
-
-    bz, by, bx = np.nonzero(active)
-    batches = range(0, bz.size, _BLOCKS_PER_BATCH)
+    edges = np.diff(np.pad(active, ((0, 0), (0, 0), (1, 1))).view(np.int8), axis=2)
+    run_z, run_y, run_start = np.nonzero(edges == 1)
+    run_end = np.nonzero(edges == -1)[2]
+    x_lo = run_start * width[0]
+    x_hi = np.minimum(run_end * width[0], counts[0])
+    slab_runs = np.searchsorted(run_z, np.arange(nblocks[2] + 1))
+    block_z, block_y, block_x = np.nonzero(active)  # same order as the runs' blocks
+    slab_blocks = np.searchsorted(block_z, np.arange(nblocks[2] + 1))
+    # axes extended to whole blocks, so every block is evaluated at full size
+    padded = [
+        (axis[0] + h * np.arange(b * w)).astype(dtype) for axis, h, b, w in zip(axes, step, nblocks, width)
+    ]
     local = [np.arange(w) for w in width]
+    out = np.empty((counts[2], counts[1], counts[0]), dtype=dtype)
+    wx, wy, wz = width
 
-    def evaluate(first: int) -> None:
-        sl = slice(first, first + _BLOCKS_PER_BATCH)
-        iz = starts[2][bz[sl]][:, None] + local[2]
-        iy = starts[1][by[sl]][:, None] + local[1]
-        ix = starts[0][bx[sl]][:, None] + local[0]
-        z = axes[2][iz][:, :, None, None]
-        y = axes[1][iy][:, None, :, None]
-        x = axes[0][ix][:, None, None, :]
+    def slab(bz: int) -> None:
+        z0, z1 = bz * wz, min((bz + 1) * wz, counts[2])
+        out[z0:z1] = row_fill[bz][owner_y][None, :, :]
+        first, last = slab_blocks[bz], slab_blocks[bz + 1]
+        if first == last:
+            return
+        # all active blocks of the slab in one call: (blocks, z, y, x) by broadcasting
+        x = padded[0][(block_x[first:last] * wx)[:, None] + local[0]][:, None, None, :]
+        y = padded[1][(block_y[first:last] * wy)[:, None] + local[1]][:, None, :, None]
+        z = padded[2][bz * wz + local[2]][None, :, None, None]
         values = model._values(x, y, z)
-        out[iz[:, :, None, None], iy[:, None, :, None], ix[:, None, None, :]] = values
+        block = 0
+        for r in range(slab_runs[bz], slab_runs[bz + 1]):
+            length = run_end[r] - run_start[r]
+            y0 = run_y[r] * wy
+            y1 = min(y0 + wy, counts[1])
+            target = out[z0:z1, y0:y1, x_lo[r] : x_lo[r] + length * wx]
+            run = values[block : block + length, : z1 - z0, : y1 - y0].transpose(1, 2, 0, 3)
+            if x_hi[r] - x_lo[r] == length * wx:
+                target.reshape(z1 - z0, y1 - y0, length, wx)[...] = run
+            else:  # the run ends in the grid's last, short block
+                target[...] = run.reshape(z1 - z0, y1 - y0, length * wx)[:, :, : x_hi[r] - x_lo[r]]
+            block += length
 
-    pool = thread_pool(workers) if workers > 1 else None
-    if pool is None:
-        for z0 in slab_starts:
-            fill_slab(z0)
-        for first in batches:
-            evaluate(first)
+    if workers > 1:
+        list(thread_pool(workers).map(slab, range(nblocks[2])))
     else:
-        list(pool.map(fill_slab, slab_starts))
-        list(pool.map(evaluate, batches))
-    evaluated = centre_values.size + bz.size * width[0] * width[1] * width[2]
+        for bz in range(nblocks[2]):
+            slab(bz)
+    z_sizes, y_sizes = sizes[2][run_z], sizes[1][run_y]
+    evaluated = centre_values.size + int(np.sum(z_sizes * y_sizes * (x_hi - x_lo)))
     return out, evaluated
 
 
@@ -257,7 +277,7 @@ def sample(
         evaluated = total
     else:
         band = max(nonnegative_float(band, "band"), float(np.linalg.norm(step)))
-        values, evaluated = _sample_band(model, [a.astype(dtype) for a in axes], step, band, dtype, workers)
+        values, evaluated = _sample_band(model, axes, step, band, dtype, workers)
     grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=tuple(step), origin=tuple(origin))
     grid.point_data["sdf"] = values.reshape(-1)
     grid.field_data["sdf_evaluated_fraction"] = np.array([min(1.0, evaluated / total)])

@@ -1,0 +1,123 @@
+"""Surface extraction on the torus R=1, r=0.4: fepre's methods vs vtkFlyingEdges3D (seed Tables 1-2).
+
+Part 1 reproduces the seed's Tables 1 and 2 at 81^3: every method from a pre-sampled array and
+straight from the model (sampling included), on one thread and on all threads, plus the time to
+sample the array. Part 2 runs at ``--size`` (256): fepre's marching cubes and surface nets against
+vtkFlyingEdges3D on the same array, and sampling plus extraction end to end against flying edges
+on a pre-sampled array plus the memory floor (a numpy copy of an array of the grid's size).
+Part 3 samples at ``--band-size`` (512) densely and in a narrow band. Grids span the cube
+[-1.5, 1.5]^3. All figures are medians
+from this run; ratios compare against the peer measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from . import median_time
+
+METHODS = ("flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets")
+SHORT = {"flying_edges": "FE (VTK)", "marching_cubes": "MC", "marching_tetrahedra": "MT", "surface_nets": "NS"}
+
+
+#: the grid box: the cube [-1.5, 1.5]^3 around the torus, so the grid is isotropic
+BOX = ((-1.5, -1.5, -1.5), (1.5, 1.5, 1.5))
+
+
+def _torus():
+    from .. import sdf
+
+    return sdf.torus(1.0, 0.4)
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:9.2f} ms"
+
+
+def seed_tables(repeat: int, workers_all: int) -> list[str]:
+    """Seed Tables 1 and 2 at 81^3."""
+    import fepre
+
+    model = _torus()
+    lines = ["Seed Tables 1-2: torus R=1, r=0.4 on 81^3 (median of %d)" % repeat]
+    lines.append(f"{'method':<10} {'threads':>7} {'pre-sampled array':>18} {'from the function':>18}")
+    for workers in (1, workers_all):
+        grid = fepre.sample(model, shape=81, bounds=BOX, workers=workers)
+        sampling = median_time(lambda: fepre.sample(model, shape=81, bounds=BOX, workers=workers), repeat)
+        for method in METHODS:
+            array = median_time(lambda: fepre.isosurface(grid, method=method, workers=workers), repeat)
+            direct = median_time(lambda: fepre.isosurface(model, shape=81, bounds=BOX, method=method, workers=workers), repeat)
+            lines.append(f"{SHORT[method]:<10} {workers:>7} {_ms(array):>18} {_ms(direct):>18}")
+        lines.append(f"{'sampling':<10} {workers:>7} {_ms(sampling):>18} {'':>18}")
+    lines.append("seed (Julia, Table 2, MC): array 2.721 ms / 2.212 ms (1 / 6 threads), function 6.745 ms / 2.699 ms")
+    return lines
+
+
+def large_grid(size: int, repeat: int, workers: int) -> list[str]:
+    """fepre's MC and NS against flying edges on one array, and end to end."""
+    import fepre
+
+    model = _torus()
+    grid = fepre.sample(model, shape=size, bounds=BOX, workers=workers)
+    values = np.asarray(grid["sdf"])
+    times = {
+        method: median_time(lambda: fepre.isosurface(grid, method=method, workers=workers), repeat)
+        for method in METHODS
+    }
+    floor = median_time(values.copy, repeat)
+    end_to_end = median_time(lambda: fepre.isosurface(model, shape=size, bounds=BOX, workers=workers), repeat)
+    sampling = median_time(lambda: fepre.sample(model, shape=size, bounds=BOX, workers=workers), repeat)
+    fe = times["flying_edges"]
+    lines = [f"Torus on {size}^3, {workers} threads (median of {repeat})"]
+    lines.append(f"{'step':<44} {'time':>12} {'ratio':>8} {'target':>8}")
+    for method in METHODS:
+        target = "<= 5" if method in ("marching_cubes", "surface_nets") else ""
+        lines.append(f"{SHORT[method] + ' on the pre-sampled array':<44} {_ms(times[method])} {times[method] / fe:8.2f} {target:>8}")
+    lines.append(f"{'memory floor (numpy copy of the grid)':<44} {_ms(floor)}")
+    lines.append(f"{'sampling alone':<44} {_ms(sampling)}")
+    lines.append(
+        f"{'sample + FE end to end vs FE + floor':<44} {_ms(end_to_end)} {end_to_end / (fe + floor):8.2f} {'<= 2':>8}"
+    )
+    return lines
+
+
+def narrow_band(size: int, repeat: int, workers: int) -> list[str]:
+    """Dense against narrow-band sampling."""
+    import fepre
+
+    model = _torus()
+    dense = median_time(lambda: fepre.sample(model, shape=size, bounds=BOX, workers=workers), repeat, warmup=0)
+    banded_grid = fepre.sample(model, shape=size, bounds=BOX, band=0.0, workers=workers)
+    banded = median_time(lambda: fepre.sample(model, shape=size, bounds=BOX, band=0.0, workers=workers), repeat, warmup=0)
+    fraction = float(banded_grid.field_data["sdf_evaluated_fraction"][0])
+    return [
+        f"Narrow band (one cell diagonal) on {size}^3, {workers} threads (median of {repeat})",
+        f"{'dense sampling':<44} {_ms(dense)}",
+        f"{'banded sampling':<44} {_ms(banded)} {dense / banded:8.2f}x faster (target >= 4)",
+        f"{'nodes evaluated':<44} {100 * fraction:9.2f} %  (target <= 15 %)",
+    ]
+
+
+def main(argv: list[str]) -> int:
+    """Run the benchmark and print its tables."""
+    import fepre
+
+    parser = argparse.ArgumentParser(prog="fepre bench surface", description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=256, help="grid size for part 2 (default 256)")
+    parser.add_argument("--band-size", type=int, default=512, help="grid size for part 3 (default 512)")
+    parser.add_argument("--repeat", type=int, default=5, help="runs per median (default 5)")
+    parser.add_argument("--workers", type=int, default=None, help="threads (default all cores)")
+    parser.add_argument("--skip", choices=["seed", "large", "band"], action="append", default=[], help="skip a part")
+    args = parser.parse_args(argv)
+    workers = fepre.config.resolve_workers(args.workers)
+    parts = []
+    if "seed" not in args.skip:
+        parts.append(seed_tables(args.repeat, workers))
+    if "large" not in args.skip:
+        parts.append(large_grid(args.size, args.repeat, workers))
+    if "band" not in args.skip:
+        parts.append(narrow_band(args.band_size, max(1, args.repeat // 2), workers))
+    print("\n\n".join("\n".join(part) for part in parts))
+    return 0
