@@ -1,0 +1,348 @@
+"""The quality stage: sliver removal and shape improvement of tetrahedral meshes.
+
+Raw DistMesh leaves slivers, flat tetrahedra with four well-spaced vertices, that Delaunay
+keeps (BACKGROUND.md section 1). This stage removes them and raises the mean shape quality,
+with three vectorised operations that each check every new cell before accepting it:
+
+1. *relaxation* (:func:`~fepre.distmesh.smoothing.relax_round`): every vertex moves towards the
+   mean of the positions that would make each of its cells regular (boundary vertices slide on
+   the model's zero set); moves that make a cell worse than ``min(its old angle, target)`` are
+   undone. This lifts the mean radius ratio;
+2. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
+   removal (3-2, 4-4, ... up to rings of 7) around the bad cells, keeping a flip only if it
+   raises the worst dihedral angle of the cells it replaces;
+3. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
+   cells try a dozen candidate positions each and take the best one if it raises the worst
+   angle of their star.
+
+Flips and smoothing alternate until every cell reaches the target (or a little above) or a
+round changes nothing. Flips never touch the boundary surface; boundary vertices only move
+along the zero set (re-projected, checked to within ``1e-4 h``), so the mesh keeps its closed
+boundary and its volume.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Any, Callable
+
+import numpy as np
+
+from ..arguments import finite_float, positive_float, positive_int
+from ..errors import ConvergenceWarning, MeshingError
+from .flips import flip_round
+from .smoothing import relax_round, smooth_round
+from .tet_shape import signed_volume, tet_min_dihedral
+from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
+
+__all__ = ["improve", "improve_arrays", "DEFAULT_MIN_DIHEDRAL", "DEFAULT_MAXITER"]
+
+#: Default target for the worst dihedral angle (degrees).
+DEFAULT_MIN_DIHEDRAL = 20.0
+#: Default number of flip-and-smooth rounds.
+DEFAULT_MAXITER = 40
+#: Cells up to this many degrees above the target are improved too, for a safety margin.
+MARGIN = 8.0
+#: Relaxation passes over the whole mesh.
+RELAX_ROUNDS = 3
+#: Stop when the worst angle has not risen for this many rounds.
+PATIENCE = 8
+#: A regular tetrahedron's dihedral angle: no mesh can have a larger worst angle.
+REGULAR_DIHEDRAL = float(np.degrees(np.arccos(1.0 / 3.0)))
+#: Boundary vertices further than this (times h) from the zero set mean the model is not the
+#: mesh's model.
+MODEL_MISMATCH = 0.5
+
+
+def _boundary_edge_keys(faces: np.ndarray, n_points: int) -> np.ndarray:
+    return np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n_points))
+
+
+def _check_arrays(points: Any, tets: Any, h: Any, fixed_mask: Any) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 4:
+        raise ValueError(f"points must have shape (N, 3) with N >= 4; got {points.shape}")
+    if not np.isfinite(points).all():
+        raise ValueError("points must be finite; got NaN or infinite coordinates")
+    tets = np.asarray(tets)
+    if tets.ndim != 2 or tets.shape[1] != 4 or tets.dtype.kind not in "iu" or tets.shape[0] == 0:
+        raise ValueError(f"tets must be a non-empty integer array of shape (M, 4); got {tets.shape} {tets.dtype}")
+    if tets.min() < 0 or tets.max() >= points.shape[0]:
+        raise ValueError(f"tets must index points 0..{points.shape[0] - 1}; got {tets.min()}..{tets.max()}")
+    h = positive_float(h, "h")
+    if fixed_mask is None:
+        fixed_mask = np.zeros(points.shape[0], dtype=bool)
+    else:
+        fixed_mask = np.asarray(fixed_mask)
+        if fixed_mask.shape != (points.shape[0],) or fixed_mask.dtype != bool:
+            raise ValueError(f"fixed_mask must be a bool array of shape ({points.shape[0]},); got {fixed_mask.shape} {fixed_mask.dtype}")
+    return points.copy(), tets.astype(np.int64), h, fixed_mask
+
+
+def improve_arrays(
+    points: np.ndarray,
+    tets: np.ndarray,
+    model,
+    h: float,
+    *,
+    fixed_mask: np.ndarray | None = None,
+    size: Callable | None = None,
+    min_dihedral: float | None = None,
+    maxiter: int | None = None,
+    seed: int = 0,
+    deadline_seconds: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
+
+    Parameters
+    ----------
+    points : (N, 3) float array
+    tets : (M, 4) int array, every cell positively oriented in VTK's convention (flat cells
+        are accepted and repaired; inverted ones are refused)
+    model : fepre.sdf.SDF
+        The model the mesh was made from; boundary vertices stay on its zero set.
+    h : float
+        Target edge length (the smallest one for graded meshes); sets tolerances.
+    fixed_mask : (N,) bool, optional
+        Vertices that must not move.
+    size : callable, optional
+        The relative size function the mesh was made with. The stage measures local sizes from
+        the mesh itself, so it only checks that ``size`` is callable.
+    min_dihedral : float, optional
+        Target worst dihedral angle in degrees (default 20). Unreachable targets warn with
+        :class:`fepre.ConvergenceWarning` and return the best mesh reached.
+    maxiter : int, optional
+        Largest number of flip-and-smooth rounds (default 40).
+    seed : int
+        Seed of the random candidate moves; same input and seed give the same mesh.
+    deadline_seconds : float, optional
+        Stop starting new rounds after this many seconds (no warning).
+
+    Returns
+    -------
+    points, tets, info : the improved mesh (same points count and order; ``tets`` renewed) and a
+        dict with ``seconds``, ``relax_seconds``, ``flip_seconds``, ``smooth_seconds``,
+        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``min_dihedral_before``,
+        ``min_dihedral_after`` and ``converged``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> from fepre.distmesh.slivers import improve_arrays
+    >>> ball = sdf.sphere(1.0)
+    >>> r = 1 / np.sqrt(3)
+    >>> points = np.array([[0, 0, 0], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
+    >>> tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
+    >>> new_points, new_tets, info = improve_arrays(points, tets, ball, h=1.0)
+    >>> round(info["min_dihedral_after"], 1)
+    60.0
+    """
+    start = time.perf_counter()
+    points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
+    if size is not None and not callable(size):
+        raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
+    target = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
+    if not 0.0 <= target < REGULAR_DIHEDRAL:
+        raise ValueError(
+            f"min_dihedral must be in [0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
+        )
+    maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
+    deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
+    n = points.shape[0]
+
+    volumes = signed_volume(points[tets])
+    if np.any(volumes < 0):
+        worst = int(np.argmin(volumes))
+        raise ValueError(
+            f"tets must be positively oriented (VTK convention); cell {worst} has volume {volumes[worst]:.3g}"
+        )
+    try:
+        neighbours = face_neighbours(tets, n)
+    except ValueError as exc:
+        raise ValueError(f"tets must form a solid: {exc}") from None
+    faces = faces_on_boundary(tets, neighbours)
+    reason = open_boundary_reason(faces, n)
+    if reason:
+        raise ValueError(f"tets must form a solid with a closed manifold boundary; {reason}")
+    on_boundary = np.zeros(n, dtype=bool)
+    on_boundary[faces.ravel()] = True
+    boundary_nodes = np.flatnonzero(on_boundary & ~fixed_mask)
+    distance = np.abs(model(points[boundary_nodes])) if boundary_nodes.size else np.zeros(0)
+    if distance.size and distance.max() > MODEL_MISMATCH * h:
+        far = boundary_nodes[int(np.argmax(distance))]
+        raise ValueError(
+            f"model does not match the mesh: boundary node {far} at {points[far].tolist()} is "
+            f"{distance.max():.3g} from the model's zero set (more than {MODEL_MISMATCH:g} h = {MODEL_MISMATCH * h:.3g})"
+        )
+    surface_tol = 1e-4 * h
+    if boundary_nodes.size:
+        points[boundary_nodes] = model.project(points[boundary_nodes], iterations=20, tol=0.05 * surface_tol)
+    used = np.bincount(tets.ravel(), minlength=n) > 0
+    movable = used & ~fixed_mask
+    rng = np.random.default_rng(seed)
+    boundary_edges = _boundary_edge_keys(faces, n)
+    threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
+    volume_before = float(volumes.sum())
+
+    quality = tet_min_dihedral(points, tets)
+    before = float(quality.min())
+    timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
+    counts = {"flips": 0, "moves": 0, "relaxed": 0}
+
+    def timed(kind: str, function, *args):
+        t0 = time.perf_counter()
+        result = function(*args)
+        timings[kind] += time.perf_counter() - t0
+        return result
+
+    # Flip the worst slivers away first: they pin their vertices during relaxation.
+    tets, quality, flipped = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
+    counts["flips"] += flipped
+    for _ in range(RELAX_ROUNDS):
+        points, quality, relaxed = timed(
+            "relax", relax_round, points, tets, quality, threshold, movable, on_boundary, model, surface_tol
+        )
+        counts["relaxed"] += relaxed
+
+    rounds = 0
+    best = float(quality.min())
+    stalled = 0
+    while rounds < maxiter and quality.min() < threshold:
+        if deadline is not None and time.perf_counter() - start > deadline:
+            break
+        rounds += 1
+        tets, quality, flipped = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
+        points, quality, moved = timed(
+            "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng, surface_tol
+        )
+        counts["flips"] += flipped
+        counts["moves"] += moved
+        if flipped == 0 and moved == 0:
+            break
+        worst = float(quality.min())
+        stalled = 0 if worst > best + 1e-6 else stalled + 1
+        best = max(best, worst)
+        if stalled >= PATIENCE and worst >= target:
+            break
+
+    _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, faces)
+    after = float(quality.min())
+    info = {
+        "seconds": time.perf_counter() - start,
+        "relax_seconds": timings["relax"],
+        "flip_seconds": timings["flip"],
+        "smooth_seconds": timings["smooth"],
+        "rounds": rounds,
+        **counts,
+        "min_dihedral_before": before,
+        "min_dihedral_after": after,
+        "converged": after >= target,
+    }
+    if after < target:
+        warnings.warn(
+            f"the quality stage reached a worst dihedral angle of {after:.2f} deg, short of "
+            f"min_dihedral={target:g} deg, after {rounds} rounds (maxiter={maxiter}); returning the best mesh reached",
+            ConvergenceWarning,
+            stacklevel=2,
+        )
+    return points, tets, info
+
+
+def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, faces) -> None:
+    """Check the stage's guarantees; a failure here is a bug, reported as MeshingError."""
+    n = points.shape[0]
+    volumes = signed_volume(points[tets])
+    if np.any(volumes <= 0) or np.any(quality <= 0):
+        raise MeshingError(f"the quality stage produced {int((volumes <= 0).sum())} non-positive cells")
+    try:
+        new_faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    except ValueError as exc:
+        raise MeshingError(f"the quality stage broke the mesh topology: {exc}") from None
+    same = new_faces.shape == faces.shape and np.array_equal(
+        np.sort(face_keys(new_faces, n)), np.sort(face_keys(faces, n))
+    )
+    if not same:
+        raise MeshingError("the quality stage changed the boundary surface's faces")
+    moved_boundary = np.flatnonzero(on_boundary & ~fixed_mask)
+    if moved_boundary.size:
+        off = np.abs(model(points[moved_boundary])).max()
+        if off > 1e-3 * h:
+            raise MeshingError(f"the quality stage left a boundary node {off:.3g} off the zero set (> 1e-3 h)")
+    change = abs(float(volumes.sum()) - volume_before) / volume_before
+    if change > 0.02:
+        raise MeshingError(f"the quality stage changed the volume by {100 * change:.2f}% (> 2%)")
+
+
+def improve(
+    mesh,
+    model,
+    *,
+    min_dihedral: float = DEFAULT_MIN_DIHEDRAL,
+    maxiter: int = DEFAULT_MAXITER,
+    seed: int = 0,
+):
+    """Remove slivers and improve the cell shapes of a tetrahedral mesh of ``model``.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+        A purely tetrahedral mesh (VTK_TETRA cells; negatively oriented cells are reoriented),
+        whose boundary nodes lie on the zero set of ``model`` (within half an edge length).
+    model : fepre.sdf.SDF
+        The model of the mesh; boundary nodes stay on its zero set (within ``1e-3 h``).
+    min_dihedral : float
+        Target worst dihedral angle in degrees; an unreachable target warns with
+        :class:`fepre.ConvergenceWarning` and returns the best mesh reached.
+    maxiter : int
+        Largest number of flip-and-smooth rounds.
+    seed : int
+        Seed of the random candidate moves.
+
+    Returns
+    -------
+    pyvista.UnstructuredGrid
+        A new mesh with point data ``"sdf"`` and ``"boundary"``, the cell quality arrays of
+        :mod:`fepre.quality`, and field data ``improve_*`` (seconds, counts, worst angles).
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> ball = sdf.sphere(1.0)
+    >>> raw = fepre.distmesh(ball, h=0.3, slivers=False)
+    >>> better = fepre.improve(raw, ball)
+    >>> bool(better.cell_data["min_dihedral_angle"].min() >= 20)
+    True
+    """
+    import pyvista as pv
+
+    from .output import to_grid
+
+    if not isinstance(mesh, pv.UnstructuredGrid):
+        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid of tetrahedra; got {type(mesh).__name__}")
+    if mesh.n_cells == 0:
+        raise ValueError("mesh must contain tetrahedra; got an empty mesh")
+    types = np.unique(np.asarray(mesh.celltypes))
+    if not np.array_equal(types, [pv.CellType.TETRA]):
+        names = ", ".join(pv.CellType(int(t)).name for t in types)
+        raise ValueError(f"mesh must be purely tetrahedral (VTK_TETRA cells only); got cell types {names}")
+    points = np.asarray(mesh.points, dtype=np.float64)
+    tets = np.asarray(mesh.cells_dict[pv.CellType.TETRA], dtype=np.int64).copy()
+    used = np.zeros(points.shape[0], dtype=bool)
+    used[tets.ravel()] = True
+    if not used.all():
+        new_index = np.cumsum(used) - 1
+        points, tets = points[used], new_index[tets]
+    negative = signed_volume(points[tets]) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
+    h = float(np.median(np.linalg.norm(edges, axis=2)))
+    if not h > 0:
+        raise ValueError("mesh must have cells of positive size; all its edges have zero length")
+    new_points, new_tets, info = improve_arrays(points, tets, model, h, min_dihedral=min_dihedral, maxiter=maxiter, seed=seed)
+    grid = to_grid(new_points, new_tets, model, {})
+    for key, value in info.items():
+        grid.field_data[f"improve_{key}"] = np.array([value])
+    return grid

@@ -1,0 +1,222 @@
+"""Vertex smoothing that never inverts a cell: each move is accepted only if it helps its star.
+
+For every movable vertex of a bad cell, a handful of candidate positions are evaluated at once
+(the average of the positions that would make each cell of its star regular, the same for the
+worst cell alone, at several step lengths, and small seeded random steps). Boundary vertices'
+candidates are projected back onto the model's zero set. A vertex moves to its best candidate
+when that raises the smallest dihedral angle of its star; vertices that share a cell never move
+in the same pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tet_shape import ideal_vertex_positions, min_dihedral
+from .tet_topology import FACE_OF_TET, vertex_stars
+
+__all__ = ["smooth_round", "ideal_positions"]
+
+#: A move must raise the worst angle of the star by at least this (degrees).
+MIN_GAIN = 1e-3
+#: Height of a regular tetrahedron over its base, per unit edge length.
+REGULAR_HEIGHT = np.sqrt(2.0 / 3.0)
+#: Step lengths towards the target positions.
+STEPS = (1.0, 0.5, 0.25, 0.1)
+#: Random step lengths, times h, and how many random directions per length.
+RANDOM_STEPS = (0.03, 0.1, 0.2)
+RANDOM_DIRECTIONS = 3
+
+
+def ideal_positions(points: np.ndarray, tets: np.ndarray, local: np.ndarray | int) -> np.ndarray:
+    """Where vertex ``local`` (K,) of each cell (K, 4) would make the cell regular.
+
+    The point above the centroid of the opposite face, on the side of the current vertex, at
+    the height of a regular tetrahedron whose edge is the face's mean edge length.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 0.01]])
+    >>> ideal_positions(flat, np.array([[0, 1, 2, 3]]), np.array([3])).round(3).tolist()
+    [[0.333, 0.333, 0.929]]
+    """
+    if np.ndim(local) == 0:
+        faces = tets[:, FACE_OF_TET[int(local)]]
+    else:
+        faces = tets[np.arange(tets.shape[0])[:, None], FACE_OF_TET[local]]
+    flat = points[faces].reshape(-1, 9).T.copy()
+    p0, p1, p2 = flat[0:3], flat[3:6], flat[6:9]
+    e1, e2, e3 = p1 - p0, p2 - p0, p2 - p1
+    normal = np.stack(
+        [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    )  # away from the vertex
+    norm = np.sqrt((normal * normal).sum(axis=0))
+    edge = (np.sqrt((e1 * e1).sum(axis=0)) + np.sqrt((e2 * e2).sum(axis=0)) + np.sqrt((e3 * e3).sum(axis=0))) / 3.0
+    scale = REGULAR_HEIGHT * edge / np.where(norm > 0, norm, 1.0)
+    return ((p0 + p1 + p2) / 3.0 - scale * normal).T
+
+
+def _segment_ids(counts: np.ndarray) -> np.ndarray:
+    return np.repeat(np.arange(counts.size), counts)
+
+
+def smooth_round(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    threshold: float,
+    movable: np.ndarray,
+    on_boundary: np.ndarray,
+    model,
+    h: float,
+    rng: np.random.Generator,
+    surface_tol: float,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Move the movable vertices of cells below ``threshold`` degrees to better positions.
+
+    Parameters
+    ----------
+    points, tets, quality : the mesh and each cell's smallest dihedral angle (degrees)
+    threshold : cells below this angle are improved
+    movable : (N,) bool, vertices allowed to move
+    on_boundary : (N,) bool, vertices that must stay on the model's zero set
+    model : the SDF, used to project boundary candidates
+    h : target edge length (scales the random steps)
+    rng : random generator for the random candidates
+    surface_tol : largest ``|model|`` accepted at a moved boundary vertex
+
+    Returns
+    -------
+    points, quality : updated copies
+    moved : number of vertices moved
+    """
+    bad = quality < threshold
+    if not bad.any():
+        return points, quality, 0
+    vertices = np.unique(tets[bad])
+    vertices = vertices[movable[vertices]]
+    if vertices.size == 0:
+        return points, quality, 0
+    selected_vertex = np.zeros(points.shape[0], dtype=bool)
+    selected_vertex[vertices] = True
+    region = np.flatnonzero(selected_vertex[tets].any(axis=1))
+    offsets, star_cells = vertex_stars(tets[region], points.shape[0])
+    star_cells = region[star_cells]
+    counts = offsets[vertices + 1] - offsets[vertices]
+    segment = _segment_ids(counts)
+    starts = np.repeat(offsets[vertices], counts)
+    position_in_segment = np.arange(segment.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    cells = star_cells[starts + position_in_segment]  # (S,) star cells, grouped by vertex
+    cell_vertices = tets[cells]
+    local = np.argmax(cell_vertices == vertices[segment][:, None], axis=1)
+    seg_starts = np.cumsum(counts) - counts
+    current = np.minimum.reduceat(quality[cells], seg_starts)
+
+    x = points[vertices]
+    ideal = ideal_positions(points, cell_vertices, local)
+    mean_ideal = np.stack([np.bincount(segment, ideal[:, k], minlength=x.shape[0]) for k in range(3)], 1)
+    mean_ideal /= counts[:, None]
+    # The ideal position for the worst cell of each star.
+    worst_in_star = np.lexsort((quality[cells], segment))[seg_starts]
+    worst_ideal = ideal[worst_in_star]
+    candidates = [x + step * (mean_ideal - x) for step in STEPS]
+    candidates += [x + step * (worst_ideal - x) for step in STEPS]
+    for length in RANDOM_STEPS:
+        direction = rng.normal(size=(RANDOM_DIRECTIONS, vertices.size, 3))
+        direction /= np.linalg.norm(direction, axis=2, keepdims=True)
+        candidates += list(x + length * h * direction)
+    candidates = np.stack(candidates)  # (C, V, 3)
+    boundary = on_boundary[vertices]
+    feasible = np.ones(candidates.shape[:2], dtype=bool)
+    if boundary.any():
+        flat = candidates[:, boundary].reshape(-1, 3)
+        projected = model.project(flat, iterations=4)
+        candidates[:, boundary] = projected.reshape(candidates.shape[0], -1, 3)
+        off = np.abs(model(projected)).reshape(candidates.shape[0], -1) > surface_tol
+        feasible[:, boundary] = ~off
+
+    corners = points[cell_vertices]  # (S, 4, 3)
+    trial = np.broadcast_to(corners, (candidates.shape[0],) + corners.shape).copy()
+    trial[:, np.arange(segment.size), local] = candidates[:, segment]
+    trial_quality = min_dihedral(trial)  # (C, S)
+    star_worst = np.minimum.reduceat(trial_quality, seg_starts, axis=1)  # (C, V)
+    star_worst = np.where(feasible, star_worst, -2.0)
+    choice = np.argmax(star_worst, axis=0)
+    best = star_worst[choice, np.arange(vertices.size)]
+    improving = best > current + MIN_GAIN
+    if not improving.any():
+        return points, quality, 0
+
+    # Independent set: worst stars first; a vertex moves if it has the highest priority among
+    # the improving vertices on every cell of its star.
+    rank = np.full(vertices.size, np.iinfo(np.int64).max)
+    order = np.flatnonzero(improving)[np.argsort(current[improving], kind="stable")]
+    rank[order] = np.arange(order.size)
+    holder = np.full(tets.shape[0], np.iinfo(np.int64).max)
+    np.minimum.at(holder, cells, rank[segment])
+    owns = holder[cells] == rank[segment]
+    selected = improving & np.logical_and.reduceat(owns, seg_starts)
+    points = points.copy()
+    quality = quality.copy()
+    points[vertices[selected]] = candidates[choice[selected], np.flatnonzero(selected)]
+    entries = selected[segment]
+    quality[cells[entries]] = trial_quality[choice[segment[entries]], np.flatnonzero(entries)]
+    return points, quality, int(selected.sum())
+
+
+def relax_round(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    floor: float,
+    movable: np.ndarray,
+    on_boundary: np.ndarray,
+    model,
+    surface_tol: float,
+    step: float = 1.0,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Move every movable vertex towards the mean of its cells' ideal positions at once.
+
+    This raises the mean shape quality of the whole mesh. All vertices move together; then
+    every cell whose smallest dihedral angle fell below ``min(old angle, floor)`` gets its
+    vertices put back, until no such cell remains, so no cell ever inverts and no cell below
+    ``floor`` gets worse.
+
+    Returns
+    -------
+    points, quality : updated copies
+    moved : number of vertices moved
+    """
+    n = points.shape[0]
+    ideal = ideal_vertex_positions(points, tets)  # (4, 3, M)
+    owner = tets.T.ravel()
+    target = np.stack([np.bincount(owner, ideal[:, axis].ravel(), minlength=n) for axis in range(3)], 1)
+    count = np.bincount(tets.ravel(), minlength=n)
+    target /= np.maximum(count, 1)[:, None]
+    moving = movable & (count > 0)
+    new_points = points.copy()
+    new_points[moving] += step * (target[moving] - points[moving])
+    boundary = np.flatnonzero(moving & on_boundary)
+    if boundary.size:
+        new_points[boundary] = model.project(new_points[boundary], iterations=4)
+        off = np.abs(model(new_points[boundary])) > surface_tol
+        new_points[boundary[off]] = points[boundary[off]]
+    allowed = np.minimum(quality, floor)
+    changed = np.any(new_points != points, axis=1)
+    check = np.flatnonzero(changed[tets].any(axis=1))
+    new_quality = quality.copy()
+    while check.size:
+        q = min_dihedral(new_points[tets[check]])
+        new_quality[check] = q
+        worse = q < allowed[check] - 1e-12
+        if not worse.any():
+            break
+        revert = np.unique(tets[check[worse]])
+        revert = revert[changed[revert]]
+        new_points[revert] = points[revert]
+        changed[revert] = False
+        touched = np.zeros(n, dtype=bool)
+        touched[revert] = True
+        check = np.flatnonzero(touched[tets].any(axis=1))
+    return new_points, new_quality, int(changed.sum())

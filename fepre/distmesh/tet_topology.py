@@ -1,0 +1,98 @@
+"""Faces, edges and adjacency of a tetrahedral mesh, computed by sorting integer keys.
+
+Everything here is vectorised: a mesh's faces are the 4 M sorted vertex triples of its
+tetrahedra, encoded as one integer each so that one ``argsort`` groups the two copies of every
+interior face.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "FACE_OF_TET",
+    "EDGE_OF_TET",
+    "face_keys",
+    "edge_keys",
+    "face_neighbours",
+    "vertex_stars",
+    "faces_on_boundary",
+    "open_boundary_reason",
+]
+
+#: Local vertex indices of the face opposite vertex i, ordered so that the face's right-hand
+#: normal points out of a positively oriented tetrahedron.
+FACE_OF_TET = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+#: Local vertex indices of the six edges.
+EDGE_OF_TET = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+
+
+def face_keys(triples: np.ndarray, n_points: int) -> np.ndarray:
+    """One int64 per (K, 3) vertex triple, independent of the order of the three vertices."""
+    s = np.sort(triples, axis=1).astype(np.int64)
+    n = np.int64(n_points)
+    return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+
+
+def edge_keys(pairs: np.ndarray, n_points: int) -> np.ndarray:
+    """One int64 per (K, 2) vertex pair, independent of the order of the two vertices."""
+    lo = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+    hi = np.maximum(pairs[:, 0], pairs[:, 1]).astype(np.int64)
+    return lo * np.int64(n_points) + hi
+
+
+def face_neighbours(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """(M, 4) index of the tetrahedron across the face opposite each vertex, -1 on the boundary.
+
+    Raises
+    ------
+    ValueError
+        If a face is shared by more than two tetrahedra (not a manifold mesh).
+    """
+    m = tets.shape[0]
+    keys = face_keys(tets[:, FACE_OF_TET].reshape(-1, 3), n_points)
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    same = sorted_keys[1:] == sorted_keys[:-1]
+    if np.any(same[1:] & same[:-1]):
+        raise ValueError("tets must form a manifold mesh; a face is shared by more than two tetrahedra")
+    neighbours = np.full(4 * m, -1, dtype=np.int64)
+    first = order[:-1][same]
+    second = order[1:][same]
+    neighbours[first] = second // 4
+    neighbours[second] = first // 4
+    return neighbours.reshape(m, 4)
+
+
+def vertex_stars(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists of the tetrahedra around each vertex: ``(offsets (N+1,), tet indices)``."""
+    flat = tets.ravel()
+    order = np.argsort(flat, kind="stable")
+    offsets = np.zeros(n_points + 1, dtype=np.int64)
+    np.cumsum(np.bincount(flat, minlength=n_points), out=offsets[1:])
+    return offsets, order // 4
+
+
+def faces_on_boundary(tets: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
+    """(F, 3) faces without a neighbouring cell (see :func:`face_neighbours`), oriented outwards."""
+    cell, local = np.nonzero(neighbours < 0)
+    return tets[cell[:, None], FACE_OF_TET[local]]
+
+
+def open_boundary_reason(faces: np.ndarray, n_points: int) -> str:
+    """Why boundary ``faces`` are not a closed, consistently oriented edge-manifold ("" if they are).
+
+    Every boundary edge must be used by exactly two faces, once in each direction.
+    """
+    if faces.shape[0] == 0:
+        return "the mesh has no boundary faces"
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).astype(np.int64)
+    n = np.int64(n_points)
+    forward = np.sort(directed[:, 0] * n + directed[:, 1])
+    backward = directed[:, 1] * n + directed[:, 0]
+    if np.any(forward[1:] == forward[:-1]):
+        return "a boundary edge is used twice in the same direction (non-manifold or inconsistently oriented)"
+    position = np.minimum(np.searchsorted(forward, backward), forward.size - 1)
+    if np.any(forward[position] != backward):
+        return "a boundary edge is used by one boundary face only (the boundary is open)"
+    return ""
