@@ -142,7 +142,9 @@ def export(
     -------
     pyvista.UnstructuredGrid
         The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with cell data ``"region_id"``, point
-        data ``"boundary_id"`` (-1 inside) and field data ``"region_names"``/``"boundary_names"``.
+        data ``"boundary_id"`` (-1 inside) and field data ``"region_names"``/``"boundary_names"``;
+        for order 2 also ``"curved_midside_nodes"`` (on the model surface) and
+        ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid).
         :func:`tag_boundaries` gives the tagged boundary faces for viewing.
 
     Examples
@@ -173,14 +175,20 @@ def export(
     faces = assign_boundaries(points, cells, boundaries, boundary_tolerance)
     region_ids, region_names = assign_regions(points, cells, regions, default_region)
     _check_name_clashes(region_names, faces.names)
+    midside = None
     if order == 2:
         quadratic = quadratic_tetrahedra(points, cells, faces.triangles, model)
         points, cells = quadratic.points, quadratic.cells
+        midside = (quadratic.curved, quadratic.straightened)
     title, model_text = _title(model)
     data = ExportData(points, cells, region_ids, region_names, faces, title, model_text)
     with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
         fmt.writer(stage, path.name, data)
-    return _tagged_grid(data, mesh)
+    grid = _tagged_grid(data, mesh)
+    if midside is not None:
+        grid.field_data["curved_midside_nodes"] = np.array([midside[0]])
+        grid.field_data["straightened_midside_nodes"] = np.array([midside[1]])
+    return grid
 
 
 class _CallableModule(types.ModuleType):

@@ -77,22 +77,58 @@ def write_gmsh22(directory: Path, filename: str, data: ExportData) -> None:
 
 
 def write_vtu(directory: Path, filename: str, data: ExportData) -> None:
-    import meshio
+    # VTK's own writer: meshio's VTU writer drops field data (the set names).
+    import pyvista as pv
 
-    n_cells, n_faces = data.cells.shape[0], data.faces.set_ids.size
-    cell_data = {
-        "region_id": [data.region_ids + 1, np.zeros(n_faces, dtype=np.int64)],
-        "boundary_id": [np.zeros(n_cells, dtype=np.int64), data.faces.set_ids + 1],
-    }
-    mesh = _meshio_mesh(data, cell_data, field_data=named_field_data(data))
-    meshio.write(directory / filename, mesh, file_format="vtu")
+    volume_type, surface_type = (
+        (pv.CellType.QUADRATIC_TETRA, pv.CellType.QUADRATIC_TRIANGLE)
+        if data.order == 2
+        else (pv.CellType.TETRA, pv.CellType.TRIANGLE)
+    )
+    cells, faces = data.cells, data.face_nodes
+    connectivity = np.concatenate(
+        [
+            np.hstack([np.full((cells.shape[0], 1), cells.shape[1]), cells]).ravel(),
+            np.hstack([np.full((faces.shape[0], 1), faces.shape[1]), faces]).ravel(),
+        ]
+    )
+    types = np.concatenate(
+        [np.full(cells.shape[0], volume_type, np.uint8), np.full(faces.shape[0], surface_type, np.uint8)]
+    )
+    grid = pv.UnstructuredGrid(connectivity, types, data.points)
+    n_cells, n_faces = cells.shape[0], faces.shape[0]
+    grid.cell_data["region_id"] = np.concatenate([data.region_ids + 1, np.zeros(n_faces, np.int64)])
+    grid.cell_data["boundary_id"] = np.concatenate([np.zeros(n_cells, np.int64), data.faces.set_ids + 1])
+    for name, value in named_field_data(data).items():
+        grid.field_data[name] = value
+    grid.save(directory / filename, binary=True)
 
 
 def write_nastran(directory: Path, filename: str, data: ExportData) -> None:
     import meshio
 
-    mesh = _meshio_mesh(data, {"nastran:ref": _tags(data)})
+    # meshio prints coordinates with up to 17 characters into 16-character fields (it asserts on
+    # negative numbers with 12 significant digits), so it writes the elements on zeroed nodes
+    # and fepre writes the GRID* cards itself: large field, %16.9E (10 significant digits).
+    volume, surface = _types(data)
+    mesh = meshio.Mesh(
+        np.zeros_like(data.points),
+        [(volume, data.cells), (surface, data.face_nodes)],
+        cell_data={"nastran:ref": _tags(data)},
+    )
     meshio.write(directory / filename, mesh, file_format="nastran")
+    target = directory / filename
+    lines = target.read_text().splitlines(keepends=True)
+    n_points = data.points.shape[0]
+    header, body = lines[:2], lines[2 + 2 * n_points :]
+    if not lines[2].startswith("GRID*") or body and body[0].startswith("*"):
+        raise RuntimeError("unexpected layout of meshio's Nastran output")  # guards a meshio change
+    table = np.empty((n_points, 5), dtype=object)
+    table[:, 0] = np.arange(1, n_points + 1)
+    table[:, 1] = ""
+    table[:, 2:] = data.points
+    grid = ("GRID*   %-16d%-16s%16.9E%16.9E\n*       %16.9E\n" * n_points) % tuple(table.ravel().tolist())
+    target.write_text("".join(header) + grid + "".join(body))
 
 
 def write_medit(directory: Path, filename: str, data: ExportData) -> None:

@@ -3,10 +3,10 @@
 Each edge gets a midside node. A boundary edge's midside node is projected onto the model's zero
 set (Newton steps of :meth:`fepre.sdf.SDF.project`), so the element faces follow curved surfaces;
 interior midside nodes stay at edge midpoints. The Jacobian determinant of every element with a
-moved node is then checked at the four Gauss points of C3D10 and at its corners; where it falls
-below ``MIN_JACOBIAN_RATIO`` times that of the straight-sided element, the element's moved nodes
-go back to their midpoints (repeated until no element is bad, which ends because the
-straight-sided mesh is valid).
+moved node is then checked: at the four Gauss points of C3D10 (where solvers integrate) it must be
+at least ``MIN_JACOBIAN_RATIO`` times that of the straight-sided element, and at the four corners
+it must stay positive (no inversion anywhere at the nodes). A bad element's moved nodes go back to
+their midpoints, repeated until no element is bad (this ends: the straight-sided mesh is valid).
 
 Node order is VTK's (and Abaqus/CalculiX C3D10's): corners 0-3, then edges (0,1), (1,2), (2,0),
 (0,3), (1,3), (2,3).
@@ -21,10 +21,12 @@ import numpy as np
 
 from .tetmesh import signed_volumes
 
-__all__ = ["QuadraticMesh", "quadratic_tetrahedra", "jacobian_ratios", "TET10_EDGES", "MIN_JACOBIAN_RATIO"]
+__all__ = ["QuadraticMesh", "quadratic_tetrahedra", "jacobian_ratios", "TET10_EDGES", "MIN_JACOBIAN_RATIO",
+           "MIN_CORNER_JACOBIAN_RATIO"]
 
 TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]], dtype=np.int64)
-MIN_JACOBIAN_RATIO = 0.1
+MIN_JACOBIAN_RATIO = 0.1  # at the Gauss points
+MIN_CORNER_JACOBIAN_RATIO = 1e-3  # at the corners: positive with a margin for round-off
 # Largest move of a projected midside node, as a fraction of its edge length; a longer move means
 # the projection jumped to another part of the surface.
 MAX_MOVE_FRACTION = 0.5
@@ -63,22 +65,22 @@ def _shape_gradients(barycentric: np.ndarray) -> np.ndarray:
 _DN = _shape_gradients(CHECK_POINTS)
 
 
-def jacobian_ratios(points: np.ndarray, cells10: np.ndarray) -> np.ndarray:
-    """Smallest det(J) over the check points divided by det(J) of the straight element, per cell.
+def jacobian_ratios(points: np.ndarray, cells10: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """det(J) / det(J of the straight element), smallest over the Gauss points and over the corners.
 
     Examples
     --------
     >>> import numpy as np
     >>> corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
     >>> mids = (corners[TET10_EDGES[:, 0]] + corners[TET10_EDGES[:, 1]]) / 2
-    >>> float(jacobian_ratios(np.vstack([corners, mids]), np.arange(10)[None])[0])
-    1.0
+    >>> gauss, corner = jacobian_ratios(np.vstack([corners, mids]), np.arange(10)[None])
+    >>> float(gauss[0]), float(corner[0])
+    (1.0, 1.0)
     """
     nodes = points[cells10]  # (M, 10, 3)
     jac = np.einsum("mak,qal->mqkl", nodes, _DN)
-    det = np.linalg.det(jac).min(axis=1)
-    straight = 6.0 * signed_volumes(points, cells10[:, :4])
-    return det / straight
+    ratio = np.linalg.det(jac) / (6.0 * signed_volumes(points, cells10[:, :4]))[:, None]
+    return ratio[:, :4].min(axis=1), ratio[:, 4:].min(axis=1)
 
 
 def quadratic_tetrahedra(
@@ -112,7 +114,8 @@ def quadratic_tetrahedra(
     while moved.any():
         touched = np.flatnonzero(moved[edge_index].any(axis=1))
         nodes = np.vstack([points, mids])
-        bad = touched[jacobian_ratios(nodes, cells10[touched]) < MIN_JACOBIAN_RATIO]
+        gauss, corner = jacobian_ratios(nodes, cells10[touched])
+        bad = touched[(gauss < MIN_JACOBIAN_RATIO) | (corner < MIN_CORNER_JACOBIAN_RATIO)]
         if bad.size == 0:
             break
         revert = np.unique(edge_index[bad][moved[edge_index[bad]]])
