@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import fepre
 from fepre.surface.case_derivation import derive_cases
@@ -61,4 +65,26 @@ def test_marching_cubes_counts_equal_flying_edges_on_random_fields():
         fe = fepre.isosurface(grid, method="flying_edges")
         mc = fepre.isosurface(grid, method="marching_cubes")
         assert (mc.n_points, mc.n_cells) == (fe.n_points, fe.n_cells)
+        np.testing.assert_allclose(np.sort(mc.points, axis=0), np.sort(fe.points, axis=0), atol=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    level=st.floats(-0.9, 0.9, allow_nan=False),
+    dtype=st.sampled_from(["float32", "float64"]),
+)
+def test_marching_cubes_matches_flying_edges_at_any_level(seed, level, dtype):
+    import pyvista as pv
+
+    values = np.random.default_rng(seed).uniform(-1.0, 1.0, (4, 5, 6)).astype(dtype)
+    values[values > 0.9] = np.float32(level)  # ties and float32 rounding of the level
+    grid = pv.ImageData(dimensions=values.shape[::-1])
+    grid.point_data["sdf"] = values.ravel()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # an empty surface warns
+        fe = fepre.isosurface(grid, method="flying_edges", level=level)
+        mc = fepre.isosurface(grid, method="marching_cubes", level=level)
+    assert (mc.n_points, mc.n_cells) == (fe.n_points, fe.n_cells)
+    if mc.n_points:
         np.testing.assert_allclose(np.sort(mc.points, axis=0), np.sort(fe.points, axis=0), atol=1e-6)

@@ -17,7 +17,7 @@ import numpy as np
 from ..config import config
 from ..sdf.core import thread_pool
 
-__all__ = ["GridScan", "scan_grid", "AXIS_DIRECTIONS"]
+__all__ = ["GridScan", "scan_grid", "inside_threshold", "AXIS_DIRECTIONS"]
 
 #: unit edge directions (di, dj, dk) along x, y and z
 AXIS_DIRECTIONS = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
@@ -46,6 +46,18 @@ class GridScan:
     shape: tuple[int, int, int]
 
 
+def inside_threshold(dtype: np.dtype, level: float):
+    """The value ``t`` of ``dtype`` with ``value < t`` exactly when ``value < level`` (in float64).
+
+    VTK compares in double precision; rounding ``level`` to float32 could move a node that lies
+    between ``level`` and its float32 rounding to the other side.
+    """
+    threshold = np.dtype(dtype).type(level)
+    if float(threshold) < level:
+        threshold = np.nextafter(threshold, np.dtype(dtype).type(np.inf))
+    return threshold
+
+
 def _inside_grid(ids: np.ndarray, nx: int, ny: int, di: int, dj: int) -> np.ndarray:
     """Keep ids whose +di, +dj neighbours stay in the same row and layer (flat ops wrap)."""
     keep = np.ones(ids.size, dtype=bool)
@@ -72,7 +84,7 @@ def scan_grid(
     layer = nx * ny
     thickness = max(1, _SLAB_NODES // layer)
     slabs = [(k0, min(k0 + thickness, nz - 1)) for k0 in range(0, nz - 1, thickness)]
-    level_value = values.dtype.type(level)
+    level_value = inside_threshold(values.dtype, level)
 
     def run(slab: tuple[int, int]):
         k0, k1 = slab

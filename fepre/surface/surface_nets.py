@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid_scan import AXIS_DIRECTIONS, scan_grid
+from .grid_scan import AXIS_DIRECTIONS, inside_threshold, scan_grid
 from .marching_cubes import CUBE_TABLE
 from .table_extraction import cell_edge_vertices, edge_points
 
@@ -64,7 +64,7 @@ def surface_nets(values, level, origin, spacing, workers=None):
     for axis, edges in enumerate(scan.edges):
         cells, valid = _quad_cells(edges, axis, values.shape)
         quad = np.searchsorted(scan.cells, cells)
-        backwards = flat[edges[valid]] >= level  # start node outside: the edge points inwards
+        backwards = flat[edges[valid]] >= inside_threshold(values.dtype, level)  # edge points inwards
         quad[backwards] = quad[backwards][:, ::-1]
         quads.append(quad)
     quads = np.concatenate(quads)
