@@ -165,6 +165,66 @@ def test_capsule_surface_cloud():
     check_against_cloud(model, surface, inside, points, spacing=0.01)
 
 
+def segment_distance_2d(points, a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    e = b - a
+    t = np.clip((points - a) @ e / (e @ e), 0, 1)
+    return np.linalg.norm(points - (a + t[:, None] * e), axis=1)
+
+
+@given(
+    radius=st.floats(0.05, 3.0),
+    height=st.floats(0.05, 3.0),
+    center=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    seed=st.integers(0, 2**16),
+)
+@settings(max_examples=40, deadline=None)
+def test_cone_matches_the_distance_to_its_meridian_triangle(radius, height, center, seed):
+    # In the half-plane (r, h) the cone is the triangle (0, 0), (radius, 0), (0, height) whose
+    # edge on the axis is not a surface: the distance is to the slant and base edges only.
+    rng = np.random.default_rng(seed)
+    model = sdf.cone(radius, height, center)
+    d = around(model, 800, rng=rng) - center
+    meridian = np.column_stack([np.hypot(d[:, 0], d[:, 1]), d[:, 2]])
+    distance = np.minimum(
+        segment_distance_2d(meridian, (0, height), (radius, 0)), segment_distance_2d(meridian, (0, 0), (radius, 0))
+    )
+    inside = (meridian[:, 1] > 0) & (meridian[:, 0] < radius * (1 - meridian[:, 1] / height))
+    np.testing.assert_allclose(model(d + center), np.where(inside, -distance, distance), atol=1e-12)
+
+
+@given(
+    major=st.floats(0.2, 3.0),
+    ratio=st.floats(0.01, 0.99),
+    center=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    seed=st.integers(0, 2**16),
+)
+@settings(max_examples=30, deadline=None)
+def test_torus_is_the_distance_to_its_core_circle_minus_the_tube_radius(major, ratio, center, seed):
+    model = sdf.torus(major, major * ratio, center)
+    d = around(model, 500, rng=np.random.default_rng(seed)) - center
+    # Nearest point of the core circle: the radial projection onto radius ``major`` at z = 0.
+    direction = d[:, :2] / np.linalg.norm(d[:, :2], axis=1)[:, None]
+    core = np.column_stack([major * direction, np.zeros(len(d))])
+    np.testing.assert_allclose(model(d + center), np.linalg.norm(d - core, axis=1) - major * ratio, atol=1e-12)
+
+
+@given(radii=st.tuples(*[st.floats(0.05, 3.0)] * 3), seed=st.integers(0, 2**16))
+@settings(max_examples=20, deadline=None)
+def test_ellipsoid_bound_holds_for_random_radii(radii, seed):
+    rng = np.random.default_rng(seed)
+    radii = np.array(radii)
+    model = sdf.ellipsoid(radii)
+    surface = ellipsoid_surface(radii, 120)
+    p = np.vstack([around(model, 1000, margin=1.0, rng=rng), surface[rng.integers(0, len(surface), 500)] * rng.uniform(0.5, 1.5, (500, 1))])
+    q = p + rng.normal(scale=0.1 * radii.max(), size=p.shape)
+    values = model(p)
+    assert np.all(np.abs(values - model(q)) <= np.linalg.norm(p - q, axis=1) * (1 + 1e-12))
+    cloud, _ = cKDTree(surface).query(p)  # never below the true distance
+    assert np.all(np.abs(values) <= cloud + 1e-9)
+    np.testing.assert_array_equal(values < 0, np.sum((p / radii) ** 2, axis=1) < 1)
+
+
 def torus_surface(major, minor, n=1200, m=400):
     angles = dict(endpoint=False)
     theta, phi = np.meshgrid(np.linspace(0, 2 * np.pi, n, **angles), np.linspace(0, 2 * np.pi, m, **angles), indexing="ij")
@@ -366,7 +426,7 @@ def test_grid_sampling_matches_point_evaluation_and_keeps_float32(name):
     assert values.dtype == np.float32 and all(np.asarray(g).dtype == np.float32 for g in gradient)
 
 
-ANALYTIC = ["sphere", "box", "rounded_box", "cylinder", "capsule", "cone", "torus", "plane", "slab"]
+ANALYTIC = ["sphere", "box", "rounded_box", "cylinder", "capsule", "cone", "torus", "ellipsoid", "plane", "slab"]
 
 
 @pytest.mark.parametrize("name", sorted(PRIMITIVES))

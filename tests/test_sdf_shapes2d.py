@@ -110,11 +110,22 @@ def test_polygon_non_convex_values_vertices_and_edges():
 def test_polygon_with_many_edges_and_points_is_blocked_and_exact():
     vertices = star_polygon(np.random.default_rng(3), 3000)
     shape = sdf.polygon(vertices)
-    points = RNG.uniform(-2.5, 2.5, size=(2000, 2))
+    points = RNG.uniform(-2.5, 2.5, size=(800, 2))
     np.testing.assert_allclose(shape(points), polygon_reference(points, vertices), atol=1e-12)
     grid = shape.values_on_axes(np.linspace(-2, 2, 40), np.linspace(-2, 2, 30), dtype=np.float64)
     yy, xx = np.meshgrid(np.linspace(-2, 2, 30), np.linspace(-2, 2, 40), indexing="ij")
     np.testing.assert_allclose(grid.ravel(), shape(np.column_stack([xx.ravel(), yy.ravel()])), atol=1e-14)
+
+
+def test_simplicity_check_of_a_large_polygon_finds_a_single_crossing():
+    t = np.linspace(0, 2 * np.pi, 20_000, endpoint=False)
+    r = 1 + 0.3 * np.sin(50 * t)
+    wiggly = np.column_stack([r * np.cos(t), r * np.sin(t)])
+    assert len(sdf.polygon(wiggly).vertices) == 20_000  # a sweep, not 2e8 pair tests
+    crossed = wiggly.copy()
+    crossed[5000] = crossed[15000] + [0.01, 0.0]
+    with pytest.raises(ValueError, match="simple polygon; edge (4999|5000) .* intersects edge"):
+        sdf.polygon(crossed)
 
 
 def test_regular_polygon_apothem_and_vertices():

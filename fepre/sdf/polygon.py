@@ -101,6 +101,33 @@ def _orientation(ax, ay, bx, by, cx, cy):
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
+def _overlapping_pairs(a: np.ndarray, b: np.ndarray, chunk: int = 1 << 18):
+    """Index arrays (i, j) of all segment pairs whose x extents overlap, in chunks.
+
+    A sweep in x: after sorting the segments by their left end, the partners of a segment are
+    the following ones whose left end lies before its right end. The work is proportional to
+    the number of such pairs, not to the square of the number of segments.
+    """
+    count = len(a)
+    left = np.minimum(a[:, 0], b[:, 0])
+    right = np.maximum(a[:, 0], b[:, 0])
+    order = np.argsort(left, kind="stable")
+    stop = np.searchsorted(left[order], right[order], side="right")
+    partners = np.maximum(stop - np.arange(count) - 1, 0)
+    cumulative = np.cumsum(partners)
+    start = 0
+    while start < count:
+        done = int(cumulative[start - 1]) if start else 0
+        end = max(start + 1, int(np.searchsorted(cumulative, done + chunk, side="right")))
+        counts = partners[start:end]
+        total = int(counts.sum())
+        if total:
+            first = np.repeat(np.arange(start, end), counts)
+            offset = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+            yield order[first], order[first + 1 + offset]
+        start = end
+
+
 def check_simple(vertices: np.ndarray, name: str = "vertices") -> None:
     """Raise ValueError unless the closed polygon ``vertices`` is simple and has non-zero area."""
     count = len(vertices)
@@ -118,34 +145,28 @@ def check_simple(vertices: np.ndarray, name: str = "vertices") -> None:
         raise ValueError(
             f"{name} must describe a simple polygon; the boundary folds back on itself at vertex {i}"
         )
-    a, b = vertices, vertices + edge
-    index = np.arange(count)
-    step = max(1, _BLOCK_ELEMENTS // count)
-    for lo in range(0, count, step):
-        i = index[lo : lo + step, None]
-        gap = (index[None, :] - i) % count
-        candidates = (gap > 1) & (gap < count - 1) & (index[None, :] > i)
-        ax, ay, bx, by = (v[lo : lo + step, None] for v in (a[:, 0], a[:, 1], b[:, 0], b[:, 1]))
-        cx, cy, dx, dy = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
+    a, b = vertices, np.roll(vertices, -1, axis=0)
+    for i, j in _overlapping_pairs(a, b):
+        gap = (j - i) % count
+        keep = (gap > 1) & (gap < count - 1)  # adjacent edges were checked above
+        i, j = i[keep], j[keep]
+        ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
+        cx, cy, dx, dy = a[j, 0], a[j, 1], b[j, 0], b[j, 1]
         d1 = _orientation(cx, cy, dx, dy, ax, ay)
         d2 = _orientation(cx, cy, dx, dy, bx, by)
         d3 = _orientation(ax, ay, bx, by, cx, cy)
         d4 = _orientation(ax, ay, bx, by, dx, dy)
         crossing = (d1 * d2 <= 0) & (d3 * d4 <= 0)
         collinear = (d1 == 0) & (d2 == 0) & (d3 == 0) & (d4 == 0)
-        overlap = (
-            (np.maximum(ax, bx) >= np.minimum(cx, dx))
-            & (np.maximum(cx, dx) >= np.minimum(ax, bx))
-            & (np.maximum(ay, by) >= np.minimum(cy, dy))
-            & (np.maximum(cy, dy) >= np.minimum(ay, by))
-        )
-        bad = candidates & crossing & (~collinear | overlap)
+        # Collinear segments meet when their extents overlap in y too (x overlap is given).
+        overlap = (np.maximum(ay, by) >= np.minimum(cy, dy)) & (np.maximum(cy, dy) >= np.minimum(ay, by))
+        bad = crossing & (~collinear | overlap)
         if bad.any():
-            row, column = np.argwhere(bad)[0]
+            first, second = sorted((int(i[bad][0]), int(j[bad][0])))
             raise ValueError(
-                f"{name} must describe a simple polygon; edge {lo + row} "
-                f"({vertices[lo + row].tolist()} -> {(vertices[lo + row] + edge[lo + row]).tolist()}) "
-                f"intersects edge {column}"
+                f"{name} must describe a simple polygon; edge {first} "
+                f"({a[first].tolist()} -> {b[first].tolist()}) intersects edge {second} "
+                f"({a[second].tolist()} -> {b[second].tolist()})"
             )
     area = 0.5 * float(np.sum(vertices[:, 0] * edge[:, 1] - vertices[:, 1] * edge[:, 0]))
     if area == 0.0:

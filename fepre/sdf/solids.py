@@ -242,6 +242,8 @@ class Ellipsoid(SDF):
     tighter far away; the value is the larger of the two.
     """
 
+    analytic_gradient = True
+
     def __init__(self, radii: np.ndarray, center: np.ndarray) -> None:
         self.radii, self.center = radii, center
         self._c = floats(center)
@@ -263,6 +265,26 @@ class Ellipsoid(SDF):
         bound = (normalised - 1.0) * self._smallest
         ball = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2) - self._largest
         return np.maximum(bound, ball, out=bound)
+
+    def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
+        d = np.broadcast_arrays(*(u - c for u, c in zip((x, y, z), self._c)))
+        scaled = [di * k for di, k in zip(d, self._inverse)]
+        normalised = np.sqrt(scaled[0] ** 2 + scaled[1] ** 2 + scaled[2] ** 2)
+        length = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
+        bound = (normalised - 1.0) * self._smallest
+        ball = length - self._largest
+        use_ball = ball > bound
+        # At the centre both gradients vanish; +z is as good a direction as any.
+        safe_n = np.where(normalised > 0, normalised, 1.0)
+        safe_l = np.where(length > 0, length, 1.0)
+        gradient = []
+        for axis, (di, si, k) in enumerate(zip(d, scaled, self._inverse)):
+            g_bound = si * (k * self._smallest) / safe_n
+            g_ball = di / safe_l
+            fallback = 1.0 if axis == 2 else 0.0
+            g = np.where(use_ball, g_ball, g_bound)
+            gradient.append(np.where((normalised > 0) | use_ball, g, fallback).astype(g_ball.dtype, copy=False))
+        return np.maximum(bound, ball), tuple(gradient)
 
 
 def ellipsoid(radii: Any = (1.0, 0.5, 0.25), center: Any = (0.0, 0.0, 0.0)) -> SDF:
