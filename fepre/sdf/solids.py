@@ -155,7 +155,8 @@ def rounded_box(size: Any = (1.0, 1.0, 1.0), radius: float = 0.1, center: Any = 
     """Box of outer edge lengths ``size`` whose edges and corners are rounded with ``radius``.
 
     The solid fits in the same bounds as ``box(size, center)``; ``radius`` must be at most half
-    the smallest edge (at exactly half, the box becomes a capsule-like slab end). Exact.
+    the smallest edge (at exactly half, the two faces across that edge become one half-round).
+    Exact: the distance to the box shrunk by ``radius``, minus ``radius``.
 
     Examples
     --------
