@@ -15,7 +15,7 @@ import pytest
 import fepre
 from fepre import sdf
 
-from test_export_meshes import kuhn_ball, kuhn_box
+from test_export_meshes import distmesh_ball, kuhn_box
 
 CCX = shutil.which("ccx")
 pytestmark = pytest.mark.skipif(CCX is None, reason="CalculiX `ccx` is not installed (apt-get install calculix-ccx)")
@@ -60,8 +60,12 @@ def material(elset: str = "EALL") -> str:
     )
 
 
-def patch_test(tmp_path: Path, order: int, curved: bool = False, tolerance: float = 1e-6) -> None:
-    mesh = kuhn_ball(4)
+@pytest.fixture(scope="module")
+def ball_mesh():
+    return distmesh_ball(0.35)
+
+
+def patch_test(tmp_path: Path, mesh, order: int, curved: bool = False, tolerance: float = 1e-6) -> None:
     model = sdf.sphere(1.0) if curved else None
     exported = fepre.export(mesh, tmp_path / "part.inp", order=order, model=model)
     inp = (tmp_path / "part.inp").read_text()
@@ -94,19 +98,19 @@ def patch_test(tmp_path: Path, order: int, curved: bool = False, tolerance: floa
     assert np.abs(stresses[:, 2:] - exact).max() <= tolerance * np.abs(exact).max()
 
 
-def test_patch_test_c3d4(tmp_path):
-    patch_test(tmp_path, order=1)
+def test_patch_test_c3d4(tmp_path, ball_mesh):
+    patch_test(tmp_path, ball_mesh, order=1)
 
 
-def test_patch_test_c3d10(tmp_path):
-    patch_test(tmp_path, order=2)
+def test_patch_test_c3d10(tmp_path, ball_mesh):
+    patch_test(tmp_path, ball_mesh, order=2)
 
 
-def test_patch_test_c3d10_curved(tmp_path):
+def test_patch_test_c3d10_curved(tmp_path, ball_mesh):
     # On curved C3D10 elements det(J) varies, so the 4-point rule of C3D10 no longer integrates
-    # the stiffness exactly and the patch test holds to the quadrature error (measured 1.1e-5
-    # relative here), not to round-off.
-    patch_test(tmp_path, order=2, curved=True, tolerance=1e-4)
+    # the stiffness exactly and the patch test holds to the quadrature error (measured 2.7e-4
+    # relative in the stresses on this coarse ball), not to round-off.
+    patch_test(tmp_path, ball_mesh, order=2, curved=True, tolerance=1e-3)
 
 
 @pytest.mark.parametrize("order", [1, 2])

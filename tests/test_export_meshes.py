@@ -48,3 +48,11 @@ def kuhn_ball(n: int) -> pv.UnstructuredGrid:
         mapped[:, axis] = q[:, axis] * np.sqrt(1 - b / 2 - c / 2 + b * c / 3)
     mesh.points = mapped * r[:, None]
     return mesh
+
+
+def distmesh_ball(h: float) -> pv.UnstructuredGrid:
+    """An irregular DistMesh mesh of the unit ball (fepre.distmesh, seed 0: reproducible)."""
+    import fepre
+    from fepre import sdf
+
+    return fepre.distmesh(sdf.sphere(1.0), h=h)
