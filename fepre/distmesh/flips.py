@@ -139,7 +139,8 @@ def flip_round(
     quality: np.ndarray,
     threshold: float,
     boundary_edges: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, int]:
+    active: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
     """One round of flips on the cells whose smallest dihedral angle is below ``threshold``.
 
     Parameters
@@ -150,15 +151,22 @@ def flip_round(
     threshold : cells below this angle are improved
     boundary_edges : sorted edge keys (see :func:`edge_keys`) of the boundary surface; edges
         on the boundary are never removed.
+    active : (N,) bool, optional
+        Only bad cells with an active vertex are tried (the vertices whose surroundings
+        changed since the last try); all bad cells when None.
 
     Returns
     -------
     tets, quality : the new cells and their angles
     flips : number of flips applied
+    touched : (N,) bool, the vertices of the new cells
     """
+    touched = np.zeros(points.shape[0], dtype=bool)
     bad_cells = quality < threshold
+    if active is not None:
+        bad_cells &= active[tets].any(axis=1)
     if not bad_cells.any():
-        return tets, quality, 0
+        return tets, quality, 0, touched
     # Every candidate replaces cells that share at least two vertices with a bad cell, so the
     # work is confined to the cells touching the bad cells' vertices.
     near = np.zeros(points.shape[0], dtype=bool)
@@ -183,7 +191,7 @@ def flip_round(
             gains.append(worst_new[good])
             new_quality.append(q_new[good])
     if not olds:
-        return tets, quality, 0
+        return tets, quality, 0, touched
     # Rank every candidate by the worst angle it produces (best first); a candidate is applied
     # when it is the best-ranked candidate on every cell it replaces.
     worst = np.concatenate(gains)
@@ -212,4 +220,6 @@ def flip_round(
     keep = ~remove
     tets = np.concatenate([tets[keep]] + add_tets).astype(np.int64)
     quality = np.concatenate([quality[keep]] + add_quality)
-    return tets, quality, applied
+    for added in add_tets:
+        touched[added.ravel()] = True
+    return tets, quality, applied, touched

@@ -198,7 +198,7 @@ def improve_arrays(
         return result
 
     # Flip the worst slivers away first: they pin their vertices during relaxation.
-    tets, quality, flipped = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
+    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
         points, quality, relaxed = timed(
@@ -209,18 +209,27 @@ def improve_arrays(
     rounds = 0
     best = float(quality.min())
     stalled = 0
+    active = None  # flips try every bad cell in the first round, then those near a change
     while rounds < maxiter and quality.min() < threshold:
         if deadline is not None and time.perf_counter() - start > deadline:
             break
         rounds += 1
-        tets, quality, flipped = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
-        points, quality, moved = timed(
-            "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng, surface_tol
+        tets, quality, flipped, touched = timed(
+            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active
+        )
+        # Smoothing retries every bad cell: its random candidates differ from round to round.
+        points, quality, moved, moved_vertices = timed(
+            "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
+            surface_tol,
         )
         counts["flips"] += flipped
         counts["moves"] += moved
         if flipped == 0 and moved == 0:
-            break
+            if active is None:
+                break
+            active = None  # one more round over every bad cell before giving up
+            continue
+        active = touched | moved_vertices
         worst = float(quality.min())
         stalled = 0 if worst > best + 1e-6 else stalled + 1
         best = max(best, worst)

@@ -72,7 +72,8 @@ def smooth_round(
     h: float,
     rng: np.random.Generator,
     surface_tol: float,
-) -> tuple[np.ndarray, np.ndarray, int]:
+    active: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
     """Move the movable vertices of cells below ``threshold`` degrees to better positions.
 
     Parameters
@@ -85,19 +86,25 @@ def smooth_round(
     h : target edge length (scales the random steps)
     rng : random generator for the random candidates
     surface_tol : largest ``|model|`` accepted at a moved boundary vertex
+    active : (N,) bool, optional
+        Only bad cells with an active vertex are tried; all bad cells when None.
 
     Returns
     -------
     points, quality : updated copies
     moved : number of vertices moved
+    touched : (N,) bool, the moved vertices
     """
+    touched = np.zeros(points.shape[0], dtype=bool)
     bad = quality < threshold
+    if active is not None:
+        bad &= active[tets].any(axis=1)
     if not bad.any():
-        return points, quality, 0
+        return points, quality, 0, touched
     vertices = np.unique(tets[bad])
     vertices = vertices[movable[vertices]]
     if vertices.size == 0:
-        return points, quality, 0
+        return points, quality, 0, touched
     selected_vertex = np.zeros(points.shape[0], dtype=bool)
     selected_vertex[vertices] = True
     region = np.flatnonzero(selected_vertex[tets].any(axis=1))
@@ -146,7 +153,7 @@ def smooth_round(
     best = star_worst[choice, np.arange(vertices.size)]
     improving = best > current + MIN_GAIN
     if not improving.any():
-        return points, quality, 0
+        return points, quality, 0, touched
 
     # Independent set: worst stars first; a vertex moves if it has the highest priority among
     # the improving vertices on every cell of its star.
@@ -162,7 +169,8 @@ def smooth_round(
     points[vertices[selected]] = candidates[choice[selected], np.flatnonzero(selected)]
     entries = selected[segment]
     quality[cells[entries]] = trial_quality[choice[segment[entries]], np.flatnonzero(entries)]
-    return points, quality, int(selected.sum())
+    touched[vertices[selected]] = True
+    return points, quality, int(selected.sum()), touched
 
 
 def relax_round(
