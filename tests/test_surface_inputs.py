@@ -83,3 +83,16 @@ def test_surface_carries_its_grid_for_later_checks():
     assert surface.field_data["surface_method"][0] == "surface_nets"
     np.testing.assert_allclose(surface.field_data["surface_spacing"], 0.25)
     assert tuple(surface.field_data["surface_grid_dimensions"]) == (13, 13, 13)
+
+
+def test_model_giving_nan_is_refused():
+    class Broken(sdf.SDF):
+        def __init__(self):
+            super().__init__(bounds=((-1, -1, -1), (1, 1, 1)), exact=False)
+
+        def _values(self, x, y, z):
+            with np.errstate(invalid="ignore"):
+                return np.sqrt(x * x + y * y + z * z - 0.25)  # NaN inside radius 0.5
+
+    with pytest.raises(ValueError, match="samples contain NaN"):
+        fepre.isosurface(Broken(), spacing=0.1, method="marching_cubes")

@@ -58,13 +58,18 @@ def _grid_values(grid, scalars: str | None) -> tuple[np.ndarray, str]:
     nx, ny, nz = grid.dimensions
     if min(nx, ny, nz) < 2:
         raise ValueError(f"source ImageData must have at least 2 nodes per axis; got dimensions {grid.dimensions}")
-    if np.isnan(array).any():
-        where = int(np.flatnonzero(np.isnan(array))[0])
+    return array.reshape(nz, ny, nx), name
+
+
+def _check_samples(values: np.ndarray, name: str, grid) -> None:
+    """Refuse NaN samples (one reduction pass: the minimum of an array holding NaN is NaN)."""
+    if np.isnan(np.min(values)):
+        flat = values.reshape(-1)
+        where = int(np.flatnonzero(np.isnan(flat))[0])
         raise ValueError(
-            f"the {name!r} samples contain NaN (first at point {where}, {grid.points[where].tolist()}); "
+            f"the {name!r} samples contain NaN (first at point {where}, {grid.GetPoint(where)}); "
             f"fix the model or the array so every node has a value"
         )
-    return array.reshape(nz, ny, nx), name
 
 
 def isosurface(
@@ -132,6 +137,7 @@ def isosurface(
                 raise ValueError(f"{option} applies only when source is a model; the ImageData is already sampled")
         grid = source
         values, name = _grid_values(grid, scalars)
+    _check_samples(values, name, grid)
     if "sdf_band" in grid.field_data and name == "sdf":
         width = float(np.asarray(grid.field_data["sdf_band"])[0])
         if abs(level) > width - float(np.linalg.norm(grid.spacing)):
