@@ -15,11 +15,7 @@ import types
 from .loop import DistMeshState
 from .mesher import distmesh
 from .options import DistMeshOptions
-
-try:  # the quality stage (issue 5) lands in slivers.py; guarded only until it exists
-    from .slivers import improve
-except ImportError:  # pragma: no cover
-    pass
+from .slivers import improve
 
 __all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve"]
 

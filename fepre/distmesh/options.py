@@ -72,7 +72,7 @@ class DistMeshOptions:
         stop when neither the worst nor the mean tetrahedron quality (volume-edge ratio)
         improved by more than ``quality_tol`` over the last ``quality_window`` iterations, or on
         the ``ptol`` rule, whichever comes first.
-    quality_window : int, default 20
+    quality_window : int, default 10
         Window of the quality termination, in iterations.
     quality_tol : float, default 0.002
         Smallest improvement of worst or mean quality over the window that keeps iterating.
@@ -108,7 +108,7 @@ class DistMeshOptions:
     sort: Optional[str] = None
     sort_interval: int = 20
     termination: str = "quality"
-    quality_window: int = 20
+    quality_window: int = 10
     quality_tol: float = 0.002
     retriangulation: str = "movement"
     move_average_window: int = 7
