@@ -93,7 +93,9 @@ def grid_geometry(
         if padded:
             if padding is None:  # two cells of padding on each side
                 if np.any(counts < 6):
-                    raise ValueError(f"shape must have at least 6 nodes per axis to pad the model by two cells; got {shape!r}")
+                    raise ValueError(
+                        f"shape must have at least 6 nodes per axis to pad the model by two cells; got {shape!r}"
+                    )
                 step = np.where(extent > 0, extent, 1.0) / (counts - 5)
                 lo, hi = lo - 2 * step, hi + 2 * step
             else:
@@ -263,7 +265,9 @@ def sample(
     if not isinstance(model, SDF):
         raise TypeError(f"model must be a fepre.sdf.SDF; got {type(model).__name__}")
     if model.dim != 3:
-        raise ValueError(f"model must be 3D to sample onto an image grid; got a {model.dim}D model (extrude or revolve it)")
+        raise ValueError(
+            f"model must be 3D to sample onto an image grid; got a {model.dim}D model (extrude or revolve it)"
+        )
     dtype = np.dtype(dtype)
     if dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise ValueError(f"dtype must be 'float32' or 'float64'; got {dtype.name!r}")

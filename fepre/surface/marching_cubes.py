@@ -19,7 +19,9 @@ __all__ = ["marching_cubes", "CUBE_TABLE"]
 CUBE_TABLE = CaseTable(np.array(AXIS_DIRECTIONS), EDGE_START, EDGE_AXIS, TRIANGLES)
 
 
-def marching_cubes(values, level, origin, spacing, workers=None):
+def marching_cubes(
+    values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray, workers: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Points and outward triangles of the ``level`` set of a (nz, ny, nx) array.
 
     Examples

@@ -81,7 +81,9 @@ def _build_table() -> CaseTable:
 TETRAHEDRON_TABLE = _build_table()
 
 
-def marching_tetrahedra(values, level, origin, spacing, workers=None):
+def marching_tetrahedra(
+    values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray, workers: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Points and outward triangles of the ``level`` set of a (nz, ny, nx) array.
 
     Examples
