@@ -31,7 +31,7 @@ import numpy as np
 
 from ..arguments import finite_float, positive_float, positive_int
 from ..errors import ConvergenceWarning, MeshingError
-from .flips import flip_round
+from .flips import flip_round, remove_boundary_slivers
 from .smoothing import relax_round, smooth_round
 from .tet_shape import signed_volume, tet_min_dihedral
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
@@ -183,13 +183,14 @@ def improve_arrays(
     movable = used & ~fixed_mask
     rng = np.random.default_rng(seed)
     boundary_edges = _boundary_edge_keys(faces, n)
+    boundary_face_keys = np.unique(face_keys(faces, n))
     threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
     volume_before = float(volumes.sum())
 
     quality = tet_min_dihedral(points, tets)
     before = float(quality.min())
     timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
-    counts = {"flips": 0, "moves": 0, "relaxed": 0}
+    counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
 
     def timed(kind: str, function, *args):
         t0 = time.perf_counter()
@@ -222,9 +223,14 @@ def improve_arrays(
             "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
             surface_tol,
         )
+        tets, quality, removed, boundary_face_keys, boundary_edges = timed(
+            "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
+            boundary_edges,
+        )
         counts["flips"] += flipped
         counts["moves"] += moved
-        if flipped == 0 and moved == 0:
+        counts["removed"] += removed
+        if flipped == 0 and moved == 0 and removed == 0:
             if active is None:
                 break
             active = None  # one more round over every bad cell before giving up
@@ -236,7 +242,7 @@ def improve_arrays(
         if stalled >= PATIENCE and worst >= target:
             break
 
-    _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, faces)
+    _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys)
     after = float(quality.min())
     info = {
         "seconds": time.perf_counter() - start,
@@ -259,7 +265,7 @@ def improve_arrays(
     return points, tets, info
 
 
-def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, faces) -> None:
+def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys) -> None:
     """Check the stage's guarantees; a failure here is a bug, reported as MeshingError."""
     n = points.shape[0]
     volumes = signed_volume(points[tets])
@@ -269,11 +275,11 @@ def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_bef
         new_faces = faces_on_boundary(tets, face_neighbours(tets, n))
     except ValueError as exc:
         raise MeshingError(f"the quality stage broke the mesh topology: {exc}") from None
-    same = new_faces.shape == faces.shape and np.array_equal(
-        np.sort(face_keys(new_faces, n)), np.sort(face_keys(faces, n))
-    )
-    if not same:
-        raise MeshingError("the quality stage changed the boundary surface's faces")
+    if not np.array_equal(np.sort(face_keys(new_faces, n)), boundary_face_keys):
+        raise MeshingError("the boundary surface's faces are not the expected ones")
+    reason = open_boundary_reason(new_faces, n)
+    if reason:
+        raise MeshingError(f"the quality stage opened the boundary: {reason}")
     moved_boundary = np.flatnonzero(on_boundary & ~fixed_mask)
     if moved_boundary.size:
         off = np.abs(model(points[moved_boundary])).max()
