@@ -12,6 +12,7 @@ once, reduced in place.
 
 from __future__ import annotations
 
+import threading
 from typing import Any, Sequence
 
 import numpy as np
@@ -40,8 +41,12 @@ def check_operands(shapes: Sequence[Any], name: str) -> tuple[SDF, ...]:
 
 
 def full_shape(coords: Coords) -> tuple[int, ...]:
-    """The broadcast shape of coordinate arrays."""
-    return np.broadcast_shapes(*(np.shape(c) for c in coords))
+    """The broadcast shape of coordinate arrays (which are broadcastable by protocol)."""
+    shapes = [np.shape(c) for c in coords]
+    ndim = len(shapes[0])
+    if all(len(s) == ndim for s in shapes):
+        return tuple(max(sizes) for sizes in zip(*shapes))
+    return np.broadcast_shapes(*shapes)
 
 
 def writable(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -108,24 +113,40 @@ def _box_distance(coords: Coords, bounds: Bounds) -> np.ndarray:
     return box_distance(coords, bounds)
 
 
+_extent_memo = threading.local()
+
+
 def coordinate_extent(coords: Coords, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray] | None:
     """Box spanned by grid-like (broadcasting) coordinates, or None for point columns.
 
-    Only worth it on grids, where each coordinate array is much smaller than the block.
+    Only worth it on grids, where each coordinate array is much smaller than the block. Nested
+    booleans see the same coordinate arrays, so the last result is remembered per thread.
     """
-    total = int(np.prod(shape))
+    total = 1
+    for n in shape:
+        total *= n
     if total < 4096 or sum(np.size(c) for c in coords) * 4 > total:
         return None
-    return np.array([float(np.min(c)) for c in coords]), np.array([float(np.max(c)) for c in coords])
+    memo = getattr(_extent_memo, "last", None)
+    if memo is not None and len(memo[0]) == len(coords) and all(a is b for a, b in zip(memo[0], coords)):
+        return memo[1]
+    extent = (
+        [float(c.min()) for c in coords],
+        [float(c.max()) for c in coords],
+    )
+    _extent_memo.last = (tuple(coords), extent)  # holding the arrays keeps their identity valid
+    return extent
 
 
 def gap_to_box(extent: tuple[np.ndarray, np.ndarray], bounds: Bounds | None) -> float:
     """Euclidean distance between the box ``extent`` and ``bounds`` (0 when they touch)."""
     if bounds is None:
         return 0.0
-    lo, hi = extent
-    gap = np.maximum(np.maximum(np.asarray(bounds[0]) - hi, lo - np.asarray(bounds[1])), 0.0)
-    return float(np.sqrt(np.dot(gap, gap)))
+    total = 0.0
+    for lo, hi, blo, bhi in zip(extent[0], extent[1], bounds[0], bounds[1]):
+        gap = max(blo - hi, lo - bhi, 0.0)
+        total += gap * gap
+    return total**0.5
 
 
 def above_box_distance(node: SDF) -> bool:

@@ -249,8 +249,9 @@ class SDF:
         # Blocks run over the two slowest axes; the fastest (x) is always whole. In 3D a block
         # is a stack of ``depth`` z-slices of a few y-rows: work that depends on x and y only
         # (radii, box cross-sections) is done once per block and shared by its slices.
+        # ``chunk_points`` is sized for float64 temporaries; float32 blocks hold twice as many.
         row = shape[-1]
-        rows_per_block = max(1, int(config.chunk_points) // row)
+        rows_per_block = max(1, int(config.chunk_points) * 8 // dtype.itemsize // row)
         if self.dim == 3:
             nz, ny = shape[0], shape[1]
             depth = max(1, min(nz, GRID_BLOCK_DEPTH, rows_per_block))
