@@ -21,19 +21,10 @@ from .table_extraction import cell_edge_vertices, edge_points
 __all__ = ["surface_nets"]
 
 
-def _quad_cells(edges: np.ndarray, axis: int, shape) -> tuple[np.ndarray, np.ndarray]:
-    """The four cells around each edge, counter-clockwise seen from the edge's + end."""
-    nz, ny, nx = shape
-    layer = nx * ny
-    k, rest = np.divmod(edges, layer)
-    j, i = np.divmod(rest, nx)
-    # (a, b): the two axes across the edge, in right-handed cyclic order after ``axis``
-    steps = {0: ((j, ny, nx), (k, nz, layer)), 1: ((k, nz, layer), (i, nx, 1)), 2: ((i, nx, 1), (j, ny, nx))}
-    (ia, na, sa), (ib, nb, sb) = steps[axis]
-    valid = (ia >= 1) & (ia <= na - 2) & (ib >= 1) & (ib <= nb - 2)
-    n = edges[valid]
-    quads = np.stack([n - sa - sb, n - sb, n, n - sa], axis=1)
-    return quads, valid
+#: per axis, the slots (local edge index % 4 in each cell) of the four cells around an edge,
+#: counter-clockwise seen from the edge's + end: (a-1, b-1), (a, b-1), (a, b), (a-1, b) for the
+#: two axes (a, b) across the edge in right-handed order
+_QUAD_SLOTS = (np.array([3, 2, 0, 1]), np.array([3, 1, 0, 2]), np.array([3, 2, 0, 1]))
 
 
 def surface_nets(
@@ -60,17 +51,23 @@ def surface_nets(
     crossings = np.concatenate(
         [edge_points(e, d, values, level, origin, spacing) for e, d in zip(scan.edges, AXIS_DIRECTIONS)]
     )
-    cell, _, vertex = cell_edge_vertices(scan, CUBE_TABLE, offsets)
+    cell, local, vertex = cell_edge_vertices(scan, CUBE_TABLE, offsets)
     count = np.bincount(cell, minlength=scan.cells.size)
     points = np.stack(
         [np.bincount(cell, weights=crossings[vertex, a], minlength=scan.cells.size) for a in range(3)], axis=1
     ) / count[:, None]
+    # every interior crossing edge is a cut edge of exactly four cells, and the cell's local
+    # edge index says where around the edge the cell sits: a scatter, no search
+    around = np.full((offsets[-1], 4), -1, dtype=np.int64)
+    around[vertex, local % 4] = cell
     flat = values.reshape(-1)
+    threshold = inside_threshold(values.dtype, level)
     quads = []
     for axis, edges in enumerate(scan.edges):
-        cells, valid = _quad_cells(edges, axis, values.shape)
-        quad = np.searchsorted(scan.cells, cells)
-        backwards = flat[edges[valid]] >= inside_threshold(values.dtype, level)  # edge points inwards
+        quad = around[offsets[axis] : offsets[axis + 1]][:, _QUAD_SLOTS[axis]]
+        valid = (quad >= 0).all(axis=1)  # edges on the grid's faces have fewer than four cells
+        quad = quad[valid]
+        backwards = flat[edges[valid]] >= threshold  # the start node is outside: the edge points in
         quad[backwards] = quad[backwards][:, ::-1]
         quads.append(quad)
     quads = np.concatenate(quads)
