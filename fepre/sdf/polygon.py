@@ -43,48 +43,83 @@ class Polygon(SDF):
     def _label(self) -> str:
         return "polygon"
 
-    def _nearest(self, px: np.ndarray, py: np.ndarray):
-        """Signed distance, offset to the nearest boundary point and nearest edge, per point."""
-        count = px.size
-        distance = np.empty(count)
-        offset = np.empty((count, 2))
-        nearest = np.empty(count, dtype=np.intp)
-        sx, sy = self._start[:, 0], self._start[:, 1]
-        ex, ey = self._edge[:, 0], self._edge[:, 1]
-        ty = self._end[:, 1]
-        step = max(1, _BLOCK_ELEMENTS // len(self._start))
+    def _nearest(self, px: np.ndarray, py: np.ndarray, offsets: bool = False):
+        """Signed distance per point and, if ``offsets``, the offset from the nearest boundary
+        point and the index of the nearest edge.
+
+        Blocks are (edges x points) arrays; the longer of the two runs along the last axis, so
+        numpy's inner loops stay long whether there are few edges or many.
+        """
+        count, edges = px.size, len(self._start)
+        dtype = px.dtype
+        distance = np.empty(count, dtype=dtype)
+        offset = np.empty((count, 2), dtype=dtype) if offsets else None
+        nearest = np.empty(count, dtype=np.intp) if offsets else None
+        edges_first = edges <= 256
+        axis = 0 if edges_first else 1
+
+        def along_edges(values: np.ndarray) -> np.ndarray:
+            values = values.astype(dtype)
+            return values[:, None] if edges_first else values[None, :]
+
+        sx, sy, ty = (along_edges(v) for v in (self._start[:, 0], self._start[:, 1], self._end[:, 1]))
+        ex, ey = along_edges(self._edge[:, 0]), along_edges(self._edge[:, 1])
+        ex_scaled = along_edges(self._edge[:, 0] * self._inverse_length2)
+        ey_scaled = along_edges(self._edge[:, 1] * self._inverse_length2)
+        ey_sign = along_edges(np.sign(self._edge[:, 1]))
+        step = max(1024 if edges_first else 1, _BLOCK_ELEMENTS // edges)
         for lo in range(0, count, step):
             hi = min(lo + step, count)
-            wx = px[lo:hi, None] - sx
-            wy = py[lo:hi, None] - sy
-            t = np.clip((wx * ex + wy * ey) * self._inverse_length2, 0.0, 1.0)
-            bx = wx - ex * t
-            by = wy - ey * t
-            squared = bx * bx + by * by
-            index = np.argmin(squared, axis=1)
-            rows = np.arange(hi - lo)
-            # Even-odd rule: edge (s, s + e) crosses the ray from p in +x when p.y lies between
-            # its end points' y (half-open) and p is left of the edge in the edge's direction.
-            up = (py[lo:hi, None] >= sy) != (py[lo:hi, None] >= ty)
-            crossing = up & ((ex * wy - ey * wx) * np.sign(ey) > 0)
-            inside = np.count_nonzero(crossing, axis=1) % 2 == 1
-            d = np.sqrt(squared[rows, index])
+            qx = px[None, lo:hi] if edges_first else px[lo:hi, None]
+            qy = py[None, lo:hi] if edges_first else py[lo:hi, None]
+            wx, wy = qx - sx, qy - sy
+            # Offset (bx, by) from the nearest point of each edge, in place to limit temporaries.
+            t = wx * ex_scaled
+            t += wy * ey_scaled
+            np.clip(t, 0.0, 1.0, out=t)
+            bx = ex * t
+            np.subtract(wx, bx, out=bx)
+            by = np.multiply(ey, t, out=t)
+            np.subtract(wy, by, out=by)
+            if offsets:
+                squared = bx * bx + by * by
+                index = np.argmin(squared, axis=axis)
+                pick = index[None, :] if edges_first else index[:, None]
+                d = np.sqrt(np.take_along_axis(squared, pick, axis).ravel())
+                offset[lo:hi, 0] = np.take_along_axis(bx, pick, axis).ravel()
+                offset[lo:hi, 1] = np.take_along_axis(by, pick, axis).ravel()
+                nearest[lo:hi] = index
+            else:
+                np.square(bx, out=bx)
+                bx += np.square(by, out=by)
+                d = np.sqrt(bx.min(axis=axis))
+            # Even-odd rule: an edge crosses the ray from p in +x when p.y lies between its end
+            # points' y (half-open) and p is on the left of the edge, seen along +y.
+            side = ex * wy
+            side -= np.multiply(ey, wx, out=wx)
+            side *= ey_sign
+            crossing = (qy >= sy) != (qy >= ty)
+            crossing &= side > 0
+            inside = np.logical_xor.reduce(crossing, axis=axis)
             distance[lo:hi] = np.where(inside, -d, d)
-            offset[lo:hi, 0] = bx[rows, index]
-            offset[lo:hi, 1] = by[rows, index]
-            nearest[lo:hi] = index
         return distance, offset, nearest
 
+    @staticmethod
+    def _flat(x, y):
+        """Broadcast coordinates as contiguous 1D arrays in their common float type (float32 grids
+        stay float32: half the memory traffic), and the broadcast shape."""
+        dtype = np.result_type(x, y, 1.0)
+        px, py = (np.ascontiguousarray(a, dtype=dtype).ravel() for a in np.broadcast_arrays(x, y))
+        return px, py, np.broadcast_shapes(np.shape(x), np.shape(y))
+
     def _values(self, x, y):
-        px, py = (np.ascontiguousarray(a, dtype=np.float64).ravel() for a in np.broadcast_arrays(x, y))
-        shape = np.broadcast_shapes(np.shape(x), np.shape(y))
+        px, py, shape = self._flat(x, y)
         distance, _, _ = self._nearest(px, py)
-        return distance.reshape(shape).astype(np.result_type(x, y, 1.0), copy=False)
+        return distance.reshape(shape)
 
     def _values_and_gradient(self, x, y) -> tuple[np.ndarray, Coords]:
-        px, py = (np.ascontiguousarray(a, dtype=np.float64).ravel() for a in np.broadcast_arrays(x, y))
-        shape = np.broadcast_shapes(np.shape(x), np.shape(y))
-        distance, offset, nearest = self._nearest(px, py)
+        px, py, shape = self._flat(x, y)
+        distance, offset, nearest = self._nearest(px, py, offsets=True)
         length = np.abs(distance)
         on_boundary = length == 0
         # Outside, the gradient points away from the nearest point; inside, towards it.
