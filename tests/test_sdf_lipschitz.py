@@ -50,6 +50,14 @@ def _extend(children):
         st.builds(lambda a, d: a.offset(d), children, st.floats(-0.3, 0.3)),
         st.builds(lambda a, t: a.shell(t), children, st.floats(0.05, 0.5)),
         st.builds(lambda a, h: a.elongate(h), children, st.tuples(size, st.just(0.0), size)),
+        st.builds(lambda a, r: a.twist(r) if a.bounds is not None else a, children, st.floats(-90, 90)),
+        st.builds(lambda a, r: a.bend(r) if a.bounds is not None else a, children, st.floats(-60, 60)),
+        st.builds(
+            lambda a, s, n: sdf.repeat(a, s, n) if a.bounds is not None else a,
+            children,
+            st.floats(0.5, 4.0),
+            st.tuples(st.integers(1, 3), st.integers(1, 3), st.integers(1, 3)),
+        ),
     )
 
 

@@ -279,7 +279,7 @@ def test_repr_prints_the_tree():
     model = (sdf.box((2, 2, 2)) | sdf.sphere(0.8).translate((1, 1, 1))) - sdf.cylinder(0.5, 3)
     text = repr(model)
     assert text.splitlines()[0] == "difference()"
-    assert "├─ union()" in text and "transform[translate(1, 1, 1)]" in text and "└─ cylinder(" in text
+    assert "├─ union()" in text and "└─ transform[translate(1, 1, 1)]\n" in text and "└─ cylinder(" in text
 
 
 # ---------------------------------------------------------------------- bad input

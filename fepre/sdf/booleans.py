@@ -49,10 +49,19 @@ def full_shape(coords: Coords) -> tuple[int, ...]:
     return np.broadcast_shapes(*shapes)
 
 
-def writable(values: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``values`` itself when it is a fresh full-shape array we may overwrite, else a copy."""
+def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) -> np.ndarray:
+    """``values`` itself when it is a fresh full-shape array we may overwrite, else a copy.
+
+    A child that returns one of the coordinate arrays unchanged must not see it overwritten.
+    """
     values = np.asarray(values)
-    if values.shape == shape and values.flags.writeable and values.flags.owndata and values.flags.c_contiguous:
+    if (
+        values.shape == shape
+        and values.flags.writeable
+        and values.flags.owndata
+        and values.flags.c_contiguous
+        and not any(np.may_share_memory(values, c) for c in coords)
+    ):
         return values
     out = np.empty(shape, dtype=values.dtype if values.dtype.kind == "f" else np.float64)
     out[...] = values
@@ -213,7 +222,7 @@ class Union(SDF):
                         continue
             values = child._values(*coords)
             if out is None:
-                out = writable(values, shape)
+                out = writable(values, shape, coords)
             elif self.k > 0:
                 out, _ = smooth_min(out, values, self.k)
             else:
@@ -267,7 +276,7 @@ class Intersection(SDF):
         for child in self.children:
             values = child._values(*coords)
             if out is None:
-                out = writable(values, shape)
+                out = writable(values, shape, coords)
             elif self.k > 0:
                 out, _ = smooth_min(-out, -values, self.k)
                 np.negative(out, out=out)
@@ -320,7 +329,7 @@ class Difference(SDF):
             for other in others:
                 values = other._values(*coords)
                 if cut is None:
-                    cut = writable(values, shape)
+                    cut = writable(values, shape, coords)
                 else:
                     np.minimum(cut, values, out=cut)
             np.negative(cut, out=cut)
@@ -328,7 +337,7 @@ class Difference(SDF):
             return cut
         # Base first; an operand whose box is ``gap`` away from this block has -other <= -gap,
         # so it changes nothing where the base is already >= -gap everywhere on the block.
-        out = writable(base._values(*coords), shape)
+        out = writable(base._values(*coords), shape, coords)
         extent = coordinate_extent(coords, shape)
         smallest = None
         for other, skippable in zip(others, self._skippable):
@@ -339,7 +348,7 @@ class Difference(SDF):
                         smallest = float(out.min())
                     if smallest >= -gap:
                         continue
-            values = writable(other._values(*coords), shape)
+            values = writable(other._values(*coords), shape, coords)
             np.negative(values, out=values)
             np.maximum(out, values, out=out)
             smallest = None

@@ -59,11 +59,12 @@ class Affine(SDF):
             bounds = (tuple(corners.min(axis=0)), tuple(corners.max(axis=0)))
         super().__init__(bounds=bounds, exact=exact, children=(child,))
 
-    def _label(self) -> str:
-        return "transform[" + " → ".join(self.steps) + "]"
-
-    def _parameters(self) -> dict[str, Any]:
-        return {"lipschitz_factor": round(self.factor, 12)} if abs(self.factor - 1.0) > 1e-12 else {}
+    def describe(self) -> str:
+        """``transform[step → step ...]``, with the value's factor when it is not 1."""
+        text = "transform[" + " → ".join(self.steps) + "]"
+        if abs(self.factor - 1.0) > 1e-12:
+            text += f"(lipschitz_factor={self.factor:.6g})"
+        return text
 
     def _pulled_back(self, coords: Coords) -> list:
         pulled = []
