@@ -193,8 +193,9 @@ def _run_view(args: argparse.Namespace) -> int:
         path = plotting.plot_model(part.model, bounds=part.bounds, off_screen=off_screen, screenshot=args.screenshot)
     else:
         mesh, _ = _read_mesh(args.file)
-        if plotting.is_tetrahedral(mesh):
-            path = plotting.plot(mesh, metric=args.metric, clip=not args.no_clip, off_screen=off_screen,
+        tetrahedra = plotting.tetrahedra_of(mesh)
+        if tetrahedra is not None:
+            path = plotting.plot(tetrahedra, metric=args.metric, clip=not args.no_clip, off_screen=off_screen,
                                  screenshot=args.screenshot, title=Path(args.file).name)
         else:
             path = plotting.plot_surface(mesh, off_screen=off_screen, screenshot=args.screenshot,
@@ -257,7 +258,7 @@ def _read_mesh(name: str):
 def _describe_file(name: str) -> str:
     import pyvista as pv
 
-    from .plotting import is_tetrahedral
+    from .plotting import tetrahedra_of
 
     mesh, sets = _read_mesh(name)
     celltypes = np.asarray(mesh.celltypes if isinstance(mesh, pv.UnstructuredGrid) else mesh.cast_to_unstructured_grid().celltypes)
@@ -269,13 +270,14 @@ def _describe_file(name: str) -> str:
         f"cells      {mesh.n_cells}  ({', '.join(f'{k} {v}' for k, v in types.items())})",
         f"bounds     ({lo[0]:.6g}, {lo[1]:.6g}, {lo[2]:.6g}) to ({hi[0]:.6g}, {hi[1]:.6g}, {hi[2]:.6g})",
     ]
-    if is_tetrahedral(mesh):
+    tetrahedra = tetrahedra_of(mesh)
+    if tetrahedra is not None:
         from .quality import summary
 
-        total = float(mesh.compute_cell_sizes(length=False, area=False)["Volume"].sum())
+        total = float(tetrahedra.compute_cell_sizes(length=False, area=False)["Volume"].sum())
         lines.append(f"volume     {total:.6g}")
-        lines.append("quality:")
-        lines.extend("  " + line for line in str(summary(mesh)).splitlines())
+        lines.append("quality of the tetrahedra:")
+        lines.extend("  " + line for line in str(summary(tetrahedra)).splitlines())
     elif isinstance(mesh, pv.PolyData):
         lines.append(f"area       {mesh.area:.6g}")
         if mesh.n_open_edges == 0 and mesh.is_all_triangles:

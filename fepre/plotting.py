@@ -257,6 +257,22 @@ def is_tetrahedral(mesh: Any) -> bool:
     return len(kinds) == 1 and kinds <= {int(pv.CellType.TETRA), int(pv.CellType.QUADRATIC_TETRA)}
 
 
+def tetrahedra_of(mesh: Any) -> Any:
+    """The tetrahedral cells of a mixed grid (e.g. a VTU with tagged boundary triangles), or None."""
+    import pyvista as pv
+
+    if not isinstance(mesh, pv.UnstructuredGrid):
+        return None
+    if is_tetrahedral(mesh):
+        return mesh
+    types = np.asarray(mesh.celltypes)
+    for kind in (pv.CellType.TETRA, pv.CellType.QUADRATIC_TETRA):
+        cells = np.flatnonzero(types == int(kind))
+        if cells.size:
+            return mesh.extract_cells(cells)
+    return None
+
+
 def plot_surface(
     dataset: Any,
     *,

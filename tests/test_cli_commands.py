@@ -1,0 +1,145 @@
+"""Every `fepre` subcommand on a model file; user errors are messages with exit code 1, not tracebacks."""
+
+from __future__ import annotations
+
+import json
+import math
+import textwrap
+
+import meshio
+import numpy as np
+import pytest
+import pyvista as pv
+from PIL import Image
+
+from fepre.cli import main
+
+BALL = """
+from fepre import sdf
+
+base = sdf.plane((0, 0, -1), (0, 0, -0.5))
+model = sdf.sphere(1.0) & base  # a ball with its bottom cap cut off flat
+h = 0.3
+boundaries = {"base": base}
+"""
+BALL_VOLUME = 4 * math.pi / 3 - math.pi * 0.5**2 * (3 - 0.5) / 3  # the sphere minus a cap of height 0.5
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cli")
+    (path / "ball.py").write_text(BALL)
+    return path
+
+
+@pytest.fixture(scope="module")
+def meshed(folder):
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(folder / "ball.vtu")]) == 0
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(folder / "ball.inp"), "--h", "0.35"]) == 0
+    return folder
+
+
+def _non_blank(path) -> float:
+    image = np.asarray(Image.open(path).convert("RGB"))
+    return float(np.any(image < 235, axis=2).mean())
+
+
+def test_surface_writes_a_closed_stl_with_the_right_volume(folder, capsys):
+    out = folder / "ball.stl"
+    assert main(["surface", str(folder / "ball.py"), "-o", str(out), "--spacing", "0.04"]) == 0
+    assert "watertight" in capsys.readouterr().out
+    surface = pv.read(out)
+    assert surface.n_open_edges == 0
+    assert surface.volume == pytest.approx(BALL_VOLUME, rel=0.01)
+
+
+def test_surface_methods_and_bad_suffix(folder, capsys):
+    out = folder / "nets.ply"
+    assert main(["surface", str(folder / "ball.py"), "-o", str(out), "--method", "surface_nets", "--spacing", "0.1"]) == 0
+    assert pv.read(out).n_cells > 500
+    assert main(["surface", str(folder / "ball.py"), "-o", str(folder / "ball.txt")]) == 1
+    assert "--output must end in .stl" in capsys.readouterr().err
+
+
+def test_mesh_writes_solver_files_with_named_sets(meshed):
+    grid = pv.read(meshed / "ball.vtu")  # tetrahedra and the tagged boundary triangles
+    tets = grid.extract_cells(np.flatnonzero(grid.celltypes == pv.CellType.TETRA))
+    assert tets.n_cells > 500
+    assert tets.volume == pytest.approx(BALL_VOLUME, rel=0.08)
+    inp = meshio.read(meshed / "ball.inp")
+    assert inp.cells[0].type == "tetra" and len(inp.points) > 20
+    assert "base" in inp.point_sets
+    base = inp.points[inp.point_sets["base"]]
+    gap = np.abs(base[:, 2] + 0.5)  # nodes of the faces on the flat cut (its rim is rounded at h)
+    assert np.count_nonzero(gap < 1e-6) >= 5 and gap.max() < 0.35
+
+
+def test_mesh_order_2_and_missing_h(folder, capsys):
+    out = folder / "ball2.vtu"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--order", "2", "--h", "0.4"]) == 0
+    assert pv.CellType.QUADRATIC_TETRA in set(np.unique(pv.read(out).celltypes))
+    (folder / "noh.py").write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    capsys.readouterr()
+    assert main(["mesh", str(folder / "noh.py"), "-o", str(folder / "x.vtu")]) == 1
+    assert "pass --h or set `h = ...`" in capsys.readouterr().err
+
+
+def test_info_prints_counts_quality_and_sets(meshed, capsys):
+    assert main(["info", str(meshed / "ball.inp")]) == 0
+    out = capsys.readouterr().out
+    inp = meshio.read(meshed / "ball.inp")
+    assert f"points     {len(inp.points)}" in out
+    assert f"TETRA {len(inp.cells[0].data)}" in out
+    assert "min_dihedral_angle" in out and "base" in out
+    assert main(["info", str(meshed / "ball.vtu")]) == 0
+    assert "radius_ratio" in capsys.readouterr().out
+
+
+def test_view_screenshots_are_not_blank(meshed, folder, capsys):
+    for source, png in ((meshed / "ball.vtu", "mesh.png"), (folder / "ball.py", "model.png")):
+        assert main(["view", str(source), "--screenshot", str(folder / png)]) == 0
+        assert _non_blank(folder / png) > 0.05
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_compare_writes_table_json_and_report(meshed, capsys):
+    report, figures = meshed / "cmp.html", meshed / "cmp.json"
+    argv = ["compare", str(meshed / "ball.py"), "--h", "0.4", "--references", "gmsh", "--report", str(report), "--json", str(figures)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    data = json.loads(figures.read_text())
+    assert set(data["meshes"]) == {"fepre", "gmsh"}
+    assert str(data["meshes"]["gmsh"]["elements"]) in out.split("\n")[2]  # the "tetrahedra" row
+    assert "data:image/png;base64" in report.read_text()
+
+
+@pytest.mark.parametrize(
+    "content, words",
+    [
+        ("model = sdf.sphere(1.0\n", "syntax error"),
+        ("from fepre import sdf\nthing = sdf.sphere(1.0)\n", "defines no `model`"),
+        ("from fepre import sdf\nx = 1 / 0\nmodel = sdf.sphere(1.0)\n", "failed to run (line 2): ZeroDivisionError"),
+        ("model = 3\n", "`model` must be an fepre SDF"),
+        ("from fepre import sdf\nmodel = sdf.sphere(1.0)\nh = -1\n", "h must be > 0"),
+    ],
+)
+def test_bad_model_files_give_a_clear_error_and_exit_1(tmp_path, capsys, content, words):
+    path = tmp_path / "bad.py"
+    path.write_text(content)
+    assert main(["surface", str(path), "-o", str(tmp_path / "x.stl")]) == 1
+    err = capsys.readouterr().err
+    assert words in err and str(path) in err and "Traceback" not in err
+    assert not (tmp_path / "x.stl").exists()
+
+
+def test_missing_files_and_bad_usage(tmp_path, capsys):
+    assert main(["mesh", str(tmp_path / "nope.py"), "-o", str(tmp_path / "x.inp")]) == 1
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["info", str(tmp_path / "nope.vtu")]) == 1
+    assert main(["view", str(tmp_path / "nope.vtu"), "--screenshot", str(tmp_path / "x.png")]) == 1
+    (tmp_path / "junk.vtu").write_text(textwrap.dedent("not a mesh"))
+    assert main(["info", str(tmp_path / "junk.vtu")]) == 1
+    assert "holds no points" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["mesh", "ball.py"])  # -o is required
+    assert exit_.value.code == 2
