@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..config import config
 from .grid_scan import AXIS_DIRECTIONS, inside_threshold, scan_grid
 from .marching_cubes import CUBE_TABLE
 from .table_extraction import cell_edge_vertices, edge_points
@@ -51,7 +52,7 @@ def surface_nets(
     crossings = np.concatenate(
         [edge_points(e, d, values, level, origin, spacing) for e, d in zip(scan.edges, AXIS_DIRECTIONS)]
     )
-    cell, local, vertex = cell_edge_vertices(scan, CUBE_TABLE, offsets)
+    cell, local, vertex = cell_edge_vertices(scan, CUBE_TABLE, offsets, config.resolve_workers(workers))
     count = np.bincount(cell, minlength=scan.cells.size)
     points = np.stack(
         [np.bincount(cell, weights=crossings[vertex, a], minlength=scan.cells.size) for a in range(3)], axis=1

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..config import config
+from ..sdf.core import thread_pool
 from .grid_scan import GridScan, scan_grid
 
 __all__ = ["CaseTable", "extract_with_table", "edge_points"]
@@ -88,16 +90,27 @@ def edge_points(
     return points
 
 
-def cell_edge_vertices(scan: GridScan, table: CaseTable, offsets: np.ndarray):
-    """Vertex ids of every cut local edge of every active cell.
+def _cell_ranges(count: int, workers: int) -> list[tuple[int, int]]:
+    """Contiguous ranges of active cells, one or more per thread (at least ~16k cells each)."""
+    pieces = max(1, min(workers, count // 16384))
+    bounds = np.linspace(0, count, pieces + 1).astype(np.int64)
+    return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
-    Returns ``(cell, local_edge, vertex)`` triples as three arrays (one row per cut edge).
-    """
+
+def _map_ranges(function, ranges, workers: int) -> list:
+    if workers == 1 or len(ranges) == 1:
+        return [function(r) for r in ranges]
+    return list(thread_pool(workers).map(function, ranges))
+
+
+def _cut_edges_in(scan: GridScan, table: CaseTable, offsets: np.ndarray, lo: int, hi: int):
+    """(cell, local edge, vertex) of every cut edge of the active cells ``lo:hi``."""
     _, ny, nx = scan.shape
-    cut_count = table.cut_count[scan.cases]
-    cell = np.repeat(np.arange(scan.cells.size), cut_count)
+    cases = scan.cases[lo:hi]
+    cut_count = table.cut_count[cases]
+    cell = np.repeat(np.arange(lo, hi), cut_count)
     first = np.repeat(np.cumsum(cut_count) - cut_count, cut_count)
-    local = table.cut_edges[scan.cases[cell], np.arange(cell.size) - first]
+    local = table.cut_edges[cases[cell - lo], np.arange(cell.size) - first]
     start_offset = table.edge_start @ np.array([1, nx, nx * ny])
     start = scan.cells[cell] + start_offset[local]
     family = table.edge_direction[local]
@@ -108,6 +121,30 @@ def cell_edge_vertices(scan: GridScan, table: CaseTable, offsets: np.ndarray):
     return cell, local, vertex
 
 
+def cell_edge_vertices(scan: GridScan, table: CaseTable, offsets: np.ndarray, workers: int = 1):
+    """Vertex ids of every cut local edge of every active cell.
+
+    Returns ``(cell, local_edge, vertex)`` triples as three arrays (one row per cut edge).
+    """
+    parts = _map_ranges(
+        lambda r: _cut_edges_in(scan, table, offsets, *r), _cell_ranges(scan.cells.size, workers), workers
+    )
+    return tuple(np.concatenate([part[k] for part in parts]) for k in range(3))
+
+
+def _triangles_in(scan: GridScan, table: CaseTable, offsets: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Outward triangles (vertex ids) of the active cells ``lo:hi``."""
+    cell, local, vertex = _cut_edges_in(scan, table, offsets, lo, hi)
+    lookup = np.zeros((hi - lo, table.edge_start.shape[0]), dtype=np.int64)
+    lookup[cell - lo, local] = vertex
+    cases = scan.cases[lo:hi]
+    count = table.triangle_count[cases]
+    tri_cell = np.repeat(np.arange(hi - lo), count)
+    first = np.repeat(np.cumsum(count) - count, count)
+    edges = table.triangle_edges[cases[tri_cell], np.arange(tri_cell.size) - first]
+    return np.take_along_axis(lookup[tri_cell], edges, axis=1)
+
+
 def extract_with_table(
     values: np.ndarray,
     level: float,
@@ -116,19 +153,20 @@ def extract_with_table(
     table: CaseTable,
     workers: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Points (V, 3) and outward triangles (T, 3) of the ``level`` set of a (nz, ny, nx) grid."""
+    """Points (V, 3) and outward triangles (T, 3) of the ``level`` set of a (nz, ny, nx) grid.
+
+    After the scan, ranges of active cells are triangulated on ``workers`` threads.
+    """
+    workers = config.resolve_workers(workers)
     scan = scan_grid(values, level, [tuple(d) for d in table.directions], workers)
     sizes = np.array([e.size for e in scan.edges])
     offsets = np.concatenate([[0], np.cumsum(sizes)])
+    if sizes.sum() == 0:
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
     points = np.concatenate(
         [edge_points(e, d, values, level, origin, spacing) for e, d in zip(scan.edges, table.directions)]
-    ) if sizes.sum() else np.empty((0, 3))
-    cell, local, vertex = cell_edge_vertices(scan, table, offsets)
-    lookup = np.zeros((scan.cells.size, table.edge_start.shape[0]), dtype=np.int64)
-    lookup[cell, local] = vertex
-    count = table.triangle_count[scan.cases]
-    tri_cell = np.repeat(np.arange(scan.cells.size), count)
-    first = np.repeat(np.cumsum(count) - count, count)
-    edges = table.triangle_edges[scan.cases[tri_cell], np.arange(tri_cell.size) - first]
-    triangles = np.take_along_axis(lookup[tri_cell], edges, axis=1)
-    return points, triangles
+    )
+    parts = _map_ranges(
+        lambda r: _triangles_in(scan, table, offsets, *r), _cell_ranges(scan.cells.size, workers), workers
+    )
+    return points, np.concatenate(parts)
