@@ -229,7 +229,13 @@ def _read_mesh(name: str):
         raise ValueError(f"{path} is a directory; give a mesh file")
     sets: dict[str, dict[str, int]] = {}
     if path.suffix.lower() in _VTK_SUFFIXES:
-        mesh = pv.read(str(path))
+        import warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            mesh = pv.read(str(path))
+        if mesh.n_points == 0 and caught:
+            raise ValueError(f"{path} holds no points: {str(caught[0].message).splitlines()[0]}")
         names = {key: [str(v) for v in mesh.field_data[key]] for key in ("region_names", "boundary_names") if key in mesh.field_data}
         for key, array, kind in (("region_names", "region_id", "cell"), ("boundary_names", "boundary_id", "point")):
             data = mesh.cell_data if kind == "cell" else mesh.point_data
