@@ -40,11 +40,22 @@ def _snap_boundary(model, points, tets, fixed, h, tol) -> np.ndarray:
     return off
 
 
-def final_mesh(model, points: np.ndarray, fixed: np.ndarray, h: float, geps: float, backend: str):
+def final_mesh(
+    model,
+    points: np.ndarray,
+    fixed: np.ndarray,
+    h: float,
+    geps: float,
+    backend: str,
+    previous: np.ndarray | None = None,
+):
     """Triangulate ``points`` and repair the result into a valid solid.
 
-    Returns ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when
-    the repair does not reach a valid mesh.
+    ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
+    reused when every cell is still positive (the reference also returns its last
+    triangulation); otherwise the points are triangulated again. Returns ``(points, tets,
+    fixed)`` with only the points used. Raises ``MeshingError`` when the repair does not reach
+    a valid mesh.
     """
     tol = 1e-3 * h
     points = points.copy()
@@ -53,7 +64,9 @@ def final_mesh(model, points: np.ndarray, fixed: np.ndarray, h: float, geps: flo
     if len(outside):
         points[outside] = model.project(points[outside], iterations=20, tol=0.05 * tol)
         values[outside] = model(points[outside])
-    tets = tetrahedralize(points, backend, h)
+    tets = previous
+    if tets is None or len(tets) == 0 or signed_volumes(points, tets).min() <= 1e-9 * h**3:
+        tets = tetrahedralize(points, backend, h)
     # Drop cells outside (centroid sdf >= 0) and the flat cells spanning the surface (four
     # surface nodes, centroid within geps of it). Unlike the loop's rule (centroid sdf >= -geps)
     # this keeps cells with an interior node, which would otherwise be left on the surface.

@@ -64,6 +64,10 @@ class LoopResult:
     seconds: float
     triangulations: int = 0
     timings: dict[str, float] = field(default_factory=dict)
+    #: the last Delaunay triangulation (before dropping outside cells) and how far the points
+    #: moved since, for reuse by the final mesh
+    delaunay_tets: np.ndarray | None = None
+    moved_since_delaunay: float = np.inf
 
 
 def volume_edge_ratio(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -159,7 +163,7 @@ def iterate(
     triangulations = 0
     converged = False
     last_print = 0.0
-    tets = np.zeros((0, 4), np.int64)
+    tets = delaunay_tets = np.zeros((0, 4), np.int64)
     iteration = 0
 
     for iteration in range(1, o.maxiter + 1):
@@ -176,8 +180,8 @@ def iterate(
             if o.sort == "hilbert" and triangulations % o.sort_interval == 0:
                 order = hilbert_order(p)
                 p, bound, fixed = p[order], bound[order], fixed[order]
-            tets = tetrahedralize(p, o.delaunay, h)
-            tets = tets[centroid_inside(model, p, tets, bound, -geps)]
+            delaunay_tets = tetrahedralize(p, o.delaunay, h)
+            tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
             t1 = time.perf_counter()
             bars = bars_of(tets, n)
             p_triangulated = p.copy()
@@ -261,4 +265,6 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
+        delaunay_tets=delaunay_tets,
+        moved_since_delaunay=float(np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)).max()),
     )

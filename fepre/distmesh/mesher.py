@@ -130,7 +130,8 @@ def distmesh(
     fixed_mask[: len(fixed_points)] = True
 
     loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback)
-    points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay)
+    previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
+    points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
     loop_seconds = time.perf_counter() - start
 
     sliver_seconds = 0.0
