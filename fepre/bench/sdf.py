@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -141,7 +142,10 @@ def run(size: int, repeat: int, workers: int | None = None) -> dict[str, float]:
     vtk_backend = min(vtk_times, key=vtk_times.get)
     fepre_time, copy_time = medians["fepre"], medians["copy"]
 
+    tracemalloc.start()
     ours = sample().ravel()
+    peak_bytes = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
     theirs = vtk_values(sampler)
     agree = float(np.mean((ours < 0) == (theirs < 0)))
     return {
@@ -152,6 +156,8 @@ def run(size: int, repeat: int, workers: int | None = None) -> dict[str, float]:
         "vtk_times": vtk_times,
         "copy": copy_time,
         "sign_agreement": agree,
+        "peak_bytes": float(peak_bytes),
+        "grid_bytes": float(ours.nbytes),
     }
 
 
@@ -181,5 +187,9 @@ def main(argv: list[str] | None = None) -> int:
         f"{figures['vtk'] / figures['fepre']:.1f}x (target >= 10x)"
     )
     print(f"fepre / memory floor: {figures['fepre'] / figures['copy']:.2f}x (target <= 5x)")
+    print(
+        f"fepre peak memory: {figures['peak_bytes'] / 2**20:.1f} MiB for a {figures['grid_bytes'] / 2**20:.1f} MiB grid "
+        f"({figures['peak_bytes'] / figures['grid_bytes']:.2f}x)"
+    )
     print(f"inside/outside agreement with VTK: {100 * figures['sign_agreement']:.3f}% of nodes (need > 99.9%)")
     return 0 if figures["sign_agreement"] > 0.999 else 1
