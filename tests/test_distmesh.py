@@ -151,3 +151,16 @@ def test_model_without_analytic_gradient_and_not_unit_gradient():
     grid = mesh_of(model, 0.25)
     assert_valid(grid, model, 0.25)
     assert grid.volume == pytest.approx(4 / 3 * np.pi, rel=0.08)
+
+
+def test_box_with_fixed_corners_keeps_its_corners_and_volume():
+    import itertools
+
+    box = sdf.box((1.0, 1.0, 1.0))
+    corners = np.array(list(itertools.product([-0.5, 0.5], repeat=3)))
+    grid = mesh_of(box, 0.2, fixed=corners)
+    points = np.asarray(grid.points)
+    assert np.linalg.norm(points[:, None] - corners[None], axis=2).min(axis=0).max() == 0.0
+    tets = grid.cells_dict[pv.CellType.TETRA]
+    assert quality.signed_volumes(points, tets).min() > 0 and check_topology(tets, len(points)).ok
+    assert grid.volume == pytest.approx(1.0, rel=0.03)

@@ -38,7 +38,7 @@ OPTION_VALUES = [
     {"delaunay": "scipy"},
     {"deltat": 0.05, "ttol": 0.02},
     {"fscale": 1.2, "geps": 0.2, "ptol": 0.01},
-    {"deps": 1e-7},
+    {"jitter": 0.1, "seed": 7},
 ]
 if gmsh_available():
     OPTION_VALUES.append({"delaunay": "gmsh"})
@@ -48,6 +48,20 @@ if gmsh_available():
 def test_every_option_value_gives_a_valid_mesh(overrides):
     grid = mesh_of(BALL, H, **overrides)
     assert_valid(grid, BALL, H)
+    assert grid.volume == pytest.approx(4 / 3 * np.pi, rel=0.08)
+
+
+def test_forward_differences_with_deps_for_models_without_gradient():
+    class HalfSphere(fepre.sdf.SDF):
+        def __init__(self):
+            super().__init__(bounds=((-1,) * 3, (1,) * 3), exact=False)
+
+        def _values(self, x, y, z):
+            return 0.5 * (np.sqrt(x * x + y * y + z * z) - 1.0)
+
+    model = HalfSphere()
+    grid = mesh_of(model, H, deps=1e-6)
+    assert_valid(grid, model, H)
     assert grid.volume == pytest.approx(4 / 3 * np.pi, rel=0.08)
 
 

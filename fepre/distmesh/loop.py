@@ -12,6 +12,7 @@ import numpy as np
 from .delaunay import tetrahedralize
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
+from .initial_points import evaluate_size
 from .options import DistMeshOptions
 
 __all__ = ["DistMeshState", "LoopResult", "iterate", "project_outside", "centroid_inside"]
@@ -194,8 +195,6 @@ def iterate(
         t0 = time.perf_counter()
         hbars = None
         if size is not None:
-            from .initial_points import evaluate_size
-
             hbars = evaluate_size(size, 0.5 * (p[bars[:, 0]] + p[bars[:, 1]]))
         force, _ = bar_forces(p, bars, o.fscale, o.nonlinear, hbars)
         force[fixed] = 0.0
