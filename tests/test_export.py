@@ -16,6 +16,8 @@ import meshio
 import numpy as np
 import pytest
 import pyvista as pv
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import fepre
 from fepre import sdf
@@ -79,6 +81,51 @@ def test_named_faces_cover_each_side_exactly(block):
     from_elements = np.sort(cells[faces["element"]][np.arange(ids.size)[:, None],
                                                     abaqus_faces[faces["element_face"] - 1]], axis=1)
     assert np.array_equal(from_elements, np.sort(triangles, axis=1))
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    size=st.tuples(*[st.floats(0.2, 5.0)] * 3),
+    divisions=st.tuples(*[st.integers(1, 4)] * 3),
+    angle=st.floats(-3.1, 3.1),
+)
+def test_tagging_property_sides_of_any_rotated_block(size, divisions, angle):
+    # A block of any proportions and subdivision, rotated about z: each named side gets exactly
+    # its area, the faces left over are exactly the unnamed top, and every face is tagged once.
+    mesh = kuhn_box((0, 0, 0), size, divisions)
+    c, s_ = np.cos(angle), np.sin(angle)
+    rotation = np.array([[c, -s_, 0], [s_, c, 0], [0, 0, 1]])
+    mesh.points = np.asarray(mesh.points) @ rotation.T
+    ex, ey = rotation[:, 0], rotation[:, 1]
+    sides = {
+        "xmin": sdf.plane(-ex, (0, 0, 0)),
+        "xmax": sdf.plane(ex, size[0] * ex),
+        "ymin": sdf.plane(-ey, (0, 0, 0)),
+        "ymax": sdf.plane(ey, size[1] * ey),
+        "zmin": sdf.plane((0, 0, -1), (0, 0, 0)),
+    }
+    faces = tag_boundaries(mesh, sides)
+    areas = triangle_areas(np.asarray(faces.points), faces.regular_faces)
+    sums = np.bincount(faces["boundary_id"], weights=areas, minlength=6)
+    a, b, h = size
+    assert np.allclose(sums, [b * h, b * h, a * h, a * h, a * b, a * b], rtol=1e-9)
+    assert faces.n_cells == 4 * (divisions[0] * divisions[1] + divisions[1] * divisions[2]
+                                 + divisions[0] * divisions[2])
+
+
+def test_faces_next_to_a_sharp_edge_stay_on_their_side():
+    # One layer of coarse elements: top faces have centroids within the distance tolerance of
+    # the y sides. Only the normal check (boundary_angle) keeps them off those sides.
+    mesh = kuhn_box((0, 0, 0), (1, 1, 1), (1, 2, 1))
+    sides = {"ymin": lambda c: c[:, 1], "ymax": lambda c: c[:, 1] - 1.0}
+    faces = tag_boundaries(mesh, sides)
+    areas = triangle_areas(np.asarray(faces.points), faces.regular_faces)
+    assert np.allclose(np.bincount(faces["boundary_id"], weights=areas), [1.0, 1.0, 4.0])
+    loose = tag_boundaries(mesh, sides, boundary_angle=90)
+    loose_areas = np.bincount(loose["boundary_id"], weights=areas)
+    assert loose_areas[0] > 1.0  # without it, top/bottom faces join "ymin"
+    with pytest.raises(ValueError, match="boundary_angle must be in"):
+        tag_boundaries(mesh, sides, boundary_angle=120)
 
 
 def test_callables_and_tolerance(block):

@@ -30,6 +30,7 @@ from ..arguments import choice
 from .abaqus import RESERVED_NAMES
 from .atomic import staged_files
 from .boundaries import (
+    DEFAULT_ANGLE,
     DEFAULT_REGION,
     DEFAULT_TOLERANCE,
     BoundaryWarning,
@@ -104,6 +105,7 @@ def export(
     model: Any = None,
     overwrite: bool = True,
     boundary_tolerance: float = DEFAULT_TOLERANCE,
+    boundary_angle: float = DEFAULT_ANGLE,
     default_region: str = DEFAULT_REGION,
 ) -> Any:
     """Write a tetrahedral mesh for a solver, with named boundary and region sets.
@@ -123,8 +125,9 @@ def export(
         where that keeps every Jacobian positive, straight midpoints otherwise or without a model.
     boundaries : dict name -> SDF or callable on (N, 3) points, optional
         Each boundary face joins the set whose ``|value|`` at the face centroid is smallest, if at
-        most ``boundary_tolerance`` x the face's mean edge length; ties go to the first name; the
-        rest form ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface,
+        most ``boundary_tolerance`` x the face's mean edge length and the face is parallel to that
+        zero set (within ``boundary_angle``); ties go to the first name; the rest form
+        ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface,
         facet tag) and a node set.
     regions : dict name -> SDF or callable, optional
         Cells whose centroid value is negative (first match wins) form a region (``*ELSET``,
@@ -135,6 +138,9 @@ def export(
         If False, refuse (FileExistsError) to replace an existing file.
     boundary_tolerance : float
         Fraction of the local edge length within which a face is on a named boundary.
+    boundary_angle : float
+        Largest angle (degrees) between a face's normal and the boundary function's gradient for
+        the face to join that boundary (keeps faces next to sharp edges on their own side).
     default_region : str
         Name of the region of cells in no named region.
 
@@ -172,7 +178,7 @@ def export(
         require_module(*fmt.backend, fmt.name)
 
     points, cells = tetra_arrays(mesh)
-    faces = assign_boundaries(points, cells, boundaries, boundary_tolerance)
+    faces = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
     region_ids, region_names = assign_regions(points, cells, regions, default_region)
     _check_name_clashes(region_names, faces.names)
     midside = None

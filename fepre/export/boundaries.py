@@ -3,8 +3,11 @@
 A boundary face is a tetrahedron face that no other tetrahedron shares. Each one goes to the
 named set whose function (an SDF, or any callable on (N, 3) points) is nearest to zero at the
 face centroid, provided that ``|value|`` is at most ``boundary_tolerance`` times the face's mean
-edge length; ties go to the first name in the mapping; faces near no named set go to
-``"boundary"``. Regions select cells whose centroid has a negative value.
+edge length (and at most half the height of its tetrahedron over the face, so a face is never
+taken by the opposite side of a part one element thick) and the face is parallel to that zero set (its normal within ``boundary_angle`` of
+the function's gradient, so a coarse face next to a sharp edge is not taken by the neighbouring
+side); ties go to the first name in the mapping; faces near no named set go to ``"boundary"``.
+Regions select cells whose centroid has a negative value.
 """
 
 from __future__ import annotations
@@ -34,10 +37,12 @@ __all__ = [
 DEFAULT_BOUNDARY = "boundary"
 DEFAULT_REGION = "volume"
 DEFAULT_TOLERANCE = 0.25
+DEFAULT_ANGLE = 60.0
 
 # Faces in Abaqus/CalculiX order S1..S4 (1-2-3, 1-4-2, 2-4-3, 3-4-1), each written here with its
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
 OUTWARD_FACES = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]], dtype=np.int64)
+OPPOSITE_NODE = np.array([3, 2, 0, 1], dtype=np.int64)  # the node not on face S1..S4
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
 
@@ -135,6 +140,23 @@ def _evaluate(function: Any, points: np.ndarray, parameter: str, name: str) -> n
     return values
 
 
+def _unit_gradient(function: Any, points: np.ndarray, step: np.ndarray, parameter: str, name: str) -> np.ndarray:
+    """Unit gradient of ``function`` (an SDF's own, else central differences); 0 where flat."""
+    gradient_method = getattr(function, "gradient", None)
+    if callable(gradient_method) and callable(getattr(function, "value_and_gradient", None)):
+        gradient = np.asarray(gradient_method(points), dtype=np.float64).reshape(-1, 3)
+    else:
+        gradient = np.empty_like(points)
+        for axis in range(3):
+            offset = np.zeros_like(points)
+            offset[:, axis] = step
+            plus = _evaluate(function, points + offset, parameter, name)
+            minus = _evaluate(function, points - offset, parameter, name)
+            gradient[:, axis] = (plus - minus) / (2.0 * step)
+    norm = np.linalg.norm(gradient, axis=1)
+    return np.divide(gradient, norm[:, None], out=np.zeros_like(gradient), where=norm[:, None] > 0)
+
+
 def _as_mapping(value: Any, parameter: str) -> Mapping[str, Callable]:
     if value is None:
         return {}
@@ -148,17 +170,26 @@ def assign_boundaries(
     cells: np.ndarray,
     boundaries: Mapping[str, Callable] | None,
     boundary_tolerance: float = DEFAULT_TOLERANCE,
+    boundary_angle: float = DEFAULT_ANGLE,
 ) -> FaceSets:
     """Find the boundary faces and give each one a set name (see the module docstring)."""
     boundaries = _as_mapping(boundaries, "boundaries")
     tolerance = positive_float(boundary_tolerance, "boundary_tolerance")
+    angle = positive_float(boundary_angle, "boundary_angle")
+    if angle > 90:
+        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {boundary_angle!r}")
+    min_cosine = np.cos(np.radians(angle)) - 1e-12
     names = list(boundaries)
     check_names(names, "boundaries")
     elements, local, triangles = boundary_faces(cells)
     corners = points[triangles]
     centroids = corners.mean(axis=1)
     edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).mean(axis=1)
-    limit = tolerance * edges
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    apex = points[cells[elements, OPPOSITE_NODE[local]]]
+    height = np.abs(np.einsum("ij,ij->i", apex - corners[:, 0], normals))
+    limit = np.minimum(tolerance * edges, 0.5 * height)
     default_index = len(names)
     if DEFAULT_BOUNDARY in names:  # the user's own "boundary" set also takes the unmatched faces
         default_index = names.index(DEFAULT_BOUNDARY)
@@ -167,6 +198,13 @@ def assign_boundaries(
         distance = np.column_stack(
             [np.abs(_evaluate(boundaries[n], centroids, "boundaries", n)) for n in names]
         )
+        for j, name in enumerate(names):
+            near = np.flatnonzero(distance[:, j] <= limit)
+            if near.size:
+                gradient = _unit_gradient(boundaries[name], centroids[near], 1e-4 * edges[near], "boundaries", name)
+                cosine = np.abs(np.einsum("ij,ij->i", gradient, normals[near]))
+                flat = ~np.any(gradient, axis=1)  # no direction to compare with: keep the face
+                distance[near[(cosine < min_cosine) & ~flat], j] = np.inf
         best = np.argmin(distance, axis=1)  # first minimum: ties go to the first name
         nearest = distance[np.arange(best.size), best]
         matched = nearest <= limit
@@ -188,7 +226,8 @@ def assign_boundaries(
         if empty:
             warnings.warn(
                 f"boundaries {', '.join(map(repr, empty))} match no boundary face (none within "
-                f"boundary_tolerance={tolerance:g} x local edge length)",
+                f"boundary_tolerance={tolerance:g} x local edge length and boundary_angle={angle:g} "
+                f"degrees)",
                 BoundaryWarning,
                 stacklevel=3,
             )
@@ -231,6 +270,7 @@ def tag_boundaries(
     boundaries: Mapping[str, Callable] | None = None,
     *,
     boundary_tolerance: float = DEFAULT_TOLERANCE,
+    boundary_angle: float = DEFAULT_ANGLE,
 ) -> "pv.PolyData":  # noqa: F821
     """The boundary faces of ``mesh`` as a ``pv.PolyData`` tagged with their named set.
 
@@ -249,7 +289,7 @@ def tag_boundaries(
     import pyvista as pv
 
     points, cells = tetra_arrays(mesh)
-    sets = assign_boundaries(points, cells, boundaries, boundary_tolerance)
+    sets = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
     faces = pv.PolyData.from_regular_faces(points, sets.triangles)
     faces.cell_data["boundary_id"] = sets.set_ids
     faces.cell_data["element"] = sets.elements
