@@ -12,10 +12,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, cKDTree
 
 from fepre import sdf
-from fepre.sdf.polyhedra import ConvexPolyhedron
 
 RNG = np.random.default_rng(20261122)
 
@@ -304,32 +303,65 @@ def test_rounded_box_is_the_inner_box_distance_minus_radius_and_fits_its_bounds(
     )
 
 
-def test_tetrahedron_and_octahedron_match_face_clouds_and_each_other():
-    octa = sdf.octahedron(1.2, center=(0.1, 0.2, 0.3))
-    hull = ConvexPolyhedron(np.vstack([np.eye(3), -np.eye(3)]) * 1.2 + [0.1, 0.2, 0.3], "o", {})
-    points = np.vstack([around(octa, 20_000), RNG.normal(scale=0.7, size=(5000, 3)) + [0.1, 0.2, 0.3]])
-    np.testing.assert_allclose(octa(points), hull(points), atol=1e-12)
-    for model in (octa, sdf.tetrahedron(1.0, center=(0.0, -0.2, 0.1))):
-        vertices = getattr(model, "vertices", None)
-        if vertices is None:
-            vertices = np.vstack([np.eye(3), -np.eye(3)]) * 1.2 + [0.1, 0.2, 0.3]
-        from scipy.spatial import ConvexHull
+def hull_distance(points, vertices):
+    """Signed distance to the convex hull of ``vertices``: an independent reference.
 
-        hull3 = ConvexHull(vertices)
-        u, v = (g.ravel() for g in np.meshgrid(np.linspace(0, 1, 250), np.linspace(0, 1, 250), indexing="ij"))
-        keep = u + v <= 1
-        u, v = u[keep], v[keep]
-        surface = np.vstack(
-            [vertices[a] + u[:, None] * (vertices[b] - vertices[a]) + v[:, None] * (vertices[c] - vertices[a]) for a, b, c in hull3.simplices]
-        )
+    Inside: minus the distance to the nearest face plane. Outside: the distance to the nearest
+    point of any face triangle (its plane where the foot lies inside it, else its edges).
+    """
+    hull = ConvexHull(vertices)
+    heights = points @ hull.equations[:, :3].T + hull.equations[:, 3]
+    squared = np.full(len(points), np.inf)
+    for (a, b, c), height in zip(vertices[hull.simplices], heights.T):
+        normal = np.cross(b - a, c - a)
+        normal /= np.linalg.norm(normal)
+        foot = points - np.outer((points - a) @ normal, normal)
+        inside_face = np.ones(len(points), dtype=bool)
+        for start, end in ((a, b), (b, c), (c, a)):
+            inside_face &= np.cross(end - start, foot - start) @ normal >= 0
+            squared = np.minimum(squared, segment_distance(points, start, end) ** 2)
+        squared = np.where(inside_face, np.minimum(squared, height**2), squared)
+    largest = heights.max(axis=1)
+    return np.where(largest > 0, np.sqrt(squared), largest), hull
 
-        def inside(p, equations=hull3.equations):
-            return np.all(p @ equations[:, :3].T + equations[:, 3] < 0, axis=1)
 
-        check_against_cloud(model, surface, inside, np.vstack([around(model, 500), near(surface)]), spacing=0.01)
+@pytest.mark.parametrize(
+    "model",
+    [sdf.tetrahedron(1.0, center=(0.0, -0.2, 0.1)), sdf.tetrahedron(2.5), sdf.octahedron(1.2, center=(0.1, 0.2, 0.3))],
+    ids=repr,
+)
+def test_regular_polyhedra_match_the_hull_distance_and_a_face_cloud(model):
+    vertices = model.vertices
+    center = vertices.mean(axis=0)
+    size = np.ptp(vertices, axis=0).max()
+    points = np.vstack(
+        [
+            around(model, 20_000),
+            center + RNG.normal(scale=0.4 * size, size=(5000, 3)),
+            vertices[RNG.integers(0, len(vertices), 3000)] + RNG.normal(scale=0.1 * size, size=(3000, 3)),
+        ]
+    )
+    reference, hull = hull_distance(points, vertices)
+    np.testing.assert_allclose(model(points), reference, atol=1e-12)
+    u, v = (g.ravel() for g in np.meshgrid(np.linspace(0, 1, 250), np.linspace(0, 1, 250), indexing="ij"))
+    keep = u + v <= 1
+    u, v = u[keep, None], v[keep, None]
+    surface = np.vstack([vertices[a] + u * (vertices[b] - vertices[a]) + v * (vertices[c] - vertices[a]) for a, b, c in hull.simplices])
+
+    def inside(p):
+        return np.all(p @ hull.equations[:, :3].T + hull.equations[:, 3] < 0, axis=1)
+
+    check_against_cloud(model, surface, inside, np.vstack([around(model, 500), near(surface)]), spacing=0.01 * size)
+
+
+def test_regular_polyhedra_sizes():
     tet = sdf.tetrahedron(3.0)
     assert tet([0.0, 0.0, 0.0]) == pytest.approx(-1.0)  # inradius is a third of the circumradius
     assert tet([np.sqrt(3.0)] * 3) == pytest.approx(0.0, abs=1e-12)  # a vertex
+    assert np.linalg.norm(tet.vertices[0] - tet.vertices[1]) == pytest.approx(3.0 * np.sqrt(8.0 / 3.0))
+    octa = sdf.octahedron(2.0)
+    assert octa([0.0, 0.0, 0.0]) == pytest.approx(-2.0 / np.sqrt(3.0))
+    assert octa([3.0, 0.0, 0.0]) == pytest.approx(1.0)
 
 
 def ellipsoid_surface(radii, n=400):
