@@ -8,12 +8,13 @@ curved midside nodes (:mod:`fepre.export.quadratic`). Every write is atomic.
 
 Examples
 --------
->>> import fepre, pyvista as pv, pytetwild, tempfile, os
->>> mesh = pytetwild.tetrahedralize_pv(pv.Cube().triangulate(), edge_length_fac=0.5)
->>> path = os.path.join(tempfile.mkdtemp(), "cube.inp")
->>> tagged = fepre.export(mesh, path, boundaries={"bottom": lambda p: p[:, 2] + 0.5})
+>>> import fepre, tempfile, os
+>>> from fepre import sdf
+>>> mesh = fepre.distmesh(sdf.sphere(1.0), h=0.5)
+>>> path = os.path.join(tempfile.mkdtemp(), "ball.inp")
+>>> tagged = fepre.export(mesh, path, boundaries={"cap": sdf.sphere(1.0) & sdf.plane((0, 0, -1), (0, 0, 0.5))})
 >>> tagged.field_data["boundary_names"].tolist()
-['bottom', 'boundary']
+['cap', 'boundary']
 """
 
 from __future__ import annotations
@@ -155,10 +156,12 @@ def export(
 
     Examples
     --------
-    >>> import fepre, pyvista as pv, pytetwild, tempfile, os
-    >>> mesh = pytetwild.tetrahedralize_pv(pv.Cube().triangulate(), edge_length_fac=0.5)
-    >>> out = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "cube.msh"), order=2)
-    >>> bool(out.celltypes[0] == pv.CellType.QUADRATIC_TETRA)
+    >>> import fepre, tempfile, os
+    >>> from fepre import sdf
+    >>> ball = sdf.sphere(1.0)
+    >>> mesh = fepre.distmesh(ball, h=0.5)
+    >>> out = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "ball.msh"), order=2, model=ball)
+    >>> int(out.field_data["straightened_midside_nodes"][0]) < int(out.field_data["curved_midside_nodes"][0])
     True
     """
     if not isinstance(path, (str, os.PathLike)):
