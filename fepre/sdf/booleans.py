@@ -52,7 +52,8 @@ def full_shape(coords: Coords) -> tuple[int, ...]:
 def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) -> np.ndarray:
     """``values`` itself when it is a fresh full-shape array we may overwrite, else a copy.
 
-    A child that returns one of the coordinate arrays unchanged must not see it overwritten.
+    A child that returns one of the coordinate arrays unchanged must not see it overwritten (an
+    array owning its data can only alias a coordinate by being it).
     """
     values = np.asarray(values)
     if (
@@ -60,7 +61,7 @@ def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) ->
         and values.flags.writeable
         and values.flags.owndata
         and values.flags.c_contiguous
-        and not any(np.may_share_memory(values, c) for c in coords)
+        and not any(values is c for c in coords)
     ):
         return values
     out = np.empty(shape, dtype=values.dtype if values.dtype.kind == "f" else np.float64)
