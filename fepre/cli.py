@@ -307,8 +307,8 @@ def _configure_demo(parser: argparse.ArgumentParser) -> None:
 def _run_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    run_demo(args.outdir, quick=args.quick, references=not args.no_references, progress=_say)
-    return 0
+    result = run_demo(args.outdir, quick=args.quick, references=not args.no_references, progress=_say)
+    return 1 if result.failures else 0
 
 
 

@@ -1,0 +1,65 @@
+"""`fepre demo --quick`: every part's STL, VTU and INP, one report, a summary table."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import meshio
+import numpy as np
+import pytest
+import pyvista as pv
+
+from fepre.cli import main
+from fepre.demo import demo_parts
+
+EXACT = {"cube_with_hole": 125 - 5 * math.pi, "sphere": 4 * math.pi / 3, "torus": 2 * math.pi**2 * 0.16}
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    outdir = tmp_path_factory.mktemp("demo") / "out"
+    import io
+    from contextlib import redirect_stderr, redirect_stdout
+
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        code = main(["demo", str(outdir), "--quick"])
+    return outdir, code, out.getvalue(), err.getvalue()
+
+
+def test_demo_parts_are_the_five_of_the_issue():
+    names = [part.name for part in demo_parts(quick=True)]
+    assert names == ["cube_with_hole", "sphere", "torus", "l_bracket", "gyroid_block"]
+
+
+def test_demo_writes_every_file_of_every_part(demo):
+    outdir, code, out, err = demo
+    failed = dict(re.findall(r"^(\w+) FAILED: (.*)$", out, flags=re.M))
+    assert code == (1 if failed else 0)
+    assert len(failed) <= 1, f"more than one demo part failed: {failed}"
+    written = [part.name for part in demo_parts(quick=True) if part.name not in failed]
+    for name in written:
+        surface = pv.read(outdir / f"{name}.stl")
+        assert surface.n_open_edges == 0, f"{name}.stl is not closed"
+        grid = pv.read(outdir / f"{name}.vtu")
+        tets = grid.extract_cells(np.flatnonzero(grid.celltypes == pv.CellType.TETRA))
+        inp = meshio.read(outdir / f"{name}.inp")
+        assert len(inp.cells[0].data) == tets.n_cells > 50
+        if name in EXACT:
+            assert surface.volume == pytest.approx(EXACT[name], rel=0.02)
+            assert tets.volume == pytest.approx(EXACT[name], rel=0.12)
+    if "cube_with_hole" in written:
+        assert {"hole", "top", "bottom"} <= set(meshio.read(outdir / "cube_with_hole.inp").point_sets)
+
+
+def test_demo_prints_a_summary_and_progress_and_writes_one_report(demo):
+    outdir, _, out, err = demo
+    header = next(line for line in out.splitlines() if line.startswith("part"))
+    assert header.split()[:4] == ["part", "h", "tets", "nodes"]
+    for part in demo_parts(quick=True):
+        assert f"{part.name}: surface" in err and f"{part.name}: DistMesh" in err
+    html = (outdir / "report.html").read_text()
+    assert html.count("data:image/png;base64") >= 4
+    assert "<h2>Summary</h2>" in html
+    assert sorted(p.name for p in outdir.iterdir() if p.suffix == ".html") == ["report.html"]
