@@ -8,7 +8,6 @@ import importlib.util
 import os
 import re
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -48,10 +47,6 @@ REGIONS = {"core": sdf.plane((1, 0, 0), (0, 0, 0))}  # cells with centroid x < 0
 @pytest.fixture(scope="module")
 def block() -> pv.UnstructuredGrid:
     return kuhn_box((-1, -0.5, -0.5), (1, 0.5, 0.5), (6, 3, 3))
-
-
-def staging_left(directory: Path) -> list[str]:
-    return [p.name for p in directory.iterdir() if p.name.startswith(STAGING_PREFIX)]
 
 
 def triangle_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -445,3 +440,12 @@ def test_no_write_permission(tmp_path, block):
         if immutable:
             subprocess.run(["chattr", "-i", str(directory)], check=True)
         directory.chmod(0o755) if directory != Path("/sys") else None
+
+
+def test_package_is_callable_and_accessor_exports(tmp_path, block):
+    # fepre.export is both the package (fepre.export.tag_boundaries) and the function.
+    assert fepre.export.tag_boundaries is tag_boundaries
+    out = fepre.export(block, tmp_path / "a.inp", boundaries={"bottom": SIDES["bottom"]})
+    accessor = block.fepre.export(tmp_path / "b.inp", boundaries={"bottom": SIDES["bottom"]})
+    assert (tmp_path / "a.inp").read_text() == (tmp_path / "b.inp").read_text()
+    assert np.array_equal(out["boundary_id"], accessor["boundary_id"])

@@ -76,7 +76,7 @@ class FaceSets:
     names: list[str]
 
 
-def check_names(names: list[str], parameter: str, reserved: tuple[str, ...] = ()) -> None:
+def check_names(names: list[str], parameter: str) -> None:
     """Set names must be solver-safe identifiers, unique ignoring case (Abaqus upper-cases)."""
     seen: dict[str, str] = {}
     for name in names:
@@ -92,9 +92,6 @@ def check_names(names: list[str], parameter: str, reserved: tuple[str, ...] = ()
                 f"such as Abaqus/CalculiX ignore case, so use distinct names"
             )
         seen[key] = name
-    for name in names:
-        if name.upper() in {r.upper() for r in reserved} and name not in reserved:
-            raise ValueError(f"{parameter}: set name {name!r} clashes with the default set {reserved}")
 
 
 def boundary_faces(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -16,6 +16,11 @@ __all__ = ["Format", "FORMATS", "ALIASES", "resolve_format"]
 Writer = Callable[[Path, str, ExportData], None]
 
 
+def single_file(filename: str) -> list[str]:
+    """The files a one-file format writes for ``filename``: just that one."""
+    return [filename]
+
+
 @dataclass(frozen=True)
 class Format:
     """One output format.
@@ -30,7 +35,7 @@ class Format:
     description: str
     orders: tuple[int, ...] = (1, 2)
     backend: tuple[str, str] | None = None
-    outputs: Callable[[str], list[str]] = staticmethod(lambda filename: [filename])
+    outputs: Callable[[str], list[str]] = single_file
 
 
 FORMATS: dict[str, Format] = {
