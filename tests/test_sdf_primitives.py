@@ -476,7 +476,10 @@ def test_gradient_matches_finite_differences(name):
     assert smooth.mean() > 0.97
     np.testing.assert_allclose(gradient[smooth], fd[smooth], atol=2e-5)
     if model.exact:
-        np.testing.assert_allclose(np.linalg.norm(gradient, axis=1), 1.0, atol=1e-6)
+        # Unit length everywhere for analytic gradients; central differences (the polyhedra)
+        # straddling a kink of the distance are shorter, so only the smooth points count there.
+        checked = gradient if model.analytic_gradient else gradient[smooth]
+        np.testing.assert_allclose(np.linalg.norm(checked, axis=1), 1.0, atol=1e-6)
 
 
 @pytest.mark.parametrize("name", sorted(PRIMITIVES))
