@@ -19,6 +19,12 @@ from fepre import sdf
 RNG = np.random.default_rng(20261122)
 
 
+@pytest.fixture(autouse=True)
+def _reseed():
+    """Every test sees the same random points, whatever ran before it."""
+    RNG.bit_generator.state = np.random.default_rng(20261122).bit_generator.state
+
+
 def around(model, count=4000, margin=0.3, rng=RNG):
     """Random points in the model's bounds grown by ``margin`` times their size."""
     lo, hi = np.array(model.bounds[0]), np.array(model.bounds[1])

@@ -18,6 +18,12 @@ from fepre import sdf
 RNG = np.random.default_rng(7)
 
 
+@pytest.fixture(autouse=True)
+def _reseed():
+    """Every test sees the same random points, whatever ran before it."""
+    RNG.bit_generator.state = np.random.default_rng(7).bit_generator.state
+
+
 def polygon_reference(points, vertices):
     a = vertices
     b = np.roll(vertices, -1, axis=0)
