@@ -449,3 +449,43 @@ def test_package_is_callable_and_accessor_exports(tmp_path, block):
     accessor = block.fepre.export(tmp_path / "b.inp", boundaries={"bottom": SIDES["bottom"]})
     assert (tmp_path / "a.inp").read_text() == (tmp_path / "b.inp").read_text()
     assert np.array_equal(out["boundary_id"], accessor["boundary_id"])
+
+
+@pytest.fixture(scope="module")
+def bracket_mesh():
+    part = sdf.box((2, 1, 1)) - sdf.cylinder(radius=0.25, height=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        return fepre.distmesh(part, h=0.25)
+
+
+def names_read_back(name: str, path: Path) -> set[str]:
+    """The set names a format carries, as meshio reads them back."""
+    back = meshio.read(path)
+    if name == "abaqus":
+        return set(back.point_sets) | set(back.cell_sets) - {"EALL"}
+    if name == "xdmf":
+        return set(back.field_data) | set(meshio.read(path.with_name(path.stem + "_facets.xdmf")).field_data)
+    if name == "med":
+        return {n for names in back.cell_tags.values() for n in names}
+    if name in ("nastran", "medit"):  # integer ids only
+        key = f"{name}:ref"
+        return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
+    return set(back.field_data)
+
+
+@pytest.mark.parametrize("name", [n for n in FORMATS if n != "exodus"])
+def test_round_trip_distmesh_bracket(tmp_path, bracket_mesh, name):
+    boundaries = {"hole": sdf.cylinder(radius=0.25, height=2), "fixed": sdf.plane((-1, 0, 0), (-1, 0, 0))}
+    path = tmp_path / f"bracket{EXTENSION[name]}"
+    fepre.export(bracket_mesh, path, boundaries=boundaries)
+    back = meshio.read(path)
+    faces = tag_boundaries(bracket_mesh, boundaries)
+    assert len(back.points) == bracket_mesh.n_points
+    counts = {block.type: len(block.data) for block in back.cells}
+    assert counts["tetra"] == bracket_mesh.n_cells
+    assert counts.get("triangle", faces.n_cells) == faces.n_cells
+    expected = {"volume", "hole", "fixed", "boundary"}
+    if name in ("nastran", "medit"):
+        expected = {"id1", "id2", "id3"}  # volume 1 on tetrahedra; hole, fixed, boundary 1..3
+    assert names_read_back(name, path) == expected
