@@ -139,3 +139,12 @@ def test_gyroid_infill_part():
         assert check.area == pytest.approx(reference.area, rel=0.03), method
     # the solid is the skin plus the sheet clipped to the inside: a fraction of the 8 m^3 box
     assert 0.5 < reference.volume / 8.0 < 0.9
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_thread_count_does_not_change_the_surface(method):
+    grid = fepre.sample(TORUS[0], spacing=0.03)
+    one = fepre.isosurface(grid, method=method, workers=1)
+    two = fepre.isosurface(grid, method=method, workers=2)
+    np.testing.assert_array_equal(one.points, two.points)
+    np.testing.assert_array_equal(one.regular_faces, two.regular_faces)
