@@ -124,11 +124,34 @@ def quality_plotter(
                              position="upper_right", font_size=9, color="#d62728")
     if title:
         plotter.add_text(title, font_size=11, color="black")
-    center = np.asarray(mesh.center)
-    plotter.camera_position = [tuple(center + np.array([3.0, 1.3, 1.1])), tuple(center), (0.0, 0.0, 1.0)]
-    plotter.reset_camera()
-    plotter.camera.zoom(1.05)
+    _fit_view(plotter, np.asarray(mesh.points), direction=(3.0, 1.3, 1.6), window_size=window_size)
     return plotter
+
+
+def _fit_view(plotter: Any, points: np.ndarray, direction: Any, window_size: tuple[int, int], fill: float = 0.78) -> None:
+    """Parallel projection from ``direction`` that makes ``points`` fill ``fill`` of the window.
+
+    The lower part of the window is kept free for the colour bar.
+    """
+    direction = np.asarray(direction, dtype=float)
+    direction /= np.linalg.norm(direction)
+    up = np.array([0.0, 0.0, 1.0]) - direction[2] * direction
+    up /= np.linalg.norm(up)
+    right = np.cross(direction, up)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    across, along = corners @ right, corners @ up
+    width, height = np.ptp(across), np.ptp(along)
+    aspect = window_size[0] / window_size[1]
+    scale = 0.5 * max(height, width / aspect, 1e-12) / fill
+    # centre the box in the window, shifted up by 6% of the view to clear the colour bar
+    focus = 0.5 * (lo + hi) + right * (0.5 * (across.min() + across.max()) - (0.5 * (lo + hi)) @ right)
+    focus += up * (0.5 * (along.min() + along.max()) - (0.5 * (lo + hi)) @ up) - up * 0.12 * scale
+    distance = 4.0 * float(np.linalg.norm(hi - lo)) + 1.0
+    plotter.enable_parallel_projection()
+    plotter.camera_position = [tuple(focus + distance * direction), tuple(focus), tuple(up)]
+    plotter.reset_camera_clipping_range()
+    plotter.camera.parallel_scale = scale
 
 
 def plot(

@@ -220,11 +220,15 @@ flying-edges surface at spacing {spacing:g} (the surface every reference meshed)
 """
 
 
+def _short(text: str, width: int = 70) -> str:
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
 def render_report(comparisons: Mapping[str, Any] | Sequence[Any], *, title: str | None = None,
                   summary_html: str = "", progress: Any = None) -> str:
     """The report's HTML text (see :func:`write_report`)."""
     if not isinstance(comparisons, Mapping):
-        comparisons = {f"model {i + 1}" if len(comparisons) > 1 else "model": c for i, c in enumerate(comparisons)}
+        comparisons = {f"{i + 1}. {_short(c.model.describe())}": c for i, c in enumerate(comparisons)}
     if not comparisons:
         raise ValueError("comparisons must hold at least one Comparison; got none")
     progress = progress or (lambda message: None)
