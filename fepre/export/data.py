@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -51,7 +52,7 @@ class ExportData:
     def order(self) -> int:
         return 2 if self.cells.shape[1] == 10 else 1
 
-    @property
+    @cached_property
     def face_nodes(self) -> np.ndarray:
         """Boundary triangles (K, 3), or (K, 6) with midside nodes for order 2 (outward)."""
         if self.order == 1:
