@@ -326,3 +326,23 @@ def test_repr_prints_the_tree():
 def test_bad_input_is_refused_with_the_parameter_named(make, error, fragment):
     with pytest.raises(error, match=fragment.replace("(", r"\(").replace(")", r"\)")):
         make()
+
+
+def test_grid_tiles_skip_far_operands_without_changing_values(monkeypatch):
+    import fepre
+    from fepre.bench.sdf import fepre_model
+
+    monkeypatch.setattr(fepre.config, "chunk_points", 4096)  # many small tiles: much skipping
+    monkeypatch.setattr(fepre.sdf.core, "GRID_BLOCK_DEPTH", 4)
+    models = [
+        fepre_model(),
+        sdf.sphere(0.5, center=(-1.2, 0, 0)) | sdf.box((0.6, 0.6, 0.6), center=(1.2, 0.3, 0)),
+        sdf.union(*(sdf.sphere(0.3, center=(i - 1.5, 0.5 * i - 1, 0)) for i in range(4))) - sdf.box((0.5, 4, 0.5)),
+        sdf.difference(sdf.box((3, 3, 3)), *(sdf.cylinder(0.2, 4, center=(i - 1, 0, 0)) for i in range(3))),
+    ]
+    xs, axis = np.linspace(-2, 2, 150), np.linspace(-2, 2, 40)
+    z, y, x = np.meshgrid(axis, axis, xs, indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    for model in models:
+        grid = model.values_on_axes(xs, axis, axis, dtype=np.float64, workers=2)
+        np.testing.assert_allclose(grid.ravel(), model(points), rtol=0, atol=1e-14)

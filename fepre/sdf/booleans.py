@@ -69,6 +69,14 @@ def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) ->
     return out
 
 
+def _start(values: np.ndarray, shape: tuple[int, ...], coords: Coords, target: np.ndarray | None) -> np.ndarray:
+    """The accumulator of a reduction: ``target`` filled with ``values``, or ``values`` itself."""
+    if target is None:
+        return writable(values, shape, coords)
+    np.copyto(target, values)
+    return target
+
+
 def _check_k(k: Any) -> float:
     return nonnegative_float(k, "k")
 
@@ -135,7 +143,7 @@ def coordinate_extent(coords: Coords, shape: tuple[int, ...]) -> tuple[np.ndarra
     total = 1
     for n in shape:
         total *= n
-    if total < 4096 or sum(np.size(c) for c in coords) * 4 > total:
+    if total < 2048 or sum(np.size(c) for c in coords) * 4 > total:
         return None
     memo = getattr(_extent_memo, "last", None)
     if memo is not None and len(memo[0]) == len(coords) and all(a is b for a, b in zip(memo[0], coords)):
@@ -208,6 +216,15 @@ class Union(SDF):
         return {"k": self.k} if self.k > 0 else {}
 
     def _values(self, *coords):
+        return self._minimum(coords, None)
+
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        if self.k > 0 or self._guard is not None:
+            target[...] = self._values(*coords)
+        else:
+            self._minimum(coords, target)
+
+    def _minimum(self, coords, target):
         shape = full_shape(coords)
         extent = coordinate_extent(coords, shape) if self.k == 0 and self._skippable else None
         out = None
@@ -223,7 +240,7 @@ class Union(SDF):
                         continue
             values = child._values(*coords)
             if out is None:
-                out = writable(values, shape, coords)
+                out = _start(values, shape, coords, target)
             elif self.k > 0:
                 out, _ = smooth_min(out, values, self.k)
             else:
@@ -317,6 +334,15 @@ class Difference(SDF):
         return {"k": self.k} if self.k > 0 else {}
 
     def _values(self, *coords):
+        return self._cut(coords, None)
+
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        if self.k > 0:
+            target[...] = self._values(*coords)
+        else:
+            self._cut(coords, target)
+
+    def _cut(self, coords, target):
         shape = full_shape(coords)
         base, *others = self.children
         if self.k > 0:
@@ -334,11 +360,10 @@ class Difference(SDF):
                 else:
                     np.minimum(cut, values, out=cut)
             np.negative(cut, out=cut)
-            np.maximum(cut, base._values(*coords), out=cut)
-            return cut
+            return np.maximum(cut, base._values(*coords), out=cut if target is None else target)
         # Base first; an operand whose box is ``gap`` away from this block has -other <= -gap,
         # so it changes nothing where the base is already >= -gap everywhere on the block.
-        out = writable(base._values(*coords), shape, coords)
+        out = _start(base._values(*coords), shape, coords, target)
         extent = coordinate_extent(coords, shape)
         smallest = None
         for other, skippable in zip(others, self._skippable):

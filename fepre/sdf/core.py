@@ -120,6 +120,14 @@ class SDF:
         """Values at broadcastable coordinate arrays; dtype follows the coordinates."""
         raise NotImplementedError(f"{type(self).__name__} does not implement _values")
 
+    def _values_into(self, target: np.ndarray, *coords: np.ndarray) -> None:
+        """Write the values into ``target`` (a block of a sampled grid, of the full shape).
+
+        Nodes whose last operation can write in place (booleans) override this to save a pass
+        over the block.
+        """
+        target[...] = self._values(*coords)
+
     def _values_and_gradient(self, *coords: np.ndarray) -> tuple[np.ndarray, Coords]:
         """Values and gradient components; central differences unless overridden."""
         values = self._values(*coords)
@@ -272,7 +280,7 @@ class SDF:
                 x = vectors[0][None, None, x0:x1]
                 y = vectors[1][None, y0:y1, None]
                 z = vectors[2][z0:z1, None, None]
-                out[z0:z1, y0:y1, x0:x1] = self._values(x, y, z)
+                self._values_into(out[z0:z1, y0:y1, x0:x1], x, y, z)
 
         else:
             ny = shape[0]
