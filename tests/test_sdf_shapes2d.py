@@ -336,7 +336,9 @@ def test_bounds_contain_the_negative_region_and_grids_match_points(name):
     mesh = np.meshgrid(*reversed(axes), indexing="ij")
     coords = np.column_stack([m.ravel() for m in reversed(mesh)])
     np.testing.assert_allclose(grid.ravel(), model(coords), atol=1e-12)
-    assert model.values_on_axes(*axes).dtype == np.float32
+    single = model.values_on_axes(*axes)
+    assert single.dtype == np.float32
+    np.testing.assert_allclose(single, grid, atol=2e-6)
     shaped = [a.astype(np.float32).reshape([-1 if i == axis else 1 for i in range(model.dim)][::-1]) for axis, a in enumerate(axes)]
     assert model._values(*shaped).dtype == np.float32
     assert all(np.asarray(g).dtype == np.float32 for g in model._values_and_gradient(*shaped)[1])
