@@ -101,7 +101,7 @@ class Polygon(SDF):
             crossing = (qy >= sy) != (qy >= ty)
             crossing &= side > 0
             inside = np.logical_xor.reduce(crossing, axis=axis)
-            distance[lo:hi] = np.where(inside, -d, d)
+            distance[lo:hi] = np.negative(d, out=d, where=inside)
         return distance, offset, nearest
 
     @staticmethod

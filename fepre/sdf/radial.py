@@ -123,7 +123,8 @@ class Cone(SDF):
         _, _, r = radial(x, y, cx, cy)
         (sr, sh), (br, bh), outside = self._meridian(r, z - cz)
         distance = np.sqrt(np.minimum(sr * sr + sh * sh, br * br + bh * bh))
-        return np.where(outside, distance, -distance)
+        np.negative(distance, out=distance, where=~outside)
+        return distance
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c
