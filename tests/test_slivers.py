@@ -70,11 +70,11 @@ def test_raw_distmesh_has_slivers_that_the_stage_removes(sphere_raw):
 @pytest.mark.parametrize(
     "name, model, h, size, exact",
     [
-        ("torus", sdf.torus(1.0, 0.4), 0.15, None, 2 * np.pi**2 * 0.4**2),
+        ("torus", sdf.torus(1.0, 0.4), 0.1, None, 2 * np.pi**2 * 0.4**2),
         (
             "cylinder with spherical hole, graded",
             sdf.cylinder(radius=1.0, height=2.0) - sdf.sphere(0.5),
-            0.12,
+            0.1,
             lambda p: 1.0 + 1.5 * np.maximum(np.linalg.norm(p, axis=1) - 0.5, 0.0),
             2 * np.pi - 4 / 3 * np.pi * 0.125,
         ),

@@ -7,9 +7,7 @@ applies a set of them that touch disjoint cells. Edge removal covers 3-2 (n = 3)
 and the larger rings up to n = 7, trying every triangulation of the ring.
 
 Flips never move a vertex and only replace interior cells by cells filling the same region, so
-the boundary surface and the volume are unchanged. :func:`remove_boundary_slivers` is the one
-operation here that changes the boundary: it removes flat cells lying on it (an edge flip of the
-boundary surface, all of whose vertices stay on the zero set).
+the boundary surface and the volume are unchanged.
 """
 
 from __future__ import annotations
@@ -19,9 +17,9 @@ from functools import lru_cache
 import numpy as np
 
 from .tet_shape import min_dihedral
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, face_neighbours
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours
 
-__all__ = ["flip_round", "ring_triangulations", "remove_boundary_slivers"]
+__all__ = ["flip_round", "ring_triangulations", "RING_OF_EDGE"]
 
 #: For the edge (i, j) = EDGE_OF_TET[k], the other two local vertices (k, l) such that the
 #: permutation (i, j, k, l) is even: (a, b, c, d) is then positively oriented.
@@ -226,60 +224,3 @@ def flip_round(
         touched[added.ravel()] = True
     return tets, quality, applied, touched
 
-
-def remove_boundary_slivers(
-    points: np.ndarray,
-    tets: np.ndarray,
-    quality: np.ndarray,
-    threshold: float,
-    on_boundary: np.ndarray,
-    boundary_face_keys: np.ndarray,
-    boundary_edges: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
-    """Remove bad cells lying flat on the boundary: four boundary vertices, two boundary faces.
-
-    Such a cell cannot be flipped (two of its faces are on the boundary) nor fixed by sliding
-    its vertices along the surface. Removing it exposes its other two faces, whose vertices are
-    all on the zero set: the boundary surface undergoes an edge flip (``ab`` to ``cd``), which
-    keeps it a closed manifold as long as ``cd`` is not already a boundary edge. Removed cells
-    share no vertex, so the checks hold together.
-
-    Returns
-    -------
-    tets, quality : the remaining cells
-    removed : number of cells removed
-    boundary_face_keys, boundary_edges : the updated sorted keys of the boundary surface
-    """
-    n = points.shape[0]
-    candidates = np.flatnonzero((quality < threshold) & on_boundary[tets].all(axis=1))
-    if candidates.size == 0:
-        return tets, quality, 0, boundary_face_keys, boundary_edges
-    cells = tets[candidates]
-    keys = face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n).reshape(-1, 4)
-    on_surface = np.isin(keys, boundary_face_keys)
-    two = on_surface.sum(axis=1) == 2
-    cells, candidates, on_surface, keys = cells[two], candidates[two], on_surface[two], keys[two]
-    if candidates.size == 0:
-        return tets, quality, 0, boundary_face_keys, boundary_edges
-    # c, d: the vertices opposite the two boundary faces; a, b: the edge those faces share.
-    order = np.argsort(~on_surface, axis=1, kind="stable")
-    c_d = np.take_along_axis(cells, order[:, :2], axis=1)
-    a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
-    new_edge = edge_keys(c_d, n)
-    allowed = ~np.isin(new_edge, boundary_edges)
-    # vertex-disjoint, worst cells first
-    rank = np.full(candidates.size, np.iinfo(np.int64).max)
-    keep = np.flatnonzero(allowed)
-    rank[keep[np.argsort(quality[candidates[keep]], kind="stable")]] = np.arange(keep.size)
-    holder = np.full(n, np.iinfo(np.int64).max)
-    np.minimum.at(holder, cells, np.broadcast_to(rank[:, None], cells.shape))
-    chosen = allowed & (holder[cells] == rank[:, None]).all(axis=1)
-    if not chosen.any():
-        return tets, quality, 0, boundary_face_keys, boundary_edges
-    removed_faces = keys[chosen][on_surface[chosen]]
-    exposed_faces = keys[chosen][~on_surface[chosen]]
-    boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, removed_faces), exposed_faces)
-    boundary_edges = np.union1d(np.setdiff1d(boundary_edges, edge_keys(a_b[chosen], n)), new_edge[chosen])
-    keep_cells = np.ones(tets.shape[0], dtype=bool)
-    keep_cells[candidates[chosen]] = False
-    return tets[keep_cells], quality[keep_cells], int(chosen.sum()), boundary_face_keys, boundary_edges

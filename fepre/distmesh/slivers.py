@@ -31,7 +31,8 @@ import numpy as np
 
 from ..arguments import finite_float, positive_float, positive_int
 from ..errors import ConvergenceWarning, MeshingError
-from .flips import flip_round, remove_boundary_slivers
+from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
+from .flips import flip_round
 from .smoothing import relax_round, smooth_round
 from .tet_shape import signed_volume, tet_min_dihedral
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
@@ -227,10 +228,14 @@ def improve_arrays(
             "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
             boundary_edges,
         )
+        points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
+            "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
+            boundary_face_keys, boundary_edges, model, h, surface_tol,
+        )
         counts["flips"] += flipped
         counts["moves"] += moved
-        counts["removed"] += removed
-        if flipped == 0 and moved == 0 and removed == 0:
+        counts["removed"] += removed + exposed
+        if flipped == 0 and moved == 0 and removed == 0 and exposed == 0:
             if active is None:
                 break
             active = None  # one more round over every bad cell before giving up

@@ -1,0 +1,170 @@
+"""Removal of flat cells on the boundary, which flips and sliding cannot repair.
+
+Two kinds of bad cell sit on the boundary surface and resist the other operations:
+
+* four boundary vertices and two boundary faces (a flat cap on the surface): removing it flips
+  the boundary edge ``ab`` shared by its two boundary faces to the opposite edge ``cd``;
+* three boundary vertices (one boundary face ``abc``) and a fourth vertex ``d`` just under the
+  surface: removing it exposes its other three faces, and ``d`` is projected onto the zero set
+  and becomes a boundary vertex.
+
+Both keep the boundary a closed manifold (checked through the boundary edge keys), change the
+volume by about the flat cell's volume, and leave every boundary vertex on the zero set. The
+cells removed in one call share no vertex.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tet_shape import min_dihedral
+from .tet_topology import FACE_OF_TET, edge_keys, face_keys
+
+__all__ = ["remove_boundary_slivers", "expose_shallow_vertices"]
+
+#: A vertex this close to the zero set (times h) may be exposed onto it.
+SHALLOW = 0.25
+
+
+def _vertex_disjoint(cells: np.ndarray, priority: np.ndarray, allowed: np.ndarray, n: int) -> np.ndarray:
+    """Allowed candidates (rows of ``cells``) sharing no vertex, lowest ``priority`` first."""
+    rank = np.full(cells.shape[0], np.iinfo(np.int64).max)
+    keep = np.flatnonzero(allowed)
+    rank[keep[np.argsort(priority[keep], kind="stable")]] = np.arange(keep.size)
+    holder = np.full(n, np.iinfo(np.int64).max)
+    np.minimum.at(holder, cells, np.broadcast_to(rank[:, None], cells.shape))
+    return allowed & (holder[cells] == rank[:, None]).all(axis=1)
+
+
+def remove_boundary_slivers(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    threshold: float,
+    on_boundary: np.ndarray,
+    boundary_face_keys: np.ndarray,
+    boundary_edges: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
+    """Remove bad cells with four boundary vertices and two boundary faces.
+
+    Removing one exposes its other two faces, whose vertices are all on the zero set: the
+    boundary surface undergoes an edge flip (``ab`` to ``cd``), which keeps it a closed manifold
+    as long as ``cd`` is not already a boundary edge.
+
+    Returns
+    -------
+    tets, quality : the remaining cells
+    removed : number of cells removed
+    boundary_face_keys, boundary_edges : the updated sorted keys of the boundary surface
+    """
+    n = points.shape[0]
+    candidates = np.flatnonzero((quality < threshold) & on_boundary[tets].all(axis=1))
+    if candidates.size == 0:
+        return tets, quality, 0, boundary_face_keys, boundary_edges
+    cells = tets[candidates]
+    keys = face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n).reshape(-1, 4)
+    on_surface = np.isin(keys, boundary_face_keys)
+    two = on_surface.sum(axis=1) == 2
+    cells, candidates, on_surface, keys = cells[two], candidates[two], on_surface[two], keys[two]
+    if candidates.size == 0:
+        return tets, quality, 0, boundary_face_keys, boundary_edges
+    # c, d: the vertices opposite the two boundary faces; a, b: the edge those faces share.
+    order = np.argsort(~on_surface, axis=1, kind="stable")
+    c_d = np.take_along_axis(cells, order[:, :2], axis=1)
+    a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
+    new_edge = edge_keys(c_d, n)
+    allowed = ~np.isin(new_edge, boundary_edges)
+    chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
+    if not chosen.any():
+        return tets, quality, 0, boundary_face_keys, boundary_edges
+    removed_faces = keys[chosen][on_surface[chosen]]
+    exposed_faces = keys[chosen][~on_surface[chosen]]
+    boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, removed_faces), exposed_faces)
+    boundary_edges = np.union1d(np.setdiff1d(boundary_edges, edge_keys(a_b[chosen], n)), new_edge[chosen])
+    keep_cells = np.ones(tets.shape[0], dtype=bool)
+    keep_cells[candidates[chosen]] = False
+    return tets[keep_cells], quality[keep_cells], int(chosen.sum()), boundary_face_keys, boundary_edges
+
+
+
+def expose_shallow_vertices(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    threshold: float,
+    on_boundary: np.ndarray,
+    movable: np.ndarray,
+    boundary_face_keys: np.ndarray,
+    boundary_edges: np.ndarray,
+    model,
+    h: float,
+    surface_tol: float,
+):
+    """Remove bad cells made of a boundary face and a vertex just under it; project that vertex.
+
+    A candidate is accepted when the projected vertex reaches the zero set (within
+    ``surface_tol``) and no other cell around it becomes invalid or worse than
+    ``min(its angle, the removed cell's angle)``.
+
+    Returns
+    -------
+    points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges
+    """
+    n = points.shape[0]
+    unchanged = (points, tets, quality, 0, on_boundary, boundary_face_keys, boundary_edges)
+    candidates = np.flatnonzero((quality < threshold) & (on_boundary[tets].sum(axis=1) == 3))
+    if candidates.size == 0:
+        return unchanged
+    cells = tets[candidates]
+    rows = np.arange(candidates.size)
+    local = np.argmin(on_boundary[cells], axis=1)
+    vertex = cells[rows, local]
+    face = cells[rows[:, None], FACE_OF_TET[local]]
+    allowed = np.isin(face_keys(face, n), boundary_face_keys) & movable[vertex]
+    allowed &= model(points[vertex]) > -SHALLOW * h
+    chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
+    if not chosen.any():
+        return unchanged
+    cells, candidates, vertex = cells[chosen], candidates[chosen], vertex[chosen]
+    projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol)
+    reached = np.abs(model(projected)) <= surface_tol
+    cells, candidates, vertex, projected = cells[reached], candidates[reached], vertex[reached], projected[reached]
+    removed_quality = quality[candidates]
+    new_points = points.copy()
+    keep = np.ones(tets.shape[0], dtype=bool)
+    keep[candidates] = False
+    accepted = np.ones(vertex.size, dtype=bool)
+    while accepted.any():
+        new_points[vertex] = np.where(accepted[:, None], projected, points[vertex])
+        moved = np.zeros(n, dtype=bool)
+        moved[vertex[accepted]] = True
+        star = np.flatnonzero(keep & moved[tets].any(axis=1))
+        limit = np.full(n, np.inf)
+        np.minimum.at(limit, vertex[accepted], removed_quality[accepted])
+        allowed_quality = np.minimum(quality[star], limit[tets[star]].min(axis=1))
+        new_quality = min_dihedral(new_points[tets[star]])
+        failing = (new_quality <= 0) | (new_quality < allowed_quality - 1e-9)
+        if not failing.any():
+            break
+        culprits = np.zeros(n, dtype=bool)
+        culprits[tets[star[failing]]] = True
+        rejected = accepted & culprits[vertex]
+        accepted &= ~rejected
+        keep[candidates[rejected]] = True
+        new_points[vertex[rejected]] = points[vertex[rejected]]
+    if not accepted.any():
+        return unchanged
+    quality = quality.copy()
+    quality[star] = new_quality
+    cells, vertex = cells[accepted], vertex[accepted]
+    all_faces = face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n).reshape(-1, 4)
+    local = np.argmax(cells == vertex[:, None], axis=1)
+    surface_face = all_faces[np.arange(cells.shape[0]), local]
+    exposed = all_faces[np.arange(4)[None, :] != local[:, None]]
+    boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, surface_face), exposed)
+    others = cells[np.arange(4)[None, :] != local[:, None]].reshape(-1, 3)
+    new_edges = edge_keys(np.stack([others.ravel(), np.repeat(vertex, 3)], axis=1), n)
+    boundary_edges = np.union1d(boundary_edges, new_edges)
+    on_boundary = on_boundary.copy()
+    on_boundary[vertex] = True
+    return (new_points, tets[keep], quality[keep], int(accepted.sum()), on_boundary, boundary_face_keys, boundary_edges)
