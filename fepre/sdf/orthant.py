@@ -47,16 +47,24 @@ def _pair(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             total = np.square(np.maximum(a, 0.0))
             total = _combine(np.add, total, np.square(b))
             return np.sqrt(total, out=total)
-    # min(max(a, b), 0) == max(min(a, 0), min(b, 0)).
+    # min(max(a, b), 0) == max(min(a, 0), min(b, 0)); both full-size results have the same
+    # shape and dtype, so the final sum runs in place.
     total = np.add(np.square(np.maximum(a, 0.0)), np.square(np.maximum(b, 0.0)))
     np.sqrt(total, out=total)
-    return _combine(np.add, total, np.maximum(np.minimum(a, 0.0), np.minimum(b, 0.0)))
+    total += np.maximum(np.minimum(a, 0.0), np.minimum(b, 0.0))
+    return total
 
 
 def _combine(ufunc: np.ufunc, fresh: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """``ufunc(fresh, other)``, in place when ``fresh`` (a temporary) already has the result shape."""
-    same_shape = fresh.shape == np.broadcast_shapes(fresh.shape, np.shape(other))
-    if same_shape and fresh.dtype == np.result_type(fresh, other):
+    """``ufunc(fresh, other)``, in place when ``fresh`` (a temporary) already has the result shape.
+
+    The shape test is done by hand: ``np.broadcast_shapes`` costs as much as a small ufunc call.
+    """
+    shape, other_shape = fresh.shape, np.shape(other)
+    fits = len(other_shape) <= len(shape) and all(
+        o == 1 or o == f for o, f in zip(reversed(other_shape), reversed(shape))
+    )
+    if fits and fresh.dtype == getattr(other, "dtype", fresh.dtype):
         return ufunc(fresh, other, out=fresh)
     return ufunc(fresh, other)
 
