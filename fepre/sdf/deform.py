@@ -75,7 +75,9 @@ class Offset(SDF):
             if not child.exact:
                 # A lower-bound child may fall below ``distance`` far from its solid.
                 self._guard = bounds
-        super().__init__(bounds=bounds, exact=child.exact and distance >= 0, children=(child,))
+        # f - d is exact outside an offset of an exact f, but inside near concave features the
+        # boundary can be farther than |f - d|: never claimed exact.
+        super().__init__(bounds=bounds, exact=False, children=(child,))
 
     def _parameters(self) -> dict[str, Any]:
         return {"distance": self.distance}
