@@ -153,7 +153,7 @@ def iterate(
     o = options
     p = points.copy()
     fixed = fixed_mask.copy()
-    geps, ttol, ptol = o.geps * h, o.ttol * h, o.ptol * h
+    geps, ttol = o.geps * h, o.ttol * h
     n = len(p)
 
     bound = model(p)  # sdf where evaluated, an upper bound of it elsewhere (the distance cache)
