@@ -33,9 +33,9 @@ Coords = tuple[np.ndarray, ...]
 _pools: dict[int, ThreadPoolExecutor] = {}
 
 #: z-slices per block when sampling a 3D grid: work that depends on x and y only is shared by
-#: the slices of a block. With GRID_BLOCK_WIDTH, blocks are near-cubic tiles (32 x 32 x 64 for
+#: the slices of a block. With GRID_BLOCK_WIDTH, blocks are near-cubic tiles (16 x 64 x 64 for
 #: 65536 float32 points), which lets booleans skip far operands on most tiles.
-GRID_BLOCK_DEPTH = 32
+GRID_BLOCK_DEPTH = 16
 #: Largest number of x-values per block when sampling a 3D grid.
 GRID_BLOCK_WIDTH = 64
 
