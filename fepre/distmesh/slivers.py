@@ -47,8 +47,10 @@ DEFAULT_MAXITER = 40
 MARGIN = 8.0
 #: Relaxation passes over the whole mesh.
 RELAX_ROUNDS = 3
-#: Stop when the worst angle has not risen for this many rounds.
-PATIENCE = 8
+#: Once the target is met, stop when the worst angle has not risen by ``PROGRESS`` degrees for
+#: this many rounds.
+PATIENCE = 4
+PROGRESS = 0.1
 #: A regular tetrahedron's dihedral angle: no mesh can have a larger worst angle.
 REGULAR_DIHEDRAL = float(np.degrees(np.arccos(1.0 / 3.0)))
 #: Boundary vertices further than this (times h) from the zero set mean the model is not the
@@ -242,7 +244,7 @@ def improve_arrays(
             continue
         active = touched | moved_vertices
         worst = float(quality.min())
-        stalled = 0 if worst > best + 1e-6 else stalled + 1
+        stalled = 0 if worst > best + PROGRESS else stalled + 1
         best = max(best, worst)
         if stalled >= PATIENCE and worst >= target:
             break
