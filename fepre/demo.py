@@ -72,9 +72,9 @@ def l_bracket() -> tuple[Any, Any, Any]:
 
 
 def gyroid_block() -> Any:
-    """A 2 x 2 x 1 block: a shell of wall 0.25 filled with a gyroid sheet (period 1, thickness 0.3)."""
+    """A 2 x 2 x 1 block: a shell of wall 0.2 filled with a gyroid sheet (period 1, thickness 0.15)."""
     block = sdf.box((2.0, 2.0, 1.0))
-    return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.3), wall=0.25)
+    return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
 
 
 def demo_parts(quick: bool = False) -> list[DemoPart]:
@@ -98,9 +98,8 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
                  ("gmsh",), "L-bracket, 0.3 fillet (smooth union), bolt hole"),
     ]
     if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
-        # walls and sheet of 0.25-0.3 hold about three elements at h = 0.1 (two in the quick run)
-        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, None, {},
-                              ("gmsh",), "2x2x1 block, 0.25 wall, gyroid sheet (0.3) infill"))
+        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.08, 0.02 * scale, None, {},
+                              ("gmsh",), "2x2x1 block, 0.2 wall, gyroid sheet infill (period 1)"))
     return parts
 
 

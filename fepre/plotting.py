@@ -227,6 +227,7 @@ def plot_model(
     screenshot: str | os.PathLike | None = None,
     window_size: tuple[int, int] = (900, 700),
     color: str = "#8fb4d9",
+    clip: bool = False,
 ):
     """Show a model's surface quickly (flying edges on a grid of about 100 cells per side).
 
@@ -240,6 +241,9 @@ def plot_model(
     off_screen, screenshot, window_size
         See :func:`plot`.
     color : str
+    clip : bool
+        Cut away the half x > centre to show the inside (infill, holes); the cut shows the
+        surface's inner side in a darker colour.
 
     Returns
     -------
@@ -262,9 +266,12 @@ def plot_model(
     lo, hi = as_bounds(box)
     spacing = max(np.subtract(hi, lo)) / 100 if spacing is None else positive_float(spacing, "spacing")
     surface = reference_surface(model, spacing, (lo, hi))
+    if clip:
+        surface = surface.clip(normal="x", origin=surface.center)
     plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
     plotter.set_background("white")
-    plotter.add_mesh(surface, color=color, smooth_shading=True, specular=0.3)
+    plotter.add_mesh(surface, color=color, smooth_shading=True, specular=0.3,
+                     backface_params={"color": "#c0504d"} if clip else None)
     plotter.add_axes()
     plotter.view_isometric()
     return _show(plotter, screenshot)

@@ -37,7 +37,10 @@ def test_demo_writes_every_file_of_every_part(demo):
     outdir, code, out, err = demo
     failed = dict(re.findall(r"^(\w+) FAILED: (.*)$", out, flags=re.M))
     assert code == (1 if failed else 0)
-    assert len(failed) <= 1, f"more than one demo part failed: {failed}"
+    assert not {"sphere", "torus"} & set(failed), f"a smooth demo part failed: {failed}"
+    report = (outdir / "report.html").read_text()
+    for name, reason in failed.items():  # a part that fails is reported, and the others still run
+        assert f"{name} failed: " in report
     written = [part.name for part in demo_parts(quick=True) if part.name not in failed]
     for name in written:
         surface = pv.read(outdir / f"{name}.stl")
