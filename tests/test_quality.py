@@ -7,6 +7,8 @@ import itertools
 import numpy as np
 import pytest
 import pyvista as pv
+from hypothesis import assume, given, settings, strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy.spatial import Delaunay
 
 from fepre import quality
@@ -119,3 +121,24 @@ def test_bad_input():
         quality.tet_quality(CORNER[:, :2], [[0, 1, 2, 3]])
     with pytest.raises(TypeError, match="mesh"):
         quality.add_quality(pv.Sphere())
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    corners=arrays(np.float64, (4, 3), elements=st.floats(-1, 1)),
+    scale=st.floats(0.01, 100),
+    angle=st.floats(0, 2 * np.pi),
+)
+def test_ratios_are_bounded_and_similarity_invariant(corners, scale, angle):
+    volume = quality.signed_volumes(corners, np.array([[0, 1, 2, 3]]))[0]
+    assume(abs(volume) > 1e-3)
+    tet = [[0, 1, 2, 3]] if volume > 0 else [[0, 2, 1, 3]]
+    q = quality.tet_quality(corners, tet)
+    assert 0 < q["radius_ratio"][0] <= 1 + 1e-9 and 0 < q["volume_edge_ratio"][0] <= 1 + 1e-9
+    assert 0 < q["min_dihedral_angle"][0] <= 70.5288 + 1e-6 <= q["max_dihedral_angle"][0] + 2e-6
+    c, s = np.cos(angle), np.sin(angle)
+    rotation = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    moved = quality.tet_quality(scale * corners @ rotation.T + 3.0, tet)
+    for name in ("radius_ratio", "volume_edge_ratio", "min_dihedral_angle", "max_dihedral_angle"):
+        assert moved[name][0] == pytest.approx(q[name][0], rel=1e-6, abs=1e-9)
+    assert moved["volume"][0] == pytest.approx(scale**3 * q["volume"][0], rel=1e-9)
