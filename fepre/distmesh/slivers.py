@@ -136,11 +136,13 @@ def improve_arrays(
     >>> from fepre.distmesh.slivers import improve_arrays
     >>> ball = sdf.sphere(1.0)
     >>> r = 1 / np.sqrt(3)
-    >>> points = np.array([[0, 0, 0], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
+    >>> points = np.array([[0.3, 0.2, 0.1], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
     >>> tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
     >>> new_points, new_tets, info = improve_arrays(points, tets, ball, h=1.0)
-    >>> round(info["min_dihedral_after"], 1)
-    60.0
+    >>> round(info["min_dihedral_before"], 1), round(info["min_dihedral_after"], 1)
+    (7.7, 35.3)
+    >>> new_points[0].round(6).tolist()  # the inner vertex moved back to the centre
+    [0.0, 0.0, 0.0]
     """
     start = time.perf_counter()
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)

@@ -1,0 +1,108 @@
+"""The quality stage's operations on small exact configurations: kernels, flips, smoothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fepre import quality, sdf
+from fepre.distmesh.flips import flip_round, ring_triangulations
+from fepre.distmesh.smoothing import smooth_round
+from fepre.distmesh.tet_shape import ideal_vertex_positions, min_dihedral, signed_volume, tet_min_dihedral
+from fepre.distmesh.tet_topology import edge_keys, face_neighbours, faces_on_boundary, open_boundary_reason
+
+TRIANGLE = [(1, 0, 0), (-0.5, np.sqrt(3) / 2, 0), (-0.5, -np.sqrt(3) / 2, 0)]
+
+
+def boundary_edges(tets, n):
+    faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    return np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
+
+
+def test_min_dihedral_matches_fepre_quality_on_random_cells():
+    rng = np.random.default_rng(1)
+    points = rng.normal(size=(400, 3))
+    tets = rng.integers(0, 400, size=(2000, 4))
+    tets = tets[(np.sort(tets, 1)[:, 1:] != np.sort(tets, 1)[:, :-1]).all(1)]
+    negative = signed_volume(points[tets]) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    mine = tet_min_dihedral(points, tets)
+    reference = quality.tet_quality(points, tets)["min_dihedral_angle"]
+    valid = mine > 0
+    assert valid.mean() > 0.99
+    np.testing.assert_allclose(mine[valid], reference[valid], atol=1e-9)
+    # inverted cells rank below every valid one
+    assert (min_dihedral(points[tets[:, [0, 2, 1, 3]]]) == -1).all()
+
+
+def test_ideal_position_makes_a_regular_cell():
+    points = np.array([TRIANGLE[0], TRIANGLE[2], TRIANGLE[1], (0.3, 0.1, 0.05)])
+    ideal = ideal_vertex_positions(points, np.array([[0, 1, 2, 3]]))[3, :, 0]
+    moved = points.copy()
+    moved[3] = ideal
+    assert float(min_dihedral(moved)) == pytest.approx(np.degrees(np.arccos(1 / 3)), abs=1e-9)
+
+
+@pytest.mark.parametrize("n, count", [(3, 1), (4, 2), (5, 5), (6, 14), (7, 42)])
+def test_ring_triangulations_are_all_the_catalan_triangulations(n, count):
+    triangulations = ring_triangulations(n)
+    assert triangulations.shape == (count, n - 2, 3)
+    assert len({tuple(sorted(map(tuple, t))) for t in triangulations}) == count
+
+
+@pytest.mark.parametrize("z, before, after", [(0.2, 2, 3), (1.2, 3, 2)])
+def test_two_three_and_three_two_flips_keep_the_region(z, before, after):
+    """Apexes close to the triangle: 2 -> 3 flip; far from it: 3 -> 2; volume and boundary kept."""
+    points = np.array([*TRIANGLE, (0, 0, z), (0, 0, -z)], dtype=float)
+    configurations = {2: np.array([[0, 1, 2, 3], [0, 2, 1, 4]]), 3: np.array([[0, 2, 3, 4], [2, 1, 3, 4], [1, 0, 3, 4]])}
+    tets = configurations[before]
+    q = tet_min_dihedral(points, tets)
+    new, new_q, flips, touched = flip_round(points, tets, q, 70.0, boundary_edges(tets, 5))
+    assert flips == 1 and len(new) == after
+    assert new_q.min() > q.min()
+    np.testing.assert_allclose(new_q, tet_min_dihedral(points, new))
+    assert signed_volume(points[new]).sum() == pytest.approx(signed_volume(points[tets]).sum(), rel=1e-12)
+    old_faces = {tuple(sorted(f)) for f in faces_on_boundary(tets, face_neighbours(tets, 5))}
+    new_faces = {tuple(sorted(f)) for f in faces_on_boundary(new, face_neighbours(new, 5))}
+    assert old_faces == new_faces
+    # the better configuration is left alone
+    again = flip_round(points, new, new_q, 70.0, boundary_edges(new, 5))
+    assert again[2] == 0
+
+
+def test_four_four_flip_takes_the_short_diagonal():
+    # an octahedron around the axis a-b whose equator is a long, thin rhombus
+    ring = [(1, 0, 0), (0, 0.35, 0), (-1, 0, 0), (0, -0.35, 0)]
+    points = np.array([*ring, (0, 0, -0.45), (0, 0, 0.45)], dtype=float)
+    tets = np.array([[4, 5, i, (i + 1) % 4] for i in range(4)])
+    negative = signed_volume(points[tets]) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    q = tet_min_dihedral(points, tets)
+    new, new_q, flips, _ = flip_round(points, tets, q, 70.0, boundary_edges(tets, 6))
+    assert flips == 1 and len(new) == 4
+    # every new cell holds the short diagonal 1-3 of the rhombus
+    assert all({1, 3} <= set(cell) for cell in new.tolist())
+    assert new_q.min() > q.min()
+    assert signed_volume(points[new]).sum() == pytest.approx(signed_volume(points[tets]).sum(), rel=1e-12)
+
+
+def test_smoothing_recentres_a_displaced_vertex_and_never_inverts():
+    r = 1 / np.sqrt(3)
+    points = np.array([[0.35, 0.25, 0.1], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
+    tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
+    q = tet_min_dihedral(points, tets)
+    movable = np.array([True, False, False, False, False])
+    on_boundary = ~movable
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        points, q, moved, _ = smooth_round(points, tets, q, 70.0, movable, on_boundary, sdf.sphere(1.0), 1.0, rng, 1e-4)
+        assert (tet_min_dihedral(points, tets) > 0).all()
+    assert np.linalg.norm(points[0]) < 1e-6
+    assert q.min() == pytest.approx(np.degrees(np.arctan(np.sqrt(2) / 2)), abs=1e-6)  # 35.26 deg
+
+
+def test_open_boundary_reason():
+    closed = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+    assert open_boundary_reason(closed, 4) == ""
+    assert "open" in open_boundary_reason(closed[:3], 4)
+    assert "same direction" in open_boundary_reason(np.concatenate([closed, closed[:1]]), 4)
