@@ -38,9 +38,9 @@ def _pair(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Exact distance of two orthogonal parts; never modifies ``a`` or ``b``."""
     if np.size(a) < np.size(b):
         a, b = b, a
-    if 8 * np.size(b) <= np.size(a):
-        # b is small (e.g. the z part of a grid block): one sign for all of it is cheap to test
-        # and saves most full-size work.
+    if 8 * np.size(b) <= _broadcast_size(np.shape(a), np.shape(b)):
+        # b is small next to the result (e.g. the z part of a grid block, or the y part against
+        # the x part): one sign for all of it is cheap to test and saves most full-size work.
         if np.all(b <= 0):
             return np.maximum(a, b)
         if np.all(b >= 0):
@@ -53,6 +53,14 @@ def _pair(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     np.sqrt(total, out=total)
     total += np.maximum(np.minimum(a, 0.0), np.minimum(b, 0.0))
     return total
+
+
+def _broadcast_size(first: tuple[int, ...], second: tuple[int, ...]) -> int:
+    """Number of elements of the broadcast of two shapes (no checks: they are compatible)."""
+    size = 1
+    for i in range(1, max(len(first), len(second)) + 1):
+        size *= max(first[-i] if i <= len(first) else 1, second[-i] if i <= len(second) else 1)
+    return size
 
 
 def _combine(ufunc: np.ufunc, fresh: np.ndarray, other: np.ndarray) -> np.ndarray:
