@@ -29,16 +29,15 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-# public name -> module that defines it (imported on first access)
+# public name -> module that defines it (imported on first access). fepre.distmesh and
+# fepre.export are callable packages (listed in _SUBMODULES): fepre.distmesh(model, h) meshes.
 _LAZY: dict[str, str] = {
     "sample": "fepre.sampling",
     "isosurface": "fepre.surface",
     "check_surface": "fepre.surface",
     "SurfaceCheck": "fepre.surface",
-    "distmesh": "fepre.distmesh",
     "DistMeshOptions": "fepre.distmesh",
     "improve": "fepre.distmesh",
-    "export": "fepre.export",
     "compare": "fepre.compare",
     "Comparison": "fepre.compare",
     "plot": "fepre.plotting",
