@@ -19,7 +19,13 @@ def _leaf():
         st.builds(lambda s, c: sdf.box(s, center=c), st.tuples(size, size, size), point),
         st.builds(lambda r, h, c: sdf.cylinder(r, h, center=c), size, size, point),
         st.builds(lambda big, small, c: sdf.torus(big + small, small, center=c), size, st.floats(0.05, 0.5), point),
-        st.builds(lambda a, b, r: sdf.capsule(a, (a[0] + 0.3, a[1], a[2]) if a == b else b, r), point, point, size),
+        # Capsules with (nearly) coincident ends are the primitives' own concern (see their tests).
+        st.builds(
+            lambda a, b, r: sdf.capsule(a, (a[0] + 0.3, a[1], a[2]) if np.linalg.norm(np.subtract(a, b)) < 0.05 else b, r),
+            point,
+            point,
+            size,
+        ),
     )
 
 
