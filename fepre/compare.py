@@ -38,6 +38,7 @@ class MeshResult:
     seconds: float | None
     metrics: dict[str, float]
     error: str | None = None  #: why a reference mesher failed (then ``mesh`` is None)
+    note: str | None = None  #: how a reference deviated from its usual method
 
 
 # (row label, metric key, format) of the text and HTML tables
@@ -137,6 +138,8 @@ class Comparison:
         for result in self.results:
             if result.error:
                 lines.append(f"{result.name} failed: {result.error}")
+            if result.note:
+                lines.append(f"{result.name}: {result.note}")
         lines.append(
             f"h = {self.h:g}; volume reference {self.volume_reference:.6g} ({self.volume_source}); "
             f"Hausdorff against the flying-edges surface at spacing {self.settings.get('surface_spacing', float('nan')):g}"
@@ -158,6 +161,7 @@ class Comparison:
             "surface_check": _as_plain(check) if check is not None else None,
             "meshes": {r.name: dict(r.metrics) for r in self.results},
             "failed": {r.name: r.error for r in self.results if r.error},
+            "notes": {r.name: r.note for r in self.results if r.note},
         }
 
     def to_html(self, path: Any, *, title: str | None = None) -> Any:
@@ -304,7 +308,8 @@ def compare(
             continue
         report(f"compare: measuring {name} ({reference_mesh.n_cells} cells, {seconds:.1f} s) ...")
         metrics = mesh_metrics(reference_mesh, model, reference=surface, volume=volume, seconds=seconds)
-        results.append(MeshResult(name, reference_mesh, seconds, metrics))
+        note = reference_mesh.field_data.get("reference_note")
+        results.append(MeshResult(name, reference_mesh, seconds, metrics, note=str(note[0]) if note is not None else None))
 
     settings = {
         "h": h,

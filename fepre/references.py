@@ -108,11 +108,45 @@ def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
     return _positive_tets(np.asarray(grid.points, dtype=np.float64), tets)
 
 
+def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool):
+    """One gmsh run on the STL ``path``; returns (points, tets) of the volume mesh."""
+    import gmsh
+
+    gmsh.model.add("fepre-reference")
+    try:
+        gmsh.option.setNumber("Mesh.RandomSeed", int(seed) + 1)
+        gmsh.merge(path)
+        if remesh:
+            gmsh.model.mesh.classifySurfaces(np.radians(40.0), True, True, np.pi)
+            gmsh.model.mesh.createGeometry()
+        surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
+        loop = gmsh.model.geo.addSurfaceLoop(surfaces)
+        gmsh.model.geo.addVolume([loop])
+        gmsh.model.geo.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h if remesh else 0.0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.model.mesh.generate(3)
+        node_tags, coords, _ = gmsh.model.mesh.getNodes()
+        types, _, element_nodes = gmsh.model.mesh.getElements(3)
+        if 4 not in list(types):
+            raise MeshingError("gmsh produced no tetrahedra from the surface")
+        tet_nodes = np.asarray(element_nodes[list(types).index(4)], dtype=np.int64).reshape(-1, 4)
+        order = np.argsort(node_tags)
+        positions = np.searchsorted(node_tags[order], tet_nodes)
+        return np.asarray(coords, dtype=np.float64).reshape(-1, 3)[order], positions
+    finally:
+        gmsh.model.remove()
+
+
 def gmsh_mesh(surface: Any, h: float, *, seed: int = 0):
     """Tetrahedralise ``surface`` with gmsh: the surface is remeshed at size ``h``, then meshed in 3D.
 
     The triangles are classified into patches (``classifySurfaces``, 40 degree feature angle),
-    turned into a parametrised geometry, remeshed and filled with Delaunay tetrahedra.
+    turned into a parametrised geometry, remeshed and filled with Delaunay tetrahedra. When gmsh
+    cannot remesh the patches (e.g. bumpy sharp edges of a sampled surface), the surface is kept
+    as it is and only the volume is meshed (size ``h`` inside); the grid's field data
+    ``"reference_note"`` then says so.
     """
     import gmsh
 
@@ -125,37 +159,25 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0):
         if initialised_here:
             gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("Mesh.RandomSeed", int(seed) + 1)
-        gmsh.model.add("fepre-reference")
-        gmsh.merge(path)
-        gmsh.model.mesh.classifySurfaces(np.radians(40.0), True, True, np.pi)
-        gmsh.model.mesh.createGeometry()
-        surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
-        loop = gmsh.model.geo.addSurfaceLoop(surfaces)
-        gmsh.model.geo.addVolume([loop])
-        gmsh.model.geo.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.model.mesh.generate(3)
-        node_tags, coords, _ = gmsh.model.mesh.getNodes()
-        types, _, element_nodes = gmsh.model.mesh.getElements(3)
-        if 4 not in list(types):
-            raise MeshingError("gmsh produced no tetrahedra from the surface")
-        tet_nodes = np.asarray(element_nodes[list(types).index(4)], dtype=np.int64).reshape(-1, 4)
-        order = np.argsort(node_tags)
-        positions = np.searchsorted(node_tags[order], tet_nodes)
-        points = np.asarray(coords, dtype=np.float64).reshape(-1, 3)[order]
-        return _positive_tets(points, positions)
-    except Exception as exc:
-        if isinstance(exc, MeshingError):
-            raise
+        note = None
+        try:
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=True)
+        except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
+            note = f"surface kept as sampled (gmsh could not remesh it: {str(exc).strip()[:120]})"
+            if initialised_here:  # a failed generate() can leave state behind: start afresh
+                gmsh.finalize()
+                gmsh.initialize(interruptible=False)
+                gmsh.option.setNumber("General.Terminal", 0)
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=False)
+        grid = _positive_tets(points, tets)
+        if note:
+            grid.field_data["reference_note"] = [note]
+        return grid
+    except MeshingError:
+        raise
+    except Exception as exc:  # noqa: BLE001
         raise MeshingError(f"gmsh failed to mesh the surface: {exc}") from exc
     finally:
-        try:
-            gmsh.model.remove()
-        except Exception:  # noqa: BLE001 - nothing to clean when gmsh failed early
-            pass
         if initialised_here and gmsh.isInitialized():
             gmsh.finalize()
         os.unlink(path)
