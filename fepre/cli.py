@@ -186,6 +186,8 @@ def _run_view(args: argparse.Namespace) -> int:
     from . import plotting
 
     off_screen = True if args.screenshot else None
+    if not args.screenshot and not plotting.has_display():
+        raise ValueError("no display to open a window on; pass --screenshot out.png to render off screen")
     if args.file.endswith(".py"):
         from .modelfile import load_model
 

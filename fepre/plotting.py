@@ -38,6 +38,14 @@ def _with_quality(mesh: Any, metric: str) -> Any:
     return add_quality(mesh)
 
 
+def has_display() -> bool:
+    """True when a window can be opened (not a headless POSIX machine, not ``pyvista.OFF_SCREEN``)."""
+    import pyvista as pv
+
+    headless = os.name == "posix" and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY")
+    return not (headless or pv.OFF_SCREEN)
+
+
 def _display_offscreen(off_screen: bool | None) -> bool:
     """Whether to render off screen; on a machine without a display, also quiets VTK's X warning."""
     import pyvista as pv

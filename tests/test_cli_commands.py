@@ -102,6 +102,13 @@ def test_view_screenshots_are_not_blank(meshed, folder, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+def test_view_without_a_display_asks_for_a_screenshot(meshed, capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(meshed / "ball.vtu")]) == 1
+    assert "pass --screenshot" in capsys.readouterr().err
+
+
 def test_compare_writes_table_json_and_report(meshed, capsys):
     report, figures = meshed / "cmp.html", meshed / "cmp.json"
     argv = ["compare", str(meshed / "ball.py"), "--h", "0.4", "--references", "gmsh", "--report", str(report), "--json", str(figures)]
