@@ -15,10 +15,16 @@ with three vectorised operations that each check every new cell before accepting
    cells try a dozen candidate positions each and take the best one if it raises the worst
    angle of their star.
 
-Flips and smoothing alternate until every cell reaches the target (or a little above) or a
-round changes nothing. Flips never touch the boundary surface; boundary vertices only move
-along the zero set (re-projected, checked to within ``1e-4 h``), so the mesh keeps its closed
-boundary and its volume.
+4. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
+   (two boundary faces, or one boundary face over a vertex just under the surface) are removed,
+   with a boundary edge flip or the vertex projected onto the zero set.
+
+The stage works on the cells below ``min_dihedral + 8`` degrees; flips, smoothing and boundary
+removals alternate until none is left, or the target holds and the worst angle stops rising, or
+``maxiter`` rounds. Flips never touch the boundary surface; boundary vertices only move along
+the zero set (re-projected, checked to within ``1e-4 h``); the end result is verified (positive
+cells, closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume
+within 2% of the input's) and a violation raises :class:`fepre.MeshingError`.
 """
 
 from __future__ import annotations
@@ -126,7 +132,7 @@ def improve_arrays(
     -------
     points, tets, info : the improved mesh (same points count and order; ``tets`` renewed) and a
         dict with ``seconds``, ``relax_seconds``, ``flip_seconds``, ``smooth_seconds``,
-        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``min_dihedral_before``,
+        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, ``min_dihedral_before``,
         ``min_dihedral_after`` and ``converged``.
 
     Examples
