@@ -538,6 +538,7 @@ BAD = [
     (lambda: sdf.cylinder(1, 0), ValueError, "height"),
     (lambda: sdf.cylinder(1, 1, center=(0, 0, 0, 0)), ValueError, "center"),
     (lambda: sdf.capsule((1, 2, 3), (1, 2, 3), 0.5), ValueError, "a and b"),
+    (lambda: sdf.capsule((0, 0, 0), (0, 0, 1e-157), 1.0), ValueError, "a and b"),
     (lambda: sdf.capsule((1, 2), (1, 2, 3), 0.5), ValueError, "a must"),
     (lambda: sdf.capsule((0, 0, 0), (1, 2, 3), -0.5), ValueError, "radius"),
     (lambda: sdf.cone(0, 1), ValueError, "radius"),

@@ -229,8 +229,12 @@ def capsule(a: Any = (0.0, 0.0, -0.5), b: Any = (0.0, 0.0, 0.5), radius: float =
     a = as_vector(a, 3, "a")
     b = as_vector(b, 3, "b")
     radius = positive_float(radius, "radius")
-    if not np.linalg.norm(b - a) > 0:
-        raise ValueError(f"capsule needs distinct end points a and b; got a = b = {a.tolist()} (use sphere)")
+    scale = max(1.0, float(np.abs(a).max()), float(np.abs(b).max()), radius)
+    if not np.linalg.norm(b - a) > 1e-12 * scale:
+        raise ValueError(
+            f"capsule needs end points a and b at least 1e-12 x the part's size apart; got "
+            f"a = {a.tolist()}, b = {b.tolist()} (use sphere for a ball)"
+        )
     return Capsule(a, b, radius)
 
 
