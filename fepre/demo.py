@@ -98,7 +98,7 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
                  ("gmsh",), "L-bracket, 0.3 fillet (smooth union), bolt hole"),
     ]
     if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
-        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.08, 0.02 * scale, None, {},
+        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, None, {},
                               ("gmsh",), "2x2x1 block, 0.2 wall, gyroid sheet infill (period 1)"))
     return parts
 
