@@ -9,7 +9,7 @@ with three vectorised operations that each check every new cell before accepting
    the model's zero set); moves that make a cell worse than ``min(its old angle, target)`` are
    undone. This lifts the mean radius ratio;
 2. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
-   removal (3-2, 4-4, ... up to rings of 7) around the bad cells, keeping a flip only if it
+   removal (3-2, 4-4, ... up to rings of 6) around the bad cells, keeping a flip only if it
    raises the worst dihedral angle of the cells it replaces;
 3. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
    cells try a dozen candidate positions each and take the best one if it raises the worst
@@ -20,8 +20,8 @@ with three vectorised operations that each check every new cell before accepting
    with a boundary edge flip or the vertex projected onto the zero set.
 
 The stage works on the cells below ``min_dihedral + 8`` degrees; flips, smoothing and boundary
-removals alternate until none is left, or the target holds and the worst angle stops rising, or
-``maxiter`` rounds. Flips never touch the boundary surface; boundary vertices only move along
+removals alternate until none is left, or the target holds and the worst angle stops rising (or
+twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch the boundary surface; boundary vertices only move along
 the zero set (re-projected, checked to within ``1e-4 h``); the end result is verified (positive
 cells, closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume
 within 2% of the input's) and a violation raises :class:`fepre.MeshingError`.
@@ -55,8 +55,10 @@ MARGIN = 8.0
 RELAX_ROUNDS = 3
 #: Once the target is met, stop when the worst angle has not risen by ``PROGRESS`` degrees for
 #: this many rounds.
-PATIENCE = 4
+PATIENCE = 8
 PROGRESS = 0.1
+#: Once the target is met, at most this many further rounds lift the cells below the margin.
+POLISH_ROUNDS = 20
 #: A regular tetrahedron's dihedral angle: no mesh can have a larger worst angle.
 REGULAR_DIHEDRAL = float(np.degrees(np.arccos(1.0 / 3.0)))
 #: Boundary vertices further than this (times h) from the zero set mean the model is not the
@@ -221,6 +223,7 @@ def improve_arrays(
     rounds = 0
     best = float(quality.min())
     stalled = 0
+    met_at = None  # the round in which the target was first met
     active = None  # flips try every bad cell in the first round, then those near a change
     while rounds < maxiter and quality.min() < threshold:
         if deadline is not None and time.perf_counter() - start > deadline:
@@ -254,8 +257,10 @@ def improve_arrays(
         worst = float(quality.min())
         stalled = 0 if worst > best + PROGRESS else stalled + 1
         best = max(best, worst)
-        if stalled >= PATIENCE and worst >= target:
-            break
+        if worst >= target:
+            met_at = rounds if met_at is None else met_at
+            if stalled >= PATIENCE or rounds - met_at >= POLISH_ROUNDS:
+                break
 
     _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys)
     after = float(quality.min())
