@@ -112,23 +112,33 @@ def large_grid(size: int, repeat: int, workers: int) -> list[str]:
 
 
 def narrow_band(size: int, repeat: int, workers: int) -> list[str]:
-    """Dense against narrow-band sampling."""
+    """Dense against narrow-band sampling, on the torus and on the six-node CSG model of
+    ``fepre bench sdf`` (where evaluating the model, not writing the grid, is the cost)."""
+    from .sdf import fepre_model
+
+    lines: list[str] = []
+    for name, model in (("torus", _torus()), ("six-node CSG model", fepre_model())):
+        lines += _narrow_band_rows(name, model, size, repeat, workers)
+    return lines
+
+
+def _narrow_band_rows(name: str, model, size: int, repeat: int, workers: int) -> list[str]:
     import fepre
 
-    model = _torus()
-    dense = median_time(lambda: fepre.sample(model, shape=size, bounds=BOX, workers=workers), repeat, warmup=0)
-    banded_grid = fepre.sample(model, shape=size, bounds=BOX, band=0.0, workers=workers)
+    box = BOX if name == "torus" else ((-2.0,) * 3, (2.0,) * 3)
+    dense = median_time(lambda: fepre.sample(model, shape=size, bounds=box, workers=workers), repeat, warmup=0)
+    banded_grid = fepre.sample(model, shape=size, bounds=box, band=0.0, workers=workers)
     banded = median_time(
-        lambda: fepre.sample(model, shape=size, bounds=BOX, band=0.0, workers=workers), repeat, warmup=0
+        lambda: fepre.sample(model, shape=size, bounds=box, band=0.0, workers=workers), repeat, warmup=0
     )
     fraction = float(banded_grid.field_data["sdf_evaluated_fraction"][0])
     shape = tuple(reversed(banded_grid.dimensions))
     floor = median_time(lambda: np.empty(shape, dtype=np.float32).fill(1.0), repeat, warmup=0)
-    dense_cpu = cpu_time(lambda: fepre.sample(model, shape=size, bounds=BOX, workers=1), repeat)
-    banded_cpu = cpu_time(lambda: fepre.sample(model, shape=size, bounds=BOX, band=0.0, workers=1), repeat)
+    dense_cpu = cpu_time(lambda: fepre.sample(model, shape=size, bounds=box, workers=1), repeat)
+    banded_cpu = cpu_time(lambda: fepre.sample(model, shape=size, bounds=box, band=0.0, workers=1), repeat)
     floor_cpu = cpu_time(lambda: np.empty(shape, dtype=np.float32).fill(1.0), repeat)
     return [
-        f"Narrow band (one cell diagonal) on {size}^3: wall on {workers} threads (median of {repeat}); 1-thread CPU",
+        f"Narrow band (one cell diagonal), {name}, {size}^3: wall on {workers} threads (median of {repeat}); 1-thread CPU",
         f"{'step':<40} {'wall':>12} {'1-thread CPU':>13}",
         f"{'dense sampling':<40} {_ms(dense)} {_ms(dense_cpu):>13}",
         f"{'banded sampling':<40} {_ms(banded)} {_ms(banded_cpu):>13}",
@@ -136,6 +146,7 @@ def narrow_band(size: int, repeat: int, workers: int) -> list[str]:
         f"{'dense / banded (target >= 4)':<40} {dense / banded:12.2f} {dense_cpu / banded_cpu:13.2f}",
         f"{'dense / floor (bound on that ratio)':<40} {dense / floor:12.2f} {dense_cpu / floor_cpu:13.2f}",
         f"{'nodes evaluated (target <= 15 %)':<40} {100 * fraction:11.2f}%",
+        "",
     ]
 
 
