@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pyvista as pv
 
-from fepre.export.tetmesh import signed_volumes
+from fepre.quality import signed_volumes
 
 # The six tetrahedra of the Kuhn (Freudenthal) subdivision of a cube: paths 000 -> 111.
 _KUHN = np.array(

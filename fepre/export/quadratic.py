@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .tetmesh import signed_volumes
+from ..quality import signed_volumes
 
 __all__ = ["QuadraticMesh", "quadratic_tetrahedra", "jacobian_ratios", "TET10_EDGES", "MIN_JACOBIAN_RATIO",
            "MIN_CORNER_JACOBIAN_RATIO"]

@@ -6,18 +6,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["tetra_arrays", "signed_volumes"]
+from ..quality import signed_volumes
+
+__all__ = ["tetra_arrays"]
 
 VTK_TETRA = 10
-
-
-def signed_volumes(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Signed volumes of tetrahedra (positive when node 3 is on the right-hand side of 0-1-2)."""
-    p0 = points[cells[:, 0]]
-    a = points[cells[:, 1]] - p0
-    b = points[cells[:, 2]] - p0
-    c = points[cells[:, 3]] - p0
-    return np.einsum("ij,ij->i", np.cross(a, b), c) / 6.0
 
 
 def tetra_arrays(mesh: Any, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
