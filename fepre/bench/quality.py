@@ -127,7 +127,13 @@ def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
     ]
     print(lines[0], flush=True)
     for name, model, h, size in target_models(quick):
-        results: dict[str, dict[str, Any]] = {"fepre": _fepre(model, h, size)}
+        try:
+            results: dict[str, dict[str, Any]] = {"fepre": _fepre(model, h, size)}
+        except Exception as exc:  # noqa: BLE001 - report the failure and go on with the next model
+            line = f"{name:28} {'fepre':10} failed: {type(exc).__name__}: {exc}"[:160]
+            lines.append(line)
+            print(line, flush=True)
+            continue
         for peer in peers:
             results[peer] = _peer(peer, model, h)
         mine = _figures(results["fepre"]["mesh"])
