@@ -45,7 +45,7 @@ def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable |
     models += [
         ("torus h=0.1", sdf.torus(1.0, 0.4), 0.1, None),
         ("cylinder-hole graded h=0.1", sdf.cylinder(radius=1.0, height=2.0) - sdf.sphere(0.5), 0.1, _cylinder_size),
-        ("capsules h=0.07", capsules, 0.07, None),
+        ("capsules h=0.1", capsules, 0.1, None),
         # walls 0.3 thick at h = 0.1: three elements across
         ("gyroid infill h=0.1", sdf.infill(sdf.box((1, 1, 1)), sdf.gyroid(1.0, 0.3), 0.3), 0.1, None),
     ]
