@@ -1,8 +1,21 @@
 """From the loop's final points to a valid tetrahedral solid.
 
-The final Delaunay triangulation, minus the cells whose centroid is outside (sdf >= -geps), is
-repaired until it is a valid solid: boundary nodes on the zero set, a closed manifold boundary,
-no flat or inverted cells and no unused points.
+Every point is first put where it belongs: points outside are projected onto the zero set (or
+dropped when they cannot get there), points that collapsed onto one another (projection near
+sharp edges and corners) are merged. The point set is then triangulated once and a subset of
+its cells is chosen:
+
+- the star of every interior node (a node off the zero set) is kept whole, so that only nodes
+  on the zero set can ever be on the boundary; an interior node whose star reaches outside the
+  domain (a cell with its centroid outside) is moved onto the zero set, or dropped, and the
+  points are triangulated again;
+- the other cells (all four nodes on the zero set: the boundary layer and walls thinner than
+  about ``h``) are kept when their centroid is inside and they are not flat;
+- the choice is then repaired until its boundary is a closed 2-manifold
+  (:func:`fepre.distmesh.topology.repair_selection`).
+
+Nothing moves after the triangulation, so every cell keeps its positive Delaunay volume, and
+the boundary nodes are on the zero set by construction.
 """
 
 from __future__ import annotations
@@ -12,11 +25,19 @@ import numpy as np
 from ..errors import MeshingError
 from ..quality import signed_volumes
 from .delaunay import tetrahedralize
-from .topology import boundary_faces, nonmanifold_items, tet_faces
+from .loop import volume_edge_ratio
+from .topology import boundary_faces, check_topology, repair_selection
 
 __all__ = ["final_mesh", "compact"]
 
-_ROUNDS = 12
+#: rounds of "triangulate, then move or drop interior nodes whose star reaches outside"
+_STAR_ROUNDS = 4
+#: points closer than this (times h) are merged
+_MERGE = 0.2
+#: interior nodes at most this deep (times h) are moved onto the zero set, deeper ones dropped
+_PROJECT_DEPTH = 0.5
+#: cells on the zero set with a volume-edge ratio below this are flat: left out of the solid
+_FLAT = 0.05
 
 
 def compact(points: np.ndarray, tets: np.ndarray, *arrays: np.ndarray):
@@ -27,17 +48,65 @@ def compact(points: np.ndarray, tets: np.ndarray, *arrays: np.ndarray):
     return (points[used], new_index[tets], *(a[used] for a in arrays))
 
 
-def _snap_boundary(model, points, tets, fixed, h, tol) -> np.ndarray:
-    """Project boundary nodes onto the zero set; returns the nodes that did not get there."""
-    nodes = np.unique(boundary_faces(tets))
-    nodes = nodes[~fixed[nodes]]
-    values = model(points[nodes])
-    off = nodes[np.abs(values) > tol]
-    if len(off):
-        points[off] = model.project(points[off], iterations=20, tol=0.05 * tol)
-        still = np.abs(model(points[off])) > tol
-        return off[still]
-    return off
+def _crowded(points: np.ndarray, priority: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of points to drop so that no two kept points are closer than ``radius``: of each
+    close pair the point of lower ``priority`` goes (the later one on a tie)."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    drop = np.zeros(len(points), bool)
+    if len(pairs):
+        a, b = pairs.min(axis=1), pairs.max(axis=1)
+        drop[np.where(priority[a] >= priority[b], b, a)] = True
+    return drop
+
+
+class _PointSet:
+    """Points, fixed flags and model values, kept in step while points move or go."""
+
+    def __init__(self, model, points: np.ndarray, fixed: np.ndarray, h: float):
+        self.model, self.h, self.tol = model, h, 1e-3 * h
+        self.points, self.fixed = points.copy(), fixed.copy()
+        self.values = model(self.points)
+
+    @property
+    def on_surface(self) -> np.ndarray:
+        return np.abs(self.values) <= self.tol
+
+    def keep(self, mask: np.ndarray) -> None:
+        self.points, self.fixed, self.values = self.points[mask], self.fixed[mask], self.values[mask]
+
+    def project(self, index: np.ndarray) -> None:
+        """Move ``points[index]`` onto the zero set; those that do not get there are dropped."""
+        index = index[~self.fixed[index]]
+        if len(index) == 0:
+            return
+        self.points[index] = self.model.project(self.points[index], iterations=30, tol=0.05 * self.tol)
+        self.values[index] = self.model(self.points[index])
+        lost = np.zeros(len(self.points), bool)
+        lost[index] = np.abs(self.values[index]) > self.tol
+        self.keep(~lost)
+
+    def merge(self) -> None:
+        """Drop points closer than ``_MERGE h`` to another: fixed points stay, points on the
+        zero set win over interior ones."""
+        priority = 2 * self.fixed.astype(np.int8) + self.on_surface
+        drop = _crowded(self.points, priority, _MERGE * self.h) & ~self.fixed
+        if drop.any():
+            self.keep(~drop)
+
+
+def _star_conflicts(points: _PointSet, tets: np.ndarray, centroid_values: np.ndarray) -> np.ndarray:
+    """Interior nodes that must leave the interior: their star has a cell with its centroid
+    outside, or they lie on the boundary of the kept cells (the convex hull)."""
+    interior = ~points.on_surface
+    forced = interior[tets].any(axis=1)
+    bad = np.zeros(len(points.points), bool)
+    bad[tets[forced & (centroid_values > 0)].ravel()] = True
+    faces = boundary_faces(tets[forced]) if forced.any() else np.zeros((0, 3), np.int64)
+    on_hull_side = faces[interior[faces].any(axis=1)]
+    bad[on_hull_side.ravel()] = True
+    return np.flatnonzero(bad & interior & ~points.fixed)
 
 
 def final_mesh(
@@ -49,60 +118,63 @@ def final_mesh(
     backend: str,
     previous: np.ndarray | None = None,
 ):
-    """Triangulate ``points`` and repair the result into a valid solid.
+    """Triangulate ``points`` and choose the cells of a valid solid.
 
     ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
-    reused when every cell is still positive (the reference also returns its last
-    triangulation); otherwise the points are triangulated again. Returns ``(points, tets,
-    fixed)`` with only the points used. Raises ``MeshingError`` when the repair does not reach
-    a valid mesh.
+    reused when no point had to move or go and every cell is still positive. Returns
+    ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
+    solid can be chosen.
     """
-    tol = 1e-3 * h
-    points = points.copy()
-    values = model(points)
-    outside = np.flatnonzero((values > 0) & ~fixed)
-    if len(outside):
-        points[outside] = model.project(points[outside], iterations=20, tol=0.05 * tol)
-        values[outside] = model(points[outside])
-    tets = previous
-    if tets is None or len(tets) == 0 or signed_volumes(points, tets).min() <= 1e-9 * h**3:
-        tets = tetrahedralize(points, backend, h)
-    # Drop cells outside (centroid sdf >= 0) and the flat cells spanning the surface (four
-    # surface nodes, centroid within geps of it). Unlike the loop's rule (centroid sdf >= -geps)
-    # this keeps cells with an interior node, which would otherwise be left on the surface.
-    centroids = points[tets].mean(axis=1)
-    centroid_values = model(centroids)
-    on_surface = np.abs(values) <= 10 * tol
-    flat = on_surface[tets].all(axis=1) & (centroid_values >= -geps * h)
-    tets = tets[(centroid_values < 0) & ~flat]
-    for _ in range(_ROUNDS):
-        if len(tets) == 0:
-            raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
-        unsnapped = _snap_boundary(model, points, tets, fixed, h, tol)
-        remove = np.zeros(len(tets), bool)
-        # cells flattened or inverted (by the snapping or by Delaunay degeneracy)
-        volumes = signed_volumes(points, tets)
-        remove |= volumes <= 1e-9 * h**3
-        # cells touching a boundary node that cannot reach the zero set
-        if len(unsnapped):
-            remove |= np.isin(tets, unsnapped).any(axis=1)
-        # non-manifold boundary: peel the cells with a boundary face at the defect
-        faces = boundary_faces(tets)
-        bad_edges, pinched = nonmanifold_items(faces, len(points))
-        if len(bad_edges) or len(pinched):
-            defect = np.zeros(len(points), bool)
-            defect[bad_edges.ravel()] = True
-            defect[pinched] = True
-            _, counts, inverse = tet_faces(tets)
-            on_boundary = (counts[inverse] == 1).reshape(-1, 4).any(axis=1)
-            remove |= on_boundary & defect[tets].any(axis=1)
-        if not remove.any():
+    state = _PointSet(model, points, fixed, h)
+    n_before = len(state.points)
+    state.project(np.flatnonzero(state.values > 0))
+    state.merge()
+    changed = len(state.points) != n_before or not np.array_equal(state.points, points)
+
+    tets = previous if not changed else None
+    for round_ in range(_STAR_ROUNDS + 1):
+        if tets is None or len(tets) == 0 or signed_volumes(state.points, tets).min() <= 1e-9 * h**3:
+            tets = tetrahedralize(state.points, backend, h)
+        centroid_values = model(state.points[tets].mean(axis=1))
+        conflicts = _star_conflicts(state, tets, centroid_values)
+        if len(conflicts) == 0 or round_ == _STAR_ROUNDS:
             break
-        tets = tets[~remove]
-    else:
+        deep = conflicts[state.values[conflicts] < -_PROJECT_DEPTH * h]
+        keep = np.ones(len(state.points), bool)
+        keep[deep] = False
+        shallow = np.setdiff1d(conflicts, deep)
+        moved = np.zeros(len(state.points), bool)
+        moved[shallow] = True
+        state.keep(keep)
+        moved = moved[keep]
+        state.project(np.flatnonzero(moved))
+        state.merge()
+        tets = None
+
+    on_surface = state.on_surface
+    locked = ~on_surface[tets].all(axis=1)
+    volumes = signed_volumes(state.points, tets)
+    flat = volume_edge_ratio(state.points, tets) < _FLAT
+    selected = locked | ((centroid_values < 0) & ~(flat & (centroid_values > -geps * h)))
+    # cost of a change ~ the volume put on the wrong side (half the cell when its centroid is
+    # on the zero set, more as the centroid goes deeper on the other side)
+    scale = np.cbrt(np.abs(volumes)) + 1e-300
+    outside_share = np.clip(0.5 + centroid_values / (2.0 * scale), 0.0, 1.0)
+    selected = repair_selection(
+        tets, selected, locked, volumes * outside_share + 1e-12 * volumes, volumes * (1.0 - outside_share) + 1e-12 * volumes,
+        len(state.points),
+    )
+    tets = tets[selected]
+    if len(tets) == 0:
+        raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
+    points_out, tets, fixed_out = compact(state.points, tets, state.fixed)
+    report = check_topology(tets, len(points_out))
+    boundary = np.unique(report.boundary_faces)
+    off = np.abs(model(points_out[boundary])) > state.tol
+    if not report.ok or off.any():
         raise MeshingError(
-            f"DistMesh could not repair the final mesh into a valid solid after {_ROUNDS} rounds; "
-            "try a smaller h or a larger geps"
+            "DistMesh could not choose a valid solid from the final triangulation "
+            f"({report.nonmanifold_edges} non-manifold edges, {report.pinched_vertices} pinched vertices, "
+            f"{int(off.sum())} boundary nodes off the zero set); try a smaller h"
         )
-    points, tets, fixed = compact(points, tets, fixed)
-    return points, tets, fixed
+    return points_out, tets, fixed_out

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["tet_faces", "boundary_faces", "TopologyReport", "check_topology"]
+__all__ = ["tet_faces", "boundary_faces", "TopologyReport", "check_topology", "nonmanifold_items", "repair_selection"]
 
 # faces opposite vertex 0..3, oriented outward for a positively oriented tetrahedron
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -130,3 +130,118 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
         unused_points=int((~used).sum()),
         boundary_faces=faces,
     )
+
+
+
+_TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+
+
+def _defect_cells(tets: np.ndarray, edge_codes: np.ndarray, bad_edges: np.ndarray, pinched: np.ndarray, n: np.int64):
+    """(cell, defect) incidences: the cells holding each bad edge, then each pinched vertex
+    (defects numbered edges first); and the defect's vertices, (D, 2) with -1 for a vertex."""
+    bad_codes = bad_edges[:, 0].astype(np.int64) * n + bad_edges[:, 1]
+    order = np.argsort(bad_codes)
+    edge_cell, edge_slot = np.nonzero(np.isin(edge_codes, bad_codes))
+    edge_defect = order[np.searchsorted(bad_codes[order], edge_codes[edge_cell, edge_slot])]
+    vertex_cell, vertex_slot = np.nonzero(np.isin(tets, pinched))
+    vertex_defect = len(bad_codes) + np.searchsorted(pinched, tets[vertex_cell, vertex_slot])
+    items = np.concatenate([bad_edges, np.stack([pinched, np.full(len(pinched), -1)], axis=1)]).astype(np.int64)
+    return np.concatenate([edge_cell, vertex_cell]), np.concatenate([edge_defect, vertex_defect]), items
+
+
+def _fans(tets: np.ndarray, cell: np.ndarray, defect: np.ndarray, items: np.ndarray) -> np.ndarray:
+    """Component label of each (cell, defect) incidence: cells around one defect are joined
+    when they share a face holding the defect's vertices."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    k = len(cell)
+    if k == 0:
+        return np.zeros(0, np.int64)
+    faces = np.sort(tets[cell][:, _FACES], axis=2)  # (K, 4, 3)
+    item = items[defect]
+    holds = (faces == item[:, 0, None, None]).any(axis=2)
+    holds &= (faces == item[:, 1, None, None]).any(axis=2) | (item[:, 1] < 0)[:, None]
+    which, slot = np.nonzero(holds)
+    keys = np.column_stack([defect[which], faces[which, slot]])
+    order = np.lexsort(keys.T[::-1])
+    keys, which = keys[order], which[order]
+    same = np.all(keys[1:] == keys[:-1], axis=1)
+    rows, cols = which[:-1][same], which[1:][same]
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(k, k))
+    return connected_components(graph, directed=False)[1]
+
+
+def repair_selection(
+    tets: np.ndarray,
+    selected: np.ndarray,
+    locked: np.ndarray,
+    add_cost: np.ndarray,
+    remove_cost: np.ndarray,
+    n_points: int,
+    rounds: int = 40,
+) -> np.ndarray:
+    """Change which cells of a triangulation are selected until their boundary is a closed
+    2-manifold.
+
+    ``tets`` is a triangulation of a point set (every face in at most two cells), ``selected``
+    the cells first chosen for the solid. Each round finds the non-manifold boundary edges and
+    the pinched vertices of the selection and mends every such defect at once, by the cheaper
+    (``add_cost`` / ``remove_cost``) of: *fill*, add all unselected cells around it (it becomes
+    interior), or *carve*, remove the selected cells around it except the most costly fan (the
+    cells joined through faces holding the defect). Cells in ``locked`` are never removed. The
+    second half of the rounds only fills where it can, so the selection grows and the repair
+    ends. Returns the new selection mask; its boundary may still be non-manifold when the
+    rounds ran out (check it).
+
+    Examples
+    --------
+    Two cells meeting only at vertex 0 pinch it; nothing can fill the gap, so the cheaper
+    cell goes:
+
+    >>> tets = np.array([[0, 1, 2, 3], [0, 4, 5, 6]])
+    >>> repair_selection(tets, np.array([True, True]), np.zeros(2, bool),
+    ...                  np.ones(2), np.array([1.0, 0.5]), 7).tolist()
+    [True, False]
+    """
+    selected = selected.copy()
+    n = np.int64(n_points)
+    pairs = tets[:, _TET_EDGES]
+    edge_codes = (np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64) * n
+                  + np.maximum(pairs[..., 0], pairs[..., 1]))
+    for round_ in range(rounds):
+        faces = boundary_faces(tets[selected]) if selected.any() else np.zeros((0, 3), np.int64)
+        bad_edges, pinched = nonmanifold_items(faces, n_points)
+        if len(bad_edges) == 0 and len(pinched) == 0:
+            break
+        cell, defect, items = _defect_cells(tets, edge_codes, bad_edges, pinched, n)
+        n_defects = len(items)
+        inside = selected[cell]
+        fill_cost = np.bincount(defect, np.where(inside, 0.0, add_cost[cell]), n_defects)
+        can_fill = np.bincount(defect, ~inside, n_defects) > 0
+        # carve: keep the fan of largest cost (locked cells count as infinitely costly)
+        fan = np.full(len(cell), -1)
+        fan[inside] = _fans(tets, cell[inside], defect[inside], items)
+        keep_cost = np.where(locked[cell], np.inf, remove_cost[cell])
+        fan_cost = np.bincount(fan[inside], np.where(np.isinf(keep_cost[inside]), 1e300, keep_cost[inside]))
+        best = np.full(n_defects, -1)
+        order = np.argsort(fan_cost)  # the costliest fan of each defect is written last
+        fan_defect = np.zeros(len(fan_cost), np.int64)
+        fan_defect[fan[inside]] = defect[inside]
+        best[fan_defect[order]] = order
+        carved = inside & (fan != best[defect])
+        carve_cost = np.bincount(defect, np.where(carved, remove_cost[cell], 0.0), n_defects)
+        blocked = np.bincount(defect, carved & locked[cell], n_defects) > 0
+        can_carve = ~blocked & (np.bincount(defect, carved, n_defects) > 0)
+        fill_phase = round_ >= rounds // 2
+        use_carve = can_carve & (~can_fill | ((carve_cost < fill_cost) & (not fill_phase)))
+        use_fill = can_fill & ~use_carve
+        # a defect neither filled nor carved (a cell of another fan is locked): clear its
+        # unlocked cells and let the next round see what is left
+        stuck = ~use_carve & ~use_fill
+        chosen_carve = use_carve[defect] & carved
+        chosen_fill = use_fill[defect] & ~inside
+        chosen_clear = stuck[defect] & inside & ~locked[cell]
+        selected[cell[chosen_fill]] = True
+        selected[cell[chosen_carve | chosen_clear]] = False
+    return selected
