@@ -9,8 +9,9 @@ Two kinds of bad cell sit on the boundary surface and resist the other operation
   and becomes a boundary vertex.
 
 Both keep the boundary a closed manifold (checked through the boundary edge keys), change the
-volume by about the flat cell's volume, and leave every boundary vertex on the zero set. The
-cells removed in one call share no vertex.
+volume by about the flat cell's volume, and leave every boundary vertex on the zero set. Only cells
+whose centroid lies within ``0.1 h`` of the zero set are removed. The cells removed in one call
+share no vertex.
 """
 
 from __future__ import annotations
@@ -24,6 +25,9 @@ __all__ = ["remove_boundary_slivers", "expose_shallow_vertices"]
 
 #: A vertex this close to the zero set (times h) may be exposed onto it.
 SHALLOW = 0.25
+#: Only cells whose centroid is this close to the zero set (times h) are removed: flat cells on
+#: the surface, never cells spanning a concave region or the inside.
+FLAT_DEPTH = 0.1
 
 
 def _vertex_disjoint(cells: np.ndarray, priority: np.ndarray, allowed: np.ndarray, n: int) -> np.ndarray:
@@ -44,6 +48,8 @@ def remove_boundary_slivers(
     on_boundary: np.ndarray,
     boundary_face_keys: np.ndarray,
     boundary_edges: np.ndarray,
+    model,
+    h: float,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
     """Remove bad cells with four boundary vertices and two boundary faces.
 
@@ -74,6 +80,7 @@ def remove_boundary_slivers(
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
     allowed = ~np.isin(new_edge, boundary_edges)
+    allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return tets, quality, 0, boundary_face_keys, boundary_edges
@@ -122,6 +129,7 @@ def expose_shallow_vertices(
     face = cells[rows[:, None], FACE_OF_TET[local]]
     allowed = np.isin(face_keys(face, n), boundary_face_keys) & movable[vertex]
     allowed &= model(points[vertex]) > -SHALLOW * h
+    allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return unchanged

@@ -149,8 +149,8 @@ def improve_arrays(
     >>> new_points, new_tets, info = improve_arrays(points, tets, ball, h=1.0)
     >>> round(info["min_dihedral_before"], 1), round(info["min_dihedral_after"], 1)
     (7.7, 35.3)
-    >>> new_points[0].round(6).tolist()  # the inner vertex moved back to the centre
-    [0.0, 0.0, 0.0]
+    >>> bool(np.abs(new_points[0]).max() < 1e-9)  # the inner vertex moved back to the centre
+    True
     """
     start = time.perf_counter()
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
@@ -239,7 +239,7 @@ def improve_arrays(
         )
         tets, quality, removed, boundary_face_keys, boundary_edges = timed(
             "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges,
+            boundary_edges, model, h,
         )
         points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
             "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,

@@ -5,7 +5,10 @@ For every movable vertex of a bad cell, a handful of candidate positions are eva
 worst cell alone, at several step lengths, and small seeded random steps). Boundary vertices'
 candidates are projected back onto the model's zero set. A vertex moves to its best candidate
 when that raises the smallest dihedral angle of its star; vertices that share a cell never move
-in the same pass.
+in the same pass (:func:`smooth_round`).
+
+:func:`relax_round` moves every vertex at once towards the mean of its cells' ideal positions
+and undoes the moves that make a cell worse than allowed; it raises the mean shape quality.
 """
 
 from __future__ import annotations
@@ -13,48 +16,17 @@ from __future__ import annotations
 import numpy as np
 
 from .tet_shape import ideal_vertex_positions, min_dihedral
-from .tet_topology import FACE_OF_TET, vertex_stars
+from .tet_topology import vertex_stars
 
-__all__ = ["smooth_round", "ideal_positions"]
+__all__ = ["smooth_round", "relax_round"]
 
 #: A move must raise the worst angle of the star by at least this (degrees).
 MIN_GAIN = 1e-3
-#: Height of a regular tetrahedron over its base, per unit edge length.
-REGULAR_HEIGHT = np.sqrt(2.0 / 3.0)
 #: Step lengths towards the target positions.
 STEPS = (1.0, 0.5, 0.25, 0.1)
 #: Random step lengths, times h, and how many random directions per length.
 RANDOM_STEPS = (0.03, 0.1, 0.2)
 RANDOM_DIRECTIONS = 3
-
-
-def ideal_positions(points: np.ndarray, tets: np.ndarray, local: np.ndarray | int) -> np.ndarray:
-    """Where vertex ``local`` (K,) of each cell (K, 4) would make the cell regular.
-
-    The point above the centroid of the opposite face, on the side of the current vertex, at
-    the height of a regular tetrahedron whose edge is the face's mean edge length.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 0.01]])
-    >>> ideal_positions(flat, np.array([[0, 1, 2, 3]]), np.array([3])).round(3).tolist()
-    [[0.333, 0.333, 0.929]]
-    """
-    if np.ndim(local) == 0:
-        faces = tets[:, FACE_OF_TET[int(local)]]
-    else:
-        faces = tets[np.arange(tets.shape[0])[:, None], FACE_OF_TET[local]]
-    flat = points[faces].reshape(-1, 9).T.copy()
-    p0, p1, p2 = flat[0:3], flat[3:6], flat[6:9]
-    e1, e2, e3 = p1 - p0, p2 - p0, p2 - p1
-    normal = np.stack(
-        [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
-    )  # away from the vertex
-    norm = np.sqrt((normal * normal).sum(axis=0))
-    edge = (np.sqrt((e1 * e1).sum(axis=0)) + np.sqrt((e2 * e2).sum(axis=0)) + np.sqrt((e3 * e3).sum(axis=0))) / 3.0
-    scale = REGULAR_HEIGHT * edge / np.where(norm > 0, norm, 1.0)
-    return ((p0 + p1 + p2) / 3.0 - scale * normal).T
 
 
 def _segment_ids(counts: np.ndarray) -> np.ndarray:
@@ -121,7 +93,7 @@ def smooth_round(
     current = np.minimum.reduceat(quality[cells], seg_starts)
 
     x = points[vertices]
-    ideal = ideal_positions(points, cell_vertices, local)
+    ideal = ideal_vertex_positions(points, cell_vertices)[local, :, np.arange(local.size)]  # (S, 3)
     mean_ideal = np.stack([np.bincount(segment, ideal[:, k], minlength=x.shape[0]) for k in range(3)], 1)
     mean_ideal /= counts[:, None]
     # The ideal position for the worst cell of each star.
