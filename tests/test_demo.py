@@ -14,6 +14,8 @@ from fepre.cli import main
 from fepre.demo import demo_parts
 
 EXACT = {"cube_with_hole": 125 - 5 * math.pi, "sphere": 4 * math.pi / 3, "torus": 2 * math.pi**2 * 0.16}
+# no closed form: Monte Carlo with 2e7 points (and flying edges at a fine spacing agree)
+REFERENCE = {"l_bracket": 7.72, "gyroid_block": 3.2776}
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +39,7 @@ def test_demo_writes_every_file_of_every_part(demo):
     outdir, code, out, err = demo
     failed = dict(re.findall(r"^(\w+) FAILED: (.*)$", out, flags=re.M))
     assert code == (1 if failed else 0)
-    assert not {"sphere", "torus"} & set(failed), f"a smooth demo part failed: {failed}"
+    assert not failed, f"demo parts failed: {failed}"
     report = (outdir / "report.html").read_text()
     for name, reason in failed.items():  # a part that fails is reported, and the others still run
         assert f"{name} failed: " in report
@@ -52,6 +54,8 @@ def test_demo_writes_every_file_of_every_part(demo):
         if name in EXACT:
             assert surface.volume == pytest.approx(EXACT[name], rel=0.02)
             assert tets.volume == pytest.approx(EXACT[name], rel=0.12)
+        if name in REFERENCE:  # coarse (quick) h: the bracket's plate is 1.5 h thick, the sheet h
+            assert tets.volume == pytest.approx(REFERENCE[name], rel=0.05)
     if "cube_with_hole" in written:
         assert {"hole", "top", "bottom"} <= set(meshio.read(outdir / "cube_with_hole.inp").point_sets)
 
