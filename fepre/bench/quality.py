@@ -172,13 +172,24 @@ def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="fepre bench quality", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the sphere at h=0.05")
     parser.add_argument("--out", default=None, help="directory for the PNG histograms (default: none written)")
-    parser.add_argument("--no-peers", action="store_true", help="fepre only (no pytetwild/gmsh)")
+    parser.add_argument(
+        "--peers",
+        default=None,
+        help="comma-separated peers to run (default: every installed one of pytetwild, gmsh; '' for none)",
+    )
     args = parser.parse_args(argv)
     if args.out:
         os.makedirs(args.out, exist_ok=True)
     from ..references import available_references
 
-    peers = [] if args.no_peers else available_references()
+    installed = available_references()
+    if args.peers is None:
+        peers = installed
+    else:
+        peers = [name for name in args.peers.split(",") if name]
+        unknown = [name for name in peers if name not in installed]
+        if unknown:
+            parser.error(f"--peers must name installed peers ({', '.join(installed)}); got {', '.join(unknown)}")
     start = time.perf_counter()
     run(args.quick, args.out, peers)
     print(f"total {time.perf_counter() - start:.1f} s")
