@@ -10,7 +10,8 @@ its cells is chosen:
   domain (a cell with its centroid outside) is moved onto the zero set, or dropped, and the
   points are triangulated again;
 - the other cells (all four nodes on the zero set: the boundary layer and walls thinner than
-  about ``h``) are kept when their centroid is inside and they are not flat;
+  about ``h``) are kept when their centroid is inside, except shallow caps (nodes' normals
+  agree and centroid within ``geps h`` of the zero set: slivers lying on the surface);
 - the choice is then repaired until its boundary is a closed 2-manifold
   (:func:`fepre.distmesh.topology.repair_selection`).
 
@@ -25,7 +26,6 @@ import numpy as np
 from ..errors import MeshingError
 from ..quality import signed_volumes
 from .delaunay import tetrahedralize
-from .loop import volume_edge_ratio
 from .topology import boundary_faces, check_topology, repair_selection
 
 __all__ = ["final_mesh", "compact"]
@@ -36,8 +36,9 @@ _STAR_ROUNDS = 4
 _MERGE = 0.2
 #: interior nodes at most this deep (times h) are moved onto the zero set, deeper ones dropped
 _PROJECT_DEPTH = 0.5
-#: cells on the zero set with a volume-edge ratio below this are flat: left out of the solid
-_FLAT = 0.05
+#: cells on the zero set whose nodes' normals are all within about 60 degrees of each other
+#: (cosine above this) lie on one side of the surface: caps, left out when shallow
+_CAP_COSINE = 0.5
 
 
 def compact(points: np.ndarray, tets: np.ndarray, *arrays: np.ndarray):
@@ -109,6 +110,23 @@ def _star_conflicts(points: _PointSet, tets: np.ndarray, centroid_values: np.nda
     return np.flatnonzero(bad & interior & ~points.fixed)
 
 
+def _caps(model, state: _PointSet, tets: np.ndarray, locked: np.ndarray) -> np.ndarray:
+    """Cells with four nodes on the zero set whose normals all agree (within about 60 deg):
+    flat caps on one side of the surface, unlike cells spanning a wall thinner than ``h``
+    (opposite normals) or cutting a sharp edge."""
+    caps = np.zeros(len(tets), bool)
+    free = np.flatnonzero(~locked)
+    if len(free) == 0:
+        return caps
+    nodes, inverse = np.unique(tets[free], return_inverse=True)
+    _, gradient = model.value_and_gradient(state.points[nodes])
+    normals = gradient / np.maximum(np.linalg.norm(gradient, axis=1), 1e-300)[:, None]
+    corner = normals[inverse.reshape(-1, 4)]  # (F, 4, 3)
+    cosines = np.einsum("fid,fjd->fij", corner, corner)
+    caps[free] = cosines.min(axis=(1, 2)) > _CAP_COSINE
+    return caps
+
+
 def final_mesh(
     model,
     points: np.ndarray,
@@ -154,8 +172,7 @@ def final_mesh(
     on_surface = state.on_surface
     locked = ~on_surface[tets].all(axis=1)
     volumes = signed_volumes(state.points, tets)
-    flat = volume_edge_ratio(state.points, tets) < _FLAT
-    selected = locked | ((centroid_values < 0) & ~(flat & (centroid_values > -geps * h)))
+    selected = locked | ((centroid_values < 0) & ~(_caps(model, state, tets, locked) & (centroid_values > -geps * h)))
     # cost of a change ~ the volume put on the wrong side (half the cell when its centroid is
     # on the zero set, more as the centroid goes deeper on the other side)
     scale = np.cbrt(np.abs(volumes)) + 1e-300
