@@ -28,7 +28,7 @@ from ..quality import signed_volumes
 from .delaunay import tetrahedralize
 from .topology import boundary_faces, check_topology, repair_selection
 
-__all__ = ["final_mesh", "compact"]
+__all__ = ["final_mesh", "compact", "crease_nodes"]
 
 #: rounds of "triangulate, then move or drop interior nodes whose star reaches outside"
 _STAR_ROUNDS = 4
@@ -195,3 +195,34 @@ def final_mesh(
             f"{int(off.sum())} boundary nodes off the zero set); try a smaller h"
         )
     return points_out, tets, fixed_out
+
+
+def crease_nodes(model, points: np.ndarray, tets: np.ndarray, h: float, angle: float = 30.0) -> np.ndarray:
+    """Mask of boundary nodes on a sharp edge or corner of the model.
+
+    The model's gradient is taken just outside the node (``0.05 h``) along the normal of each
+    of its boundary faces: on a smooth surface these gradients agree; where two surfaces of a
+    CSG part meet at a crease, the points fall on different sides of it and the gradients
+    differ by the crease angle. Nodes where two of them differ by more than ``angle`` degrees
+    are creases. (Sliding such a node along the surface and projecting it back rounds the
+    crease off.)
+    """
+    faces = boundary_faces(tets)
+    crease = np.zeros(len(points), bool)
+    if len(faces) == 0:
+        return crease
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
+    node = faces.ravel()
+    probe = points[node] + 0.05 * h * np.repeat(normals, 3, axis=0)
+    _, gradient = model.value_and_gradient(probe)
+    gradient /= np.maximum(np.linalg.norm(gradient, axis=1), 1e-300)[:, None]
+    # per node, the angle between each probe's gradient and the node's mean probe gradient
+    mean = np.stack([np.bincount(node, gradient[:, k], len(points)) for k in range(3)], axis=1)
+    mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
+    cosine = np.einsum("ij,ij->i", gradient, mean[node])
+    lowest = np.ones(len(points))
+    np.minimum.at(lowest, node, cosine)
+    crease[lowest < np.cos(np.radians(0.5 * angle))] = True
+    return crease

@@ -11,7 +11,7 @@ import numpy as np
 from ..arguments import as_bounds, as_points, positive_float
 from ..errors import ConvergenceWarning, MeshingError
 from ..sdf.core import SDF
-from .finalize import final_mesh
+from .finalize import crease_nodes, final_mesh
 from .initial_points import evaluate_size, initial_points
 from .loop import DistMeshState, iterate
 from .options import DistMeshOptions, resolve_options
@@ -139,8 +139,11 @@ def distmesh(
         from .slivers import improve_arrays
 
         t0 = time.perf_counter()
+        # nodes on sharp edges and corners stay where they are: sliding them along the surface
+        # and projecting them back would round the part's creases off
+        pinned = fixed_mask | crease_nodes(model, points, tets, h)
         try:
-            points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=fixed_mask, size=size, seed=o.seed)
+            points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed)
         except MeshingError as exc:
             # the stage checks its own result and refuses it; the loop's mesh is valid
             warnings.warn(
