@@ -139,7 +139,39 @@ def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool):
         gmsh.model.remove()
 
 
-def gmsh_mesh(surface: Any, h: float, *, seed: int = 0):
+def _gmsh_in_child(path: str, h: float, seed: int) -> tuple[np.ndarray, np.ndarray, str | None, float]:
+    """Run in a child process: gmsh on the STL ``path``, remeshed, else with the surface kept."""
+    import gmsh
+
+    start = time.perf_counter()
+    gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    note = None
+    try:
+        try:
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=True)
+        except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
+            note = f"surface kept as sampled (gmsh could not remesh it: {str(exc).strip()[:120]})"
+            gmsh.finalize()  # a failed generate() can leave state behind: start afresh
+            gmsh.initialize(interruptible=False)
+            gmsh.option.setNumber("General.Terminal", 0)
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=False)
+    finally:
+        gmsh.finalize()
+    return points, tets, note, time.perf_counter() - start
+
+
+def _gmsh_child_main(connection: Any, path: str, h: float, seed: int) -> None:
+    """Child process entry: send back the gmsh result or the error text."""
+    try:
+        connection.send(("ok", _gmsh_in_child(path, h, seed)))
+    except Exception as exc:  # noqa: BLE001 - reported to the parent as text
+        connection.send(("error", f"{type(exc).__name__}: {exc}"))
+    finally:
+        connection.close()
+
+
+def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
     """Tetrahedralise ``surface`` with gmsh: the surface is remeshed at size ``h``, then meshed in 3D.
 
     The triangles are classified into patches (``classifySurfaces``, 40 degree feature angle),
@@ -147,39 +179,47 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0):
     cannot remesh the patches (e.g. bumpy sharp edges of a sampled surface), the surface is kept
     as it is and only the volume is meshed (size ``h`` inside); the grid's field data
     ``"reference_note"`` then says so.
+
+    gmsh runs in a child process: on some surfaces it aborts the whole process (seen: "Failed
+    during initial partitioning") or never returns; either is reported as a
+    :class:`MeshingError` (the child is stopped after ``timeout`` seconds). The time gmsh itself
+    took is stored in field data ``"reference_seconds"``.
     """
-    import gmsh
+    import multiprocessing
 
     h = positive_float(h, "h")
+    timeout = positive_float(timeout, "timeout")
     fd, path = tempfile.mkstemp(suffix=".stl", prefix="fepre-gmsh-")
     os.close(fd)
-    initialised_here = not gmsh.isInitialized()
+    context = multiprocessing.get_context("spawn")  # no fork of a process running VTK threads
+    receiver, sender = context.Pipe(duplex=False)
+    child = context.Process(target=_gmsh_child_main, args=(sender, path, h, seed), daemon=True)
     try:
         surface.save(path, binary=True)
-        if initialised_here:
-            gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        note = None
+        child.start()
+        sender.close()
+        if not receiver.poll(timeout):
+            raise MeshingError(f"gmsh did not finish meshing the surface within {timeout:g} s (stopped)")
         try:
-            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=True)
-        except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
-            note = f"surface kept as sampled (gmsh could not remesh it: {str(exc).strip()[:120]})"
-            if initialised_here:  # a failed generate() can leave state behind: start afresh
-                gmsh.finalize()
-                gmsh.initialize(interruptible=False)
-                gmsh.option.setNumber("General.Terminal", 0)
-            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=False)
+            status, payload = receiver.recv()
+        except EOFError:
+            raise MeshingError(
+                f"gmsh aborted while meshing the surface (its process died, exit code {child.exitcode})"
+            ) from None
+        if status == "error":
+            raise MeshingError(f"gmsh failed to mesh the surface: {payload}")
+        points, tets, note, seconds = payload
         grid = _positive_tets(points, tets)
         if note:
             grid.field_data["reference_note"] = [note]
+        grid.field_data["reference_seconds"] = [seconds]
         return grid
-    except MeshingError:
-        raise
-    except Exception as exc:  # noqa: BLE001
-        raise MeshingError(f"gmsh failed to mesh the surface: {exc}") from exc
     finally:
-        if initialised_here and gmsh.isInitialized():
-            gmsh.finalize()
+        if child.is_alive():
+            child.kill()
+        if child.pid is not None:
+            child.join()
+        receiver.close()
         os.unlink(path)
 
 
@@ -203,4 +243,7 @@ def run_reference(name: str, surface: Any, h: float, seed: int = 0):
         raise ValueError(f"reference {name!r} needs the package {package!r}, which is not installed")
     start = time.perf_counter()
     mesh = mesher(surface, h, seed=seed)
-    return mesh, time.perf_counter() - start
+    seconds = time.perf_counter() - start
+    if "reference_seconds" in mesh.field_data:  # measured inside the mesher's own process
+        seconds = float(mesh.field_data["reference_seconds"][0])
+    return mesh, seconds

@@ -177,3 +177,15 @@ def test_gmsh_reference_meshes_a_sharp_part_remeshed_or_with_its_surface_kept():
     volumes = mesh.compute_cell_sizes(length=False, area=False, vertex_count=False)["Volume"]
     assert volumes.min() > 0
     assert volumes.sum() == pytest.approx(surface.volume, rel=0.01 if note is not None else 0.05)
+    assert mesh.field_data["reference_seconds"][0] > 0
+
+
+def test_gmsh_reference_that_does_not_finish_is_stopped_and_reported():
+    import multiprocessing
+
+    from fepre.references import gmsh_mesh, reference_surface
+
+    surface = reference_surface(sdf.sphere(1.0), 0.1)
+    with pytest.raises(fepre.MeshingError, match="did not finish .* within 0.001 s"):
+        gmsh_mesh(surface, 0.2, timeout=0.001)
+    assert multiprocessing.active_children() == []
