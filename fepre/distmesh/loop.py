@@ -133,7 +133,8 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
 
 
 def _print_progress(iteration: int, n_points: int, worst: float, seconds: float, done: bool) -> None:
-    end = "\n" if done else "\r"
+    # one line rewritten in place on a terminal; whole lines in a log file
+    end = "\n" if done or not sys.stderr.isatty() else "\r"
     sys.stderr.write(f"distmesh: iteration {iteration:5d}  {n_points:8d} points  worst quality {worst:6.3f}  {seconds:7.2f} s{end}")
     sys.stderr.flush()
 
