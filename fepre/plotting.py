@@ -102,6 +102,9 @@ def quality_plotter(
     choice(metric, "metric", tuple(QUALITY_METRICS))
     if not isinstance(mesh, pv.UnstructuredGrid):
         raise TypeError(f"mesh must be a pyvista.UnstructuredGrid of tetrahedra; got {type(mesh).__name__}")
+    tetrahedra = tetrahedra_of(mesh)  # a VTU written by fepre.export also holds its boundary triangles
+    if tetrahedra is not None:
+        mesh = tetrahedra
     mesh = _with_quality(mesh, metric)
     bar_title, natural = QUALITY_METRICS[metric]
     if clim is None:

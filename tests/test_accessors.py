@@ -107,3 +107,15 @@ def test_import_fepre_registers_the_plugin_without_importing_pyvista():
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_plot_accepts_an_exported_vtu_with_boundary_triangles(tmp_path):
+    import pyvista as pv
+
+    mesh = fepre.distmesh(sdf.sphere(1.0), 0.4)
+    path = tmp_path / "ball.vtu"
+    fepre.export(mesh, path)
+    mixed = pv.read(path)
+    assert {int(t) for t in set(mixed.celltypes.tolist())} == {5, 10}  # triangles and tetrahedra
+    shot = fepre.plot(mixed, screenshot=tmp_path / "ball.png", off_screen=True)
+    assert shot is not None and (tmp_path / "ball.png").stat().st_size > 5000
