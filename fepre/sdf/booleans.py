@@ -431,17 +431,7 @@ def union(*shapes: SDF, k: float = 0.0) -> SDF:
     >>> round(float(sdf.union(sdf.sphere(1), sdf.sphere(1, center=(1.5, 0, 0)), k=0.5)([0.75, 0, 0])), 4)
     -0.375
     """
-    shapes = check_operands(shapes, "union")
-    k = _check_k(k)
-    if len(shapes) == 1:
-        return shapes[0]
-    flat: list[SDF] = []
-    for shape in shapes:
-        if k == 0 and isinstance(shape, Union) and shape.k == 0:
-            flat.extend(shape.children)
-        else:
-            flat.append(shape)
-    return Union(flat, k)
+    return _flat_nary(Union, check_operands(shapes, "union"), _check_k(k))
 
 
 def intersection(*shapes: SDF, k: float = 0.0) -> SDF:
@@ -454,17 +444,20 @@ def intersection(*shapes: SDF, k: float = 0.0) -> SDF:
     >>> float(lens([0.5, 0.0, 0.0]))
     -0.5
     """
-    shapes = check_operands(shapes, "intersection")
-    k = _check_k(k)
+    return _flat_nary(Intersection, check_operands(shapes, "intersection"), _check_k(k))
+
+
+def _flat_nary(kind: type, shapes: tuple, k: float) -> SDF:
+    """One ``kind`` node over ``shapes``, with sharp nested nodes of the same kind merged in."""
     if len(shapes) == 1:
         return shapes[0]
     flat: list[SDF] = []
     for shape in shapes:
-        if k == 0 and isinstance(shape, Intersection) and shape.k == 0:
+        if k == 0 and isinstance(shape, kind) and shape.k == 0:
             flat.extend(shape.children)
         else:
             flat.append(shape)
-    return Intersection(flat, k)
+    return kind(flat, k)
 
 
 def difference(base: SDF, *others: SDF, k: float = 0.0) -> SDF:
