@@ -57,7 +57,10 @@ class Sphere(SDF):
 
     def _values(self, x, y, z):
         cx, cy, cz = self._c
-        return np.sqrt((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) - self.radius
+        squared = (x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2  # a fresh array: finish in place
+        np.sqrt(squared, out=squared)
+        squared -= self.radius
+        return squared
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c
