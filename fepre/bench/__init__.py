@@ -34,6 +34,19 @@ def run(name: str, argv: list[str]) -> int:
     return int(module.main(argv) or 0)
 
 
+def save_figure(figure, path: str, dpi: int = 100) -> str:
+    """Write a matplotlib ``figure`` to ``path`` as PNG atomically, close it and return the path."""
+    import os
+
+    import matplotlib.pyplot as plt
+
+    temporary = path + ".tmp.png"
+    figure.savefig(temporary, dpi=dpi)
+    plt.close(figure)
+    os.replace(temporary, path)
+    return path
+
+
 def median_time(function: Callable[[], object], repeat: int = 5, warmup: int = 1) -> float:
     """Median wall time of ``function()`` in seconds over ``repeat`` runs after ``warmup`` runs."""
     for _ in range(warmup):

@@ -18,7 +18,7 @@ import warnings
 
 import numpy as np
 
-from . import median_time
+from . import median_time, save_figure
 
 
 def _sphere():
@@ -173,11 +173,7 @@ def forces_figure(out: str | None) -> list[str]:
         for ax in axes[1]:
             ax.set_xlabel("degrees")
         fig.tight_layout()
-        path = os.path.join(out, "distmesh_fig13_dihedral.png")
-        fig.savefig(path + ".tmp.png", dpi=100)
-        os.replace(path + ".tmp.png", path)
-        plt.close(fig)
-        lines.append(f"wrote {path}")
+        lines.append(f"wrote {save_figure(fig, os.path.join(out, 'distmesh_fig13_dihedral.png'))}")
     return lines
 
 
@@ -212,11 +208,7 @@ def retriangulation_figure(out: str | None) -> list[str]:
             ax.legend(loc="lower right")
         axes[-1].set_xlabel("iteration")
         fig.tight_layout()
-        path = os.path.join(out, "distmesh_fig14_retriangulation.png")
-        fig.savefig(path + ".tmp.png", dpi=100)
-        os.replace(path + ".tmp.png", path)
-        plt.close(fig)
-        lines.append(f"wrote {path}")
+        lines.append(f"wrote {save_figure(fig, os.path.join(out, 'distmesh_fig14_retriangulation.png'))}")
     return lines
 
 

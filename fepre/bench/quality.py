@@ -26,6 +26,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from . import save_figure
+
 
 def _cylinder_size(points: np.ndarray) -> np.ndarray:
     return 1.0 + 1.5 * np.maximum(np.linalg.norm(points, axis=1) - 0.5, 0.0)
@@ -113,10 +115,7 @@ def _histograms(title: str, results: dict[str, dict[str, Any]], path: str) -> No
         ax.legend()
     fig.suptitle(title)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=110)
 
 
 def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
