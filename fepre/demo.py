@@ -23,6 +23,7 @@ from typing import Any, Callable
 
 from . import sdf
 from .errors import MeshingError
+from .parts import cube_with_hole, gyroid_block, l_bracket
 
 __all__ = ["DemoPart", "demo_parts", "run_demo", "DemoResult"]
 
@@ -55,26 +56,6 @@ class DemoPart:
     boundaries: dict[str, Any] = field(default_factory=dict)
     references: tuple[str, ...] = ()
     description: str = ""
-
-
-def cube_with_hole() -> tuple[Any, Any]:
-    """The seed's first example: [0, 5]^3 minus a radius-1 cylinder along z at x = y = 2.5."""
-    hole = sdf.cylinder(radius=1.0, height=7.0, center=(2.5, 2.5, 2.5))
-    return sdf.box((5, 5, 5), center=(2.5, 2.5, 2.5)) - hole, hole
-
-
-def l_bracket() -> tuple[Any, Any, Any]:
-    """An L-bracket: base plate and upright joined with a 0.3 fillet (smooth union), a bolt hole."""
-    base = sdf.box((4.0, 2.0, 0.6), center=(2.0, 1.0, 0.3))
-    upright = sdf.box((0.6, 2.0, 3.0), center=(0.3, 1.0, 1.5))
-    hole = sdf.cylinder(radius=0.4, height=2.0, center=(2.8, 1.0, 0.3))
-    return sdf.difference(sdf.union(base, upright, k=0.3), hole), hole, base
-
-
-def gyroid_block() -> Any:
-    """A 2 x 2 x 1 block: a shell of wall 0.2 filled with a gyroid sheet (period 1, thickness 0.15)."""
-    block = sdf.box((2.0, 2.0, 1.0))
-    return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
 
 
 def demo_parts(quick: bool = False) -> list[DemoPart]:

@@ -1,0 +1,94 @@
+"""Named parts used by the demo, the benchmarks, the tests and the examples.
+
+Each function returns the model first, then the pieces a user would name as boundaries (holes,
+faces). The sharp parts have edges and corners at known places, so meshes and surfaces can be
+checked against them.
+
+Examples
+--------
+>>> from fepre.parts import cube_with_hole
+>>> model, hole = cube_with_hole()
+>>> model([2.5, 2.5, 0.0]) > 0   # on the hole's axis: outside the part
+True
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import sdf
+
+__all__ = [
+    "cube_with_hole",
+    "CUBE_WITH_HOLE_VOLUME",
+    "cube_with_hole_corners",
+    "l_bracket",
+    "slotted_box",
+    "SLOTTED_BOX_VOLUME",
+    "slotted_box_corners",
+    "gyroid_block",
+]
+
+#: Exact volume of :func:`cube_with_hole`: 125 - 5 pi.
+CUBE_WITH_HOLE_VOLUME = 125.0 - 5.0 * math.pi
+
+
+def cube_with_hole() -> tuple[Any, Any]:
+    """The seed's first example: [0, 5]^3 minus a radius-1 cylinder along z at x = y = 2.5.
+
+    Returns ``(model, hole)``.
+    """
+    hole = sdf.cylinder(radius=1.0, height=7.0, center=(2.5, 2.5, 2.5))
+    return sdf.box((5, 5, 5), center=(2.5, 2.5, 2.5)) - hole, hole
+
+
+def cube_with_hole_corners() -> np.ndarray:
+    """The 8 corners of :func:`cube_with_hole`, (8, 3)."""
+    return 5.0 * np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=float)
+
+
+def l_bracket() -> tuple[Any, Any, Any]:
+    """An L-bracket with a 0.3 fillet on its inner edge (smooth union) and a bolt hole.
+
+    The base plate (4 x 2 x 0.6) and the upright (0.6 x 2 x 3) are joined by a smooth union of
+    radius 0.3, which rounds the inner edge. A smooth union also bulges (by up to k/4) where
+    both plates have a face in the same plane, so the union is trimmed by the bracket's sharp
+    bounding box: the outer faces stay flat and their edges sharp. Returns
+    ``(model, bolt_hole, base_plate)``.
+    """
+    base = sdf.box((4.0, 2.0, 0.6), center=(2.0, 1.0, 0.3))
+    upright = sdf.box((0.6, 2.0, 3.0), center=(0.3, 1.0, 1.5))
+    envelope = sdf.box((4.0, 2.0, 3.0), center=(2.0, 1.0, 1.5))
+    hole = sdf.cylinder(radius=0.4, height=2.0, center=(2.8, 1.0, 0.3))
+    return sdf.union(base, upright, k=0.3) & envelope - hole, hole, base
+
+
+#: Exact volume of :func:`slotted_box`: the 4 x 2 x 1 box less the 2.4 x 0.6 x 0.5 slot.
+SLOTTED_BOX_VOLUME = 4.0 * 2.0 * 1.0 - 2.4 * 0.6 * 0.5
+
+
+def slotted_box() -> tuple[Any, Any]:
+    """A 4 x 2 x 1 box (z from 0 to 1) with a blind slot 2.4 long, 0.6 wide, 0.5 deep in its top.
+
+    The slot has convex edges at its rim and concave edges at its floor. Returns
+    ``(model, slot)``.
+    """
+    block = sdf.box((4.0, 2.0, 1.0), center=(0.0, 0.0, 0.5))
+    slot = sdf.box((2.4, 0.6, 1.0), center=(0.0, 0.0, 1.0))
+    return block - slot, slot
+
+
+def slotted_box_corners() -> np.ndarray:
+    """The 16 corners of :func:`slotted_box` (8 of the block, 8 of the slot), (16, 3)."""
+    block = [[x, y, z] for x in (-2.0, 2.0) for y in (-1.0, 1.0) for z in (0.0, 1.0)]
+    slot = [[x, y, z] for x in (-1.2, 1.2) for y in (-0.3, 0.3) for z in (0.5, 1.0)]
+    return np.array(block + slot, dtype=float)
+
+
+def gyroid_block() -> Any:
+    """A 2 x 2 x 1 block: a shell of wall 0.2 filled with a gyroid sheet (period 1, thickness 0.15)."""
+    block = sdf.box((2.0, 2.0, 1.0))
+    return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
