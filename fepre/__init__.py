@@ -22,15 +22,15 @@ from typing import Any
 
 from . import sdf
 from .config import config
-from .errors import ConvergenceWarning, MeshingError
+from .errors import ConvergenceWarning, FeatureWarning, MeshingError
 
 try:
     __version__ = _version("fepre")
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-# public name -> module that defines it (imported on first access). fepre.distmesh and
-# fepre.export are callable packages (listed in _SUBMODULES): fepre.distmesh(model, h) meshes.
+# public name -> module that defines it (imported on first access). fepre.distmesh,
+# fepre.features and fepre.export are callable packages (listed in _SUBMODULES): fepre.distmesh(model, h) meshes.
 _LAZY: dict[str, str] = {
     "sample": "fepre.sampling",
     "isosurface": "fepre.surface",
@@ -38,14 +38,15 @@ _LAZY: dict[str, str] = {
     "SurfaceCheck": "fepre.surface",
     "DistMeshOptions": "fepre.distmesh",
     "improve": "fepre.distmesh",
+    "Features": "fepre.features",
     "compare": "fepre.compare",
     "Comparison": "fepre.compare",
     "plot": "fepre.plotting",
     "plot_model": "fepre.plotting",
 }
-_SUBMODULES = {"quality", "sampling", "surface", "distmesh", "export", "bench", "cli"}
+_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli"}
 
-__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "__version__", *_LAZY, *_SUBMODULES]
+__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "__version__", *_LAZY, *_SUBMODULES]
 
 
 def __getattr__(name: str) -> Any:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -21,6 +21,7 @@ __all__ = [
     "positive_int",
     "as_bounds",
     "choice",
+    "evaluate_size",
 ]
 
 
@@ -140,3 +141,21 @@ def choice(value: Any, name: str, accepted: tuple) -> Any:
     if value not in accepted:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, accepted))}; got {value!r}")
     return value
+
+
+def evaluate_size(size: Callable, points: np.ndarray) -> np.ndarray:
+    """``size(points)`` checked: an (N,) array of finite positive numbers."""
+    try:
+        values = np.asarray(size(points), dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"size must return an (N,) array of positive numbers for (N, 3) points; calling it failed: {exc}") from exc
+    if values.shape == (points.shape[0], 1):
+        values = values[:, 0]
+    if values.shape != (points.shape[0],):
+        raise ValueError(f"size must return shape ({points.shape[0]},) for {points.shape[0]} points; got {values.shape}")
+    bad = ~(np.isfinite(values) & (values > 0))
+    if bad.any():
+        raise ValueError(
+            f"size must return finite values > 0; got {values[bad][0]!r} at point {points[bad][0].tolist()}"
+        )
+    return values

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["MeshingError", "ConvergenceWarning"]
+__all__ = ["MeshingError", "ConvergenceWarning", "FeatureWarning"]
 
 
 class MeshingError(RuntimeError):
@@ -17,4 +17,13 @@ class ConvergenceWarning(UserWarning):
     """An iterative algorithm stopped at ``maxiter`` before meeting its tolerance.
 
     The result returned alongside the warning is the best one reached.
+    """
+
+
+class FeatureWarning(UserWarning):
+    """Sharp features were found that a mesh of the requested size cannot hold, and were skipped.
+
+    Raised by :func:`fepre.features` (and so by :func:`fepre.distmesh`) for features closer
+    together than about ``h/2`` (thin walls, tiny steps, small holes); the message names what was
+    skipped. Meshing goes on without those features.
     """

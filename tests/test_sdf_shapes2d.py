@@ -43,9 +43,16 @@ def winding(points, vertices):
 
 
 def star_polygon(rng, count):
-    """A random simple (star-shaped) polygon with ``count`` vertices."""
-    angles = np.sort(rng.uniform(0, 2 * np.pi, count))
-    angles = angles[np.diff(np.r_[angles, angles[0] + 2 * np.pi]) > 1e-3]
+    """A random simple (star-shaped) polygon with ``count`` vertices.
+
+    Star-shaped about the origin only when every angular gap is below pi: otherwise the edge
+    across the gap can cross the others.
+    """
+    while True:
+        angles = np.sort(rng.uniform(0, 2 * np.pi, count))
+        angles = angles[np.diff(np.r_[angles, angles[0] + 2 * np.pi]) > 1e-3]
+        if len(angles) < 3 or np.diff(np.r_[angles, angles[0] + 2 * np.pi]).max() < 0.95 * np.pi:
+            break
     radii = rng.uniform(0.3, 1.5, len(angles))
     return np.column_stack([radii * np.cos(angles), radii * np.sin(angles)]) + rng.uniform(-1, 1, 2)
 

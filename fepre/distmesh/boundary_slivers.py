@@ -28,6 +28,22 @@ SHALLOW = 0.25
 #: Only cells whose centroid is this close to the zero set (times h) are removed: flat cells on
 #: the surface, never cells spanning a concave region or the inside.
 FLAT_DEPTH = 0.1
+#: A removal must not change the boundary where its faces meet at more than this angle
+#: (degrees): that is a sharp edge or corner of the part, which the removal would cut off.
+CREASE_ANGLE = 30.0
+
+
+def _unit_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    a, b, c = (points[faces[..., k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    return normals / np.maximum(np.linalg.norm(normals, axis=-1), 1e-300)[..., None]
+
+
+def _smooth_across(points: np.ndarray, first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """True where faces ``first`` and ``second`` (N, 3) are within ``CREASE_ANGLE`` of parallel
+    (orientation ignored: the faces of one cell face different ways)."""
+    cosine = np.abs(np.einsum("ij,ij->i", _unit_normals(points, first), _unit_normals(points, second)))
+    return cosine >= np.cos(np.radians(CREASE_ANGLE))
 
 
 def _vertex_disjoint(cells: np.ndarray, priority: np.ndarray, allowed: np.ndarray, n: int) -> np.ndarray:
@@ -80,6 +96,8 @@ def remove_boundary_slivers(
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
     allowed = ~np.isin(new_edge, boundary_edges)
+    # flipping ab across a crease would cut the part's edge off
+    allowed &= _smooth_across(points, np.column_stack([a_b, c_d[:, 0]]), np.column_stack([a_b, c_d[:, 1]]))
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
@@ -130,6 +148,11 @@ def expose_shallow_vertices(
     allowed = np.isin(face_keys(face, n), boundary_face_keys) & movable[vertex]
     allowed &= model(points[vertex]) > -SHALLOW * h
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
+    # the exposed faces continue the removed one: no face of them crosses a crease
+    for k in range(3):
+        exposed = face.copy()
+        exposed[:, k] = vertex
+        allowed &= _smooth_across(points, face, exposed)
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return unchanged

@@ -6,6 +6,8 @@ from typing import Callable
 
 import numpy as np
 
+from ..arguments import evaluate_size
+
 __all__ = ["lattice", "initial_points", "evaluate_size", "surface_points"]
 
 # lattice constant (cube side) per unit edge length, chosen so that every lattice has about
@@ -60,24 +62,6 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
     keep = np.ones(len(surface), bool)
     keep[pairs.max(axis=1) if len(pairs) else []] = False
     return surface[keep]
-
-
-def evaluate_size(size: Callable, points: np.ndarray) -> np.ndarray:
-    """``size(points)`` checked: an (N,) array of finite positive numbers."""
-    try:
-        values = np.asarray(size(points), dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"size must return an (N,) array of positive numbers for (N, 3) points; calling it failed: {exc}") from exc
-    if values.shape == (points.shape[0], 1):
-        values = values[:, 0]
-    if values.shape != (points.shape[0],):
-        raise ValueError(f"size must return shape ({points.shape[0]},) for {points.shape[0]} points; got {values.shape}")
-    bad = ~(np.isfinite(values) & (values > 0))
-    if bad.any():
-        raise ValueError(
-            f"size must return finite values > 0; got {values[bad][0]!r} at point {points[bad][0].tolist()}"
-        )
-    return values
 
 
 def initial_points(

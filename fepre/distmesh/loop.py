@@ -148,8 +148,14 @@ def iterate(
     options: DistMeshOptions,
     progress: bool = False,
     callback: Callable[[DistMeshState], object] | None = None,
+    protect: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> LoopResult:
-    """Run the DistMesh loop from ``points``; returns the final positions and the history."""
+    """Run the DistMesh loop from ``points``; returns the final positions and the history.
+
+    ``protect(points, movable)`` moves points in place after each step (the feature
+    neighbourhoods, :class:`~fepre.distmesh.feature_protection.FeatureProtection`) and returns
+    the moved indices and distances.
+    """
     start = time.perf_counter()
     o = options
     p = points.copy()
@@ -224,6 +230,10 @@ def iterate(
         outside = near[(values > 0) & ~fixed[near]]
         project_outside(model, p, bound[outside], outside, o.deps, h)
         bound[outside] = 0.0
+        if protect is not None:
+            pushed, distance = protect(p, ~fixed)
+            bound[pushed] += distance  # the sdf is 1-Lipschitz
+            step[pushed] += distance
         timings["model"] += time.perf_counter() - t2
 
         interior = bound < -geps

@@ -9,8 +9,10 @@ from typing import Any, Callable
 import numpy as np
 
 from ..arguments import as_bounds, as_points, positive_float
-from ..errors import ConvergenceWarning, MeshingError
+from ..errors import ConvergenceWarning, FeatureWarning, MeshingError
+from ..features import features as detect_features
 from ..sdf.core import SDF
+from .feature_protection import FeatureProtection
 from .finalize import crease_nodes, final_mesh
 from .initial_points import evaluate_size, initial_points
 from .loop import DistMeshState, iterate
@@ -58,6 +60,8 @@ def distmesh(
         about ``h * size(x) / min(size)``.
     fixed : (M, 3) array, optional
         Points kept in the mesh that never move; they must lie in the solid (sdf <= 1e-3 h).
+        They combine with the detected features (``features=True``): feature nodes closer
+        than ``h/2`` to one of them are left out.
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
@@ -68,16 +72,20 @@ def distmesh(
     Returns
     -------
     pyvista.UnstructuredGrid
-        VTK_TETRA cells of positive volume; point data ``sdf``, ``boundary``; cell data
+        VTK_TETRA cells of positive volume; point data ``sdf``, ``boundary``, ``feature``
+        (1 on a feature curve, 2 at a corner); cell data
         ``min_dihedral_angle``, ``max_dihedral_angle``, ``radius_ratio``, ``volume_edge_ratio``,
         ``volume``; field data ``distmesh_*`` (history per iteration: ``max_move``, ``max_dp``,
         ``min_quality``, ``mean_quality``, ``retriangulated``; totals: ``iterations``,
-        ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``converged``).
+        ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``features_seconds``,
+        ``feature_nodes``, ``converged``).
 
     Warns
     -----
     fepre.ConvergenceWarning
         When the loop reaches ``maxiter``; the mesh reached so far is returned.
+    fepre.FeatureWarning
+        When sharp features closer together than ``h/2`` were skipped (``features=True``).
 
     Examples
     --------
@@ -120,16 +128,37 @@ def distmesh(
     if size is not None:
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
 
+    t0 = time.perf_counter()
+    found, protection = None, None
+    if o.features:
+        found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
+        for message in found.skipped:
+            warnings.warn(f"distmesh: {message}", FeatureWarning, stacklevel=2)
+        if found:
+            nodes = found.nodes
+            if len(fixed_points):
+                from scipy.spatial import cKDTree
+
+                distance, _ = cKDTree(fixed_points).query(nodes)
+                nodes = nodes[distance >= 0.5 * h]
+            fixed_points = np.concatenate([fixed_points, nodes])
+            protection = FeatureProtection(found, model, h)
+    features_seconds = time.perf_counter() - t0
+
     rng = np.random.default_rng(o.seed)
     points = initial_points(
         model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng, o.boundary_layer
     )
+    if protection is not None:
+        free = np.arange(len(points)) >= len(fixed_points)
+        points = points[~(free & protection.inside(points))]
     if len(points) - len(fixed_points) < 4:
         _check_domain(model, lower, upper, h)
     fixed_mask = np.zeros(len(points), bool)
     fixed_mask[: len(fixed_points)] = True
 
-    loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback)
+    loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
+                   protect=None if protection is None else protection.push)
     previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
     points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
     loop_seconds = time.perf_counter() - start
@@ -161,9 +190,11 @@ def distmesh(
         triangulations=np.array([loop.triangulations]),
         loop_seconds=np.array([loop_seconds]),
         slivers_seconds=np.array([sliver_seconds]),
+        features_seconds=np.array([features_seconds]),
+        feature_nodes=np.array([0 if found is None else len(found.nodes)]),
         seconds=np.array([time.perf_counter() - start]),
     )
-    grid = to_grid(points, tets, model, history)
+    grid = to_grid(points, tets, model, history, found)
     if not loop.converged:
         warnings.warn(
             f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "

@@ -91,6 +91,15 @@ class DistMeshOptions:
     slivers : bool, default True
         Run fepre's quality stage (:func:`fepre.distmesh.improve`: sliver removal and
         smoothing) on the result of the loop.
+    features : bool, default True
+        Keep the model's sharp edges and corners (:func:`fepre.features`): corners and nodes
+        about ``h`` apart along every feature curve become fixed points, other points are kept
+        out of the curves' neighbourhood (so each piece of a curve is a mesh edge), and the
+        quality stage leaves them where they are. Features closer together than ``h/2`` are
+        skipped with a :class:`fepre.FeatureWarning`.
+    feature_angle : float, default 30
+        Crease threshold of ``features``, degrees: patches whose normals differ by more are a
+        sharp edge.
     """
 
     deltat: float = 0.1
@@ -115,6 +124,8 @@ class DistMeshOptions:
     delaunay: str = "auto"
     seed: int = 0
     slivers: bool = True
+    features: bool = True
+    feature_angle: float = 30.0
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -134,7 +145,10 @@ class DistMeshOptions:
         put("quality_tol", nonnegative_float(self.quality_tol, "quality_tol"))
         for name in ("maxiter", "sort_interval", "quality_window", "move_average_window"):
             put(name, positive_int(getattr(self, name), name))
-        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer"):
+        put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
+        if self.feature_angle >= 180.0:
+            raise ValueError(f"feature_angle must be in (0, 180) degrees; got {self.feature_angle!r}")
+        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features"):
             value = getattr(self, name)
             if not isinstance(value, (bool, numbers.Integral)) or value not in (0, 1):
                 raise TypeError(f"{name} must be True or False; got {value!r}")

@@ -10,9 +10,26 @@ from .topology import boundary_faces
 __all__ = ["to_grid"]
 
 
-def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.ndarray]):
-    """Build the output grid: VTK_TETRA cells, point data ``sdf`` and ``boundary`` (1 on the
-    boundary surface), the quality cell arrays and the ``distmesh_*`` field data."""
+def feature_flags(points: np.ndarray, features, h: float) -> np.ndarray:
+    """Per point: 2 at a corner of ``features``, 1 on a feature curve, 0 elsewhere (to 1e-9 h)."""
+    from ..features.geometry import nearest_on_segments
+
+    flags = np.zeros(len(points), np.uint8)
+    if features is None or not features or len(points) == 0:
+        return flags
+    tol = 1e-9 * h
+    distance, _ = nearest_on_segments(points, features.segments, features.corners)
+    flags[distance <= tol] = 1
+    if len(features.corners):
+        corner_distance, _ = nearest_on_segments(points, np.zeros((0, 2, 3)), features.corners)
+        flags[corner_distance <= tol] = 2
+    return flags
+
+
+def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.ndarray], features=None):
+    """Build the output grid: VTK_TETRA cells, point data ``sdf``, ``boundary`` (1 on the
+    boundary surface) and ``feature`` (1 on a feature curve, 2 at a corner of ``features``),
+    the quality cell arrays and the ``distmesh_*`` field data."""
     import pyvista as pv
 
     grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.ascontiguousarray(tets, dtype=np.int64)}, points)
@@ -20,6 +37,7 @@ def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.n
     boundary = np.zeros(len(points), np.uint8)
     boundary[boundary_faces(tets).ravel()] = 1
     grid.point_data["boundary"] = boundary
+    grid.point_data["feature"] = feature_flags(points, features, features.h if features is not None else 1.0)
     for name, values in tet_quality(points, tets).items():
         grid.cell_data[name] = values
     for name, values in history.items():

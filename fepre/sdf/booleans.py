@@ -185,8 +185,82 @@ def above_box_distance(node: SDF) -> bool:
     return False
 
 
+def dispatch_patch_values(children: Sequence[SDF], signs: Sequence[float], labels: np.ndarray, points: np.ndarray):
+    """Patch values of operands' patches: labels are numbered operand after operand.
+
+    Returns the values (N,) and the mask of labels beyond the operands' (the node's own patch).
+    """
+    out = np.empty(points.shape[0])
+    offset = 0
+    for child, sign in zip(children, signs):
+        count = child.patch_count
+        mask = (labels >= offset) & (labels < offset + count)
+        if mask.any():
+            out[mask] = sign * np.asarray(child._patch_values(labels[mask] - offset, points[mask]))
+        offset += count
+    return out, labels >= offset
+
+
+def _operand_labels(children: Sequence[SDF], signs: Sequence[float], points: np.ndarray):
+    """Each operand's (sign * value, label numbered globally) at ``points``."""
+    parts, offset = [], 0
+    for child, sign in zip(children, signs):
+        values, labels = child._patch_labels(points)
+        parts.append((sign * np.asarray(values, dtype=np.float64), labels + offset))
+        offset += child.patch_count
+    return parts
+
+
+def min_labels(parts, k: float, blend_label: int) -> np.ndarray:
+    """Label of the operand deciding a (smooth) minimum of ``parts`` [(values, labels), ...].
+
+    Where a smooth minimum blends two operands, the label is ``blend_label`` (the blend surface
+    is a patch of its own).
+    """
+    value, label = parts[0]
+    for values, labels in parts[1:]:
+        if k > 0:
+            value, h = smooth_min(value, values, k)
+            label = np.where(h >= 1.0, label, np.where(h <= 0.0, labels, blend_label))
+        else:
+            take = values < value
+            value = np.where(take, values, value)
+            label = np.where(take, labels, label)
+    return label
+
+
+class _PatchedBoolean:
+    """Patches of a boolean: its operands' patches, plus its blend surface when smooth.
+
+    ``_signs`` and ``_outer`` turn the boolean into a minimum: union min(a, b), intersection
+    -min(-a, -b), difference -min(-a, b). A patch's function has the boolean's orientation:
+    an operand's value times ``sign * outer`` (a subtracted operand is negated).
+    """
+
+    _signs: tuple[float, ...]
+    _outer: float = 1.0
+
+    @property
+    def patch_count(self) -> int:
+        return sum(child.patch_count for child in self.children) + (1 if self.k > 0 else 0)
+
+    def _patch_labels(self, points):
+        parts = _operand_labels(self.children, self._signs, points)
+        return self._values(*points.T), min_labels(parts, self.k, self.patch_count - 1)
+
+    def _patch_values(self, labels, points):
+        signs = [sign * self._outer for sign in self._signs]
+        values, own = dispatch_patch_values(self.children, signs, labels, points)
+        if own.any():
+            values[own] = self._values(*points[own].T)
+        return values
+
+    def singular_points(self) -> np.ndarray:
+        return np.vstack([np.zeros((0, self.dim))] + [child.singular_points() for child in self.children])
+
+
 # ---------------------------------------------------------------------- nodes
-class Union(SDF):
+class Union(_PatchedBoolean, SDF):
     """Union of children: ``min`` (sharp) or the chained smooth minimum of radius ``k``."""
 
     analytic_gradient = True
@@ -208,6 +282,10 @@ class Union(SDF):
         super().__init__(bounds=bounds, exact=exact, children=children)
         skippable = [k == 0 and above_box_distance(c) for c in children]
         self._skippable = skippable if any(skippable[1:]) else None
+
+    @property
+    def _signs(self) -> tuple[float, ...]:
+        return (1.0,) * len(self.children)
 
     def _label(self) -> str:
         return "union"
@@ -271,7 +349,7 @@ def _box_distance_and_gradient(coords: Coords, bounds: Bounds):
     return box_distance_and_gradient(coords, bounds)
 
 
-class Intersection(SDF):
+class Intersection(_PatchedBoolean, SDF):
     """Intersection: ``max`` (sharp) or the chained smooth maximum of radius ``k``."""
 
     analytic_gradient = True
@@ -281,6 +359,12 @@ class Intersection(SDF):
         self.k = k
         # A smooth maximum is never below the plain maximum: the solid only shrinks.
         super().__init__(bounds=_box_intersection([c.bounds for c in children]), exact=False, children=children)
+
+    _outer = -1.0
+
+    @property
+    def _signs(self) -> tuple[float, ...]:
+        return (-1.0,) * len(self.children)
 
     def _label(self) -> str:
         return "intersection"
@@ -315,7 +399,7 @@ class Intersection(SDF):
         return value, gradient
 
 
-class Difference(SDF):
+class Difference(_PatchedBoolean, SDF):
     """``base`` minus the union of ``others``: ``max(base, -min(others))``, sharp or smooth."""
 
     analytic_gradient = True
@@ -326,6 +410,12 @@ class Difference(SDF):
         super().__init__(bounds=base.bounds, exact=False, children=(base, *others))
         skippable = [k == 0 and above_box_distance(c) for c in others]
         self._skippable = skippable if any(skippable) else None
+
+    _outer = -1.0
+
+    @property
+    def _signs(self) -> tuple[float, ...]:
+        return (-1.0,) + (1.0,) * (len(self.children) - 1)
 
     def _label(self) -> str:
         return "difference"
@@ -403,6 +493,20 @@ class Complement(SDF):
     def __init__(self, child: SDF) -> None:
         self.dim = child.dim
         super().__init__(bounds=None, exact=child.exact, children=(child,))
+
+    @property
+    def patch_count(self) -> int:
+        return self.children[0].patch_count
+
+    def _patch_labels(self, points):
+        values, labels = self.children[0]._patch_labels(points)
+        return -np.asarray(values), labels
+
+    def _patch_values(self, labels, points):
+        return -np.asarray(self.children[0]._patch_values(labels, points))
+
+    def singular_points(self) -> np.ndarray:
+        return self.children[0].singular_points()
 
     def _label(self) -> str:
         return "complement"

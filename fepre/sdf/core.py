@@ -217,6 +217,62 @@ class SDF:
         _, gradient = self.value_and_gradient(array)
         return gradient[0] if single else gradient
 
+    # ------------------------------------------------------------------ smooth surface patches
+    @property
+    def patch_count(self) -> int:
+        """Number of smooth pieces ("patches") of the node's surface, labelled 0..count-1.
+
+        Sharp features lie where two patches meet at an angle: a box has six patches (its
+        faces), a capped cylinder three, a sharp boolean the patches of its operands. Nodes with
+        a smooth surface have one.
+        """
+        return 1
+
+    def patch_labels(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Values (N,) and the label (N,) of the patch that decides the value at each point.
+
+        Examples
+        --------
+        >>> from fepre import sdf
+        >>> cube = sdf.box(2.0)
+        >>> values, labels = cube.patch_labels([[0.9, 0.0, 0.0], [0.0, 0.0, -0.95]])
+        >>> labels.tolist()   # faces: 2 * axis + (1 on the + side)
+        [1, 4]
+        """
+        array, _ = as_points(points, self.dim)
+        return self._patch_labels(array)
+
+    def patch_values(self, labels: Any, points: Any) -> np.ndarray:
+        """Values (N,) of each point's patch ``labels[i]`` as a smooth function: its zero set holds
+        the patch and it is negative on the solid's side (a face's plane, a hole's cylinder).
+
+        Examples
+        --------
+        >>> from fepre import sdf
+        >>> float(sdf.box(2.0).patch_values([1], [[3.0, 5.0, 0.0]])[0])   # the x = 1 plane
+        2.0
+        """
+        array, _ = as_points(points, self.dim)
+        labels = np.asarray(labels)
+        if labels.shape != (array.shape[0],) or labels.dtype.kind not in "iu":
+            raise ValueError(f"labels must be an integer array of shape ({array.shape[0]},); got {labels.shape} {labels.dtype}")
+        if labels.size and (labels.min() < 0 or labels.max() >= self.patch_count):
+            raise ValueError(f"labels must lie in 0..{self.patch_count - 1} (patch_count); got {labels.min()}..{labels.max()}")
+        return np.asarray(self._patch_values(labels.astype(np.int64), array), dtype=np.float64)
+
+    def singular_points(self) -> np.ndarray:
+        """Isolated points where the surface is not smooth within one patch (a cone's apex), (M, dim).
+
+        Only candidates: a point counts when it lies on the model's zero set.
+        """
+        return np.zeros((0, self.dim))
+
+    def _patch_labels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._values(*points.T), np.zeros(points.shape[0], dtype=np.int64)
+
+    def _patch_values(self, labels: np.ndarray, points: np.ndarray) -> np.ndarray:
+        return self._values(*points.T)
+
     def values_on_axes(
         self,
         *axes: Any,

@@ -88,6 +88,16 @@ class Offset(SDF):
             values = np.maximum(values, box_distance(coords, self._guard))
         return values
 
+    @property
+    def patch_count(self) -> int:
+        return self.children[0].patch_count
+
+    def _patch_labels(self, points):
+        return self._values(*points.T), self.children[0]._patch_labels(points)[1]
+
+    def _patch_values(self, labels, points):
+        return np.asarray(self.children[0]._patch_values(labels, points)) - self.distance
+
     def _values_and_gradient(self, *coords):
         values, gradient = self.children[0]._values_and_gradient(*coords)
         values = values - self.distance
@@ -115,6 +125,22 @@ class Shell(SDF):
     def _values(self, *coords):
         values = self.children[0]._values(*coords)
         return np.maximum(values, -values - self.thickness)
+
+    @property
+    def patch_count(self) -> int:
+        return 2 * self.children[0].patch_count  # the outer surface's patches, then the inner's
+
+    def _patch_labels(self, points):
+        values, labels = self.children[0]._patch_labels(points)
+        inner = -np.asarray(values) - self.thickness
+        take = inner > values
+        return np.where(take, inner, values), np.where(take, labels + self.children[0].patch_count, labels)
+
+    def _patch_values(self, labels, points):
+        count = self.children[0].patch_count
+        inner = labels >= count
+        values = np.asarray(self.children[0]._patch_values(np.where(inner, labels - count, labels), points))
+        return np.where(inner, -values - self.thickness, values)
 
     def _values_and_gradient(self, *coords):
         values, gradient = self.children[0]._values_and_gradient(*coords)

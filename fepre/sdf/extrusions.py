@@ -46,6 +46,24 @@ class Extrusion(SDF):
     def _values(self, x, y, z):
         return orthant_distance([self.shape._values(x, y), np.abs(z) - self.height / 2.0])
 
+    @property
+    def patch_count(self) -> int:
+        return self.shape.patch_count + 2  # the 2D shape's patches swept, then top and bottom
+
+    def _patch_labels(self, points):
+        values, labels = self.shape._patch_labels(points[:, :2])
+        cap = np.abs(points[:, 2]) - self.height / 2.0 > values
+        top = self.shape.patch_count
+        return self._values(*points.T), np.where(cap, np.where(points[:, 2] > 0, top, top + 1), labels)
+
+    def _patch_values(self, labels, points):
+        top = self.shape.patch_count
+        side = labels < top
+        values = np.where(labels == top, points[:, 2], -points[:, 2]) - self.height / 2.0
+        if side.any():
+            values[side] = self.shape._patch_values(labels[side], points[side, :2])
+        return values
+
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         values, (gx, gy) = self.shape._values_and_gradient(x, y)
         parts = [values, np.abs(z) - self.height / 2.0]
@@ -101,6 +119,20 @@ class Revolution(SDF):
     def _values(self, x, y, z):
         _, _, r = radial(x, y, 0.0, 0.0)
         return self.shape._values(r - self.offset, z)
+
+    def _meridian_points(self, points: np.ndarray) -> np.ndarray:
+        r = np.sqrt(points[:, 0] ** 2 + points[:, 1] ** 2)
+        return np.column_stack([r - self.offset, points[:, 2]])
+
+    @property
+    def patch_count(self) -> int:
+        return self.shape.patch_count
+
+    def _patch_labels(self, points):
+        return self._values(*points.T), self.shape._patch_labels(self._meridian_points(points))[1]
+
+    def _patch_values(self, labels, points):
+        return self.shape._patch_values(labels, self._meridian_points(points))
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         dx, dy, r = radial(x, y, 0.0, 0.0)

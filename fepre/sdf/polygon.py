@@ -117,6 +117,19 @@ class Polygon(SDF):
         distance, _, _ = self._nearest(px, py)
         return distance.reshape(shape)
 
+    @property
+    def patch_count(self) -> int:
+        return len(self.vertices)  # edge i runs from vertex i to vertex i + 1
+
+    def _patch_labels(self, points):
+        px, py, _ = self._flat(points[:, 0], points[:, 1])
+        distance, _, nearest = self._nearest(px, py, offsets=True)
+        return distance, nearest.astype(np.int64)
+
+    def _patch_values(self, labels, points):
+        offset = points - self._start[labels]
+        return np.einsum("ij,ij->i", offset, self._outward[labels])
+
     def _values_and_gradient(self, x, y) -> tuple[np.ndarray, Coords]:
         px, py, shape = self._flat(x, y)
         distance, offset, nearest = self._nearest(px, py, offsets=True)

@@ -42,6 +42,21 @@ class Tetrahedron(SDF):
     def _label(self) -> str:
         return "tetrahedron"
 
+    #: normals (times sqrt 3) of the faces g1..g4 of ``_values``: face i is ``n_i . p = s``
+    _FACE_NORMALS = np.array([[-1, -1, -1], [-1, 1, 1], [1, -1, 1], [1, 1, -1]], dtype=float)
+
+    @property
+    def patch_count(self) -> int:
+        return 4
+
+    def _patch_labels(self, points):
+        heights = (points - np.asarray(self._c)) @ self._FACE_NORMALS.T
+        return self._values(*points.T), np.argmax(heights, axis=1)
+
+    def _patch_values(self, labels, points):
+        heights = np.einsum("ij,ij->i", points - np.asarray(self._c), self._FACE_NORMALS[labels])
+        return (heights - self._s) / math.sqrt(3.0)
+
     def _values(self, x, y, z):
         s = self._s
         k = 1.0 / math.sqrt(3.0)
@@ -89,6 +104,18 @@ class Octahedron(SDF):
 
     def _label(self) -> str:
         return "octahedron"
+
+    @property
+    def patch_count(self) -> int:
+        return 8  # one face per octant: label 4 (x < 0) + 2 (y < 0) + (z < 0)
+
+    def _patch_labels(self, points):
+        negative = points < np.asarray(self._c)
+        return self._values(*points.T), negative @ np.array([4, 2, 1])
+
+    def _patch_values(self, labels, points):
+        signs = 1.0 - 2.0 * np.column_stack([(labels >> 2) & 1, (labels >> 1) & 1, labels & 1])
+        return (np.einsum("ij,ij->i", points - np.asarray(self._c), signs) - self.radius) / math.sqrt(3.0)
 
     def _values(self, x, y, z):
         s = self.radius

@@ -55,6 +55,23 @@ class Cylinder(SDF):
         _, _, rho = radial(x, y, cx, cy)
         return orthant_distance([rho - self.radius, np.abs(z - cz) - self.height / 2.0])
 
+    @property
+    def patch_count(self) -> int:
+        return 3  # side, top cap, bottom cap
+
+    def _patch_labels(self, points):
+        cx, cy, cz = self._c
+        _, _, rho = radial(points[:, 0], points[:, 1], cx, cy)
+        dz = points[:, 2] - cz
+        cap = np.abs(dz) - self.height / 2.0 > rho - self.radius
+        return self._values(*points.T), np.where(cap, np.where(dz > 0, 1, 2), 0)
+
+    def _patch_values(self, labels, points):
+        cx, cy, cz = self._c
+        _, _, rho = radial(points[:, 0], points[:, 1], cx, cy)
+        dz = points[:, 2] - cz
+        return np.select([labels == 0, labels == 1], [rho - self.radius, dz - self.height / 2.0], -dz - self.height / 2.0)
+
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c
         dx, dy, rho = radial(x, y, cx, cy)
@@ -125,6 +142,28 @@ class Cone(SDF):
         distance = np.sqrt(np.minimum(sr * sr + sh * sh, br * br + bh * bh))
         np.negative(distance, out=distance, where=~outside)
         return distance
+
+    @property
+    def patch_count(self) -> int:
+        return 2  # the slanted side, the base disk
+
+    def _patch_labels(self, points):
+        cx, cy, cz = self._c
+        _, _, r = radial(points[:, 0], points[:, 1], cx, cy)
+        (sr, sh), (br, bh), _ = self._meridian(r, points[:, 2] - cz)
+        return self._values(*points.T), (sr * sr + sh * sh > br * br + bh * bh).astype(np.int64)
+
+    def _patch_values(self, labels, points):
+        cx, cy, cz = self._c
+        _, _, r = radial(points[:, 0], points[:, 1], cx, cy)
+        h = points[:, 2] - cz
+        nr, nh = self._slant_normal
+        side = nr * (r - self.radius) + nh * h  # distance to the slanted line, in the meridian plane
+        return np.where(labels == 0, side, -h)
+
+    def singular_points(self) -> np.ndarray:
+        cx, cy, cz = self._c
+        return np.array([[cx, cy, cz + self.height]])
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c

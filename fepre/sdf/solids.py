@@ -123,6 +123,26 @@ class Box(SDF):
             values -= self.rounding
         return values
 
+    @property
+    def patch_count(self) -> int:
+        return 2 * self.dim if self.rounding == 0 else 1  # faces 2 * axis + (1 on the + side)
+
+    def _patch_labels(self, points):
+        if self.rounding > 0:
+            return super()._patch_labels(points)
+        parts = np.column_stack(self._parts(points.T))
+        axis = np.argmax(parts, axis=1)
+        side = points[np.arange(points.shape[0]), axis] > np.asarray(self._c)[axis]
+        return self._values(*points.T), 2 * axis + side
+
+    def _patch_values(self, labels, points):
+        if self.rounding > 0:
+            return super()._patch_values(labels, points)
+        axis = labels // 2
+        sign = np.where(labels % 2 == 1, 1.0, -1.0)
+        offset = points[np.arange(points.shape[0]), axis] - np.asarray(self._c)[axis]
+        return sign * offset - np.asarray(self._h)[axis]
+
     def _values_and_gradient(self, *coords) -> tuple[np.ndarray, Coords]:
         parts = self._parts(coords)
         gradients = []

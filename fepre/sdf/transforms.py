@@ -84,6 +84,24 @@ class Affine(SDF):
             values = values * self.factor
         return values
 
+    def _pulled_back_points(self, points: np.ndarray) -> np.ndarray:
+        return points @ self.inverse[: self.dim, : self.dim].T + self.inverse[: self.dim, self.dim]
+
+    @property
+    def patch_count(self) -> int:
+        return self.children[0].patch_count
+
+    def _patch_labels(self, points):
+        values, labels = self.children[0]._patch_labels(self._pulled_back_points(points))
+        return np.asarray(values) * self.factor, labels
+
+    def _patch_values(self, labels, points):
+        return np.asarray(self.children[0]._patch_values(labels, self._pulled_back_points(points))) * self.factor
+
+    def singular_points(self) -> np.ndarray:
+        points = self.children[0].singular_points()
+        return points @ self.matrix[: self.dim, : self.dim].T + self.matrix[: self.dim, self.dim]
+
     def _values_and_gradient(self, *coords):
         values, gradient = self.children[0]._values_and_gradient(*self._pulled_back(coords))
         out = []

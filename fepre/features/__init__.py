@@ -1,0 +1,154 @@
+"""Sharp features of a model: the corners and edges where its smooth surface pieces meet.
+
+Engineering parts have sharp edges and corners, and loads and supports are applied exactly
+there. The model's tree knows which primitive's surface is active near a point
+(:meth:`fepre.sdf.SDF.patch_labels`), so the lines where two of them meet at an angle, and the
+points where three meet, can be found exactly. DistMesh makes them mesh nodes
+(``features=True``) and dual contouring keeps surfaces sharp along them.
+
+Examples
+--------
+>>> import fepre
+>>> from fepre import sdf
+>>> part = sdf.box(2.0) - sdf.cylinder(radius=0.5, height=3.0)
+>>> found = fepre.features(part, h=0.25)
+>>> len(found.corners), len(found.curves), sum(c.closed for c in found.curves)
+(8, 14, 2)
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+import warnings
+from typing import Any, Callable
+
+import numpy as np
+
+from ..arguments import as_bounds, evaluate_size, finite_float, positive_float
+from ..errors import FeatureWarning
+from ..sdf.core import SDF
+from .conflicts import resolve_conflicts
+from .curves import FeatureCurve, build_curves
+from .detect import find_creases
+from .result import Features
+
+__all__ = ["features", "Features", "FeatureCurve", "DEFAULT_ANGLE", "MAX_GRID_NODES"]
+
+#: Default crease threshold: patches whose normals differ by more than this are a sharp edge.
+DEFAULT_ANGLE = 30.0
+#: The fine grid features are found on has at most about this many nodes; a finer ``spacing`` is
+#: coarsened (and the warning says so).
+MAX_GRID_NODES = 30_000_000
+
+
+def features(
+    model: SDF,
+    h: float,
+    *,
+    angle: float = DEFAULT_ANGLE,
+    spacing: float | None = None,
+    bounds: Any = None,
+    size: Callable[[np.ndarray], np.ndarray] | None = None,
+    warn: bool = True,
+) -> Features:
+    """Corners and feature curves of ``model``, with curve nodes about ``h`` apart.
+
+    Parameters
+    ----------
+    model : fepre.sdf.SDF
+        A 3D model. Sharp booleans, boxes, cylinders, cones, polygon extrusions, polyhedra,
+        transforms, offsets and shells contribute their edges; smooth blends (``k > 0``) and
+        smooth primitives have none.
+    h : float
+        Spacing of the nodes along the curves (the mesh's edge length).
+    angle : float
+        Crease threshold in degrees, in (0, 180): two patches form a feature where their normals
+        differ by more than this (default 30).
+    spacing : float, optional
+        Spacing of the fine grid the features are searched on (default ``h/4``). Features
+        closer together than a few spacings may be missed.
+    bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
+        Box searched; default the model's bounds.
+    size : callable, optional
+        Relative size function ``size(points (N, 3)) -> (N,)``, as for :func:`fepre.distmesh`:
+        curve nodes are about ``h * size(x) / min(size)`` apart.
+    warn : bool
+        Warn with :class:`fepre.FeatureWarning` when features had to be skipped.
+
+    Returns
+    -------
+    Features
+        ``corners``, ``curves``, ``nodes``, ``segments``, ``to_polydata()`` to look at them,
+        ``skipped`` in words.
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> found = fepre.features(sdf.box((2, 1, 1)), h=0.5)
+    >>> found.corners.min(axis=0).tolist(), found.corners.max(axis=0).tolist()
+    ([-1.0, -0.5, -0.5], [1.0, 0.5, 0.5])
+    >>> bool(fepre.features(sdf.sphere(1.0), h=0.2))   # a sphere has no features
+    False
+    """
+    if not isinstance(model, SDF) or model.dim != 3:
+        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    h = positive_float(h, "h")
+    angle = finite_float(angle, "angle")
+    if not 0.0 < angle < 180.0:
+        raise ValueError(f"angle must be in (0, 180) degrees; got {angle!r}")
+    if size is not None and not callable(size):
+        raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
+    if bounds is None:
+        if model.bounds is None:
+            raise ValueError("bounds is required for a model without bounds (model.bounds is None)")
+        bounds = model.bounds
+    lower, upper = (np.asarray(b, dtype=np.float64) for b in as_bounds(bounds, 3, "bounds"))
+    scale = float(np.max(upper - lower))
+    spacing = h / 4.0 if spacing is None else positive_float(spacing, "spacing")
+    if spacing >= scale:
+        raise ValueError(f"spacing={spacing!r} must be smaller than the model's largest extent {scale:g}")
+    skipped: list[str] = []
+    empty = Features(np.zeros((0, 3)), (), h, angle, spacing, ())
+    if model.patch_count == 1 and len(model.singular_points()) == 0:
+        return empty
+    nodes = np.prod((upper - lower) / spacing + 6.0)
+    if nodes > MAX_GRID_NODES:
+        coarser = spacing * float(nodes / MAX_GRID_NODES) ** (1.0 / 3.0)
+        skipped.append(
+            f"the search grid was coarsened from spacing {spacing:.4g} to {coarser:.4g} "
+            f"(fepre.features.MAX_GRID_NODES = {MAX_GRID_NODES}): features smaller than about {2 * coarser:.3g} may be missed"
+        )
+        spacing = coarser
+
+    creases = find_creases(model, spacing, (lower, upper), angle, scale)
+    local_h = _local_spacing(model, h, size, (lower, upper))
+    curves = build_curves(model, creases, local_h, scale)
+    corners, curves, conflicts = resolve_conflicts(creases.corners, curves, local_h, scale)
+    skipped.extend(conflicts)
+    if skipped and warn:
+        warnings.warn("fepre.features: " + "; ".join(skipped), FeatureWarning, stacklevel=2)
+    return Features(corners, tuple(curves), h, angle, spacing, tuple(skipped))
+
+
+def _local_spacing(model: SDF, h: float, size: Callable | None, bounds) -> Callable[[np.ndarray], np.ndarray]:
+    """``x -> h * size(x) / min(size)``, the minimum taken over the solid (on a 32^3 grid, as
+    DistMesh takes it over its initial lattice); ``x -> h`` without a size function."""
+    if size is None:
+        return lambda points: np.full(len(points), h)
+    axes = [np.linspace(lo, hi, 32) for lo, hi in zip(*bounds)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = grid[model(grid) <= 0]
+    smallest = float(evaluate_size(size, inside if len(inside) else grid).min())
+    return lambda points: h * evaluate_size(size, points) / smallest
+
+
+class _CallableModule(types.ModuleType):
+    """``fepre.features`` is both this package and the function: calling it finds features."""
+
+    def __call__(self, *args, **kwargs):
+        return features(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
