@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["tetra_cells", "boundary_faces", "boundary_surface", "hausdorff", "mesh_metrics"]
+__all__ = ["tetra_cells", "boundary_faces", "boundary_surface", "hausdorff", "model_hausdorff", "mesh_metrics"]
 
 # face opposite each vertex, outward for a positive (VTK) tetrahedron
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -101,6 +101,68 @@ def hausdorff(a: Any, b: Any) -> tuple[float, float]:
         float(_distances_to_surface(_surface_samples(a), b).max()),
         float(_distances_to_surface(_surface_samples(b), a).max()),
     )
+
+
+#: Barycentric sample points of a triangle for :func:`model_hausdorff`: corners, edge
+#: midpoints, centroid and points between them.
+_BARYCENTRIC = np.array(
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0.5, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [1 / 3, 1 / 3, 1 / 3],
+     [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]
+)
+
+
+def model_hausdorff(
+    mesh: Any,
+    model: Any,
+    *,
+    spacing: float,
+    exclude: Any = None,
+    margin: float = 0.0,
+) -> tuple[float, float]:
+    """Directed Hausdorff distances between a mesh's boundary and the model's true surface.
+
+    Mesh to surface: ten points per boundary triangle (corners, edge midpoints, interior points),
+    each moved onto the zero set by Newton steps (:meth:`fepre.sdf.SDF.project`); the distance
+    moved bounds the distance to the surface from above. Surface to mesh: vertices of a flying
+    edges surface at ``spacing``, moved onto the zero set the same way, measured to the mesh's
+    boundary triangles exactly.
+
+    Parameters
+    ----------
+    mesh : pyvista.UnstructuredGrid
+    model : SDF
+    spacing : float
+        Grid spacing of the model's sampled surface.
+    exclude : SDF, optional
+        Leave out samples inside this solid or within ``margin`` of it (curved parts, where
+        chords are expected).
+    margin : float
+
+    Returns
+    -------
+    (mesh_to_surface, surface_to_mesh) : floats
+
+    Examples
+    --------
+    >>> import fepre
+    >>> from fepre import sdf
+    >>> mesh = fepre.distmesh(sdf.box(1.0), h=0.5)
+    >>> [round(d, 9) for d in model_hausdorff(mesh, sdf.box(1.0), spacing=0.05)]
+    [0.0, 0.0]
+    """
+    from .surface import isosurface
+
+    surface, _ = _boundary(mesh)
+    corners = np.asarray(surface.points, dtype=np.float64)[np.asarray(surface.regular_faces, dtype=np.int64)]
+    samples = np.einsum("sk,tkd->tsd", _BARYCENTRIC, corners).reshape(-1, 3)
+    truth = np.asarray(isosurface(model, spacing=spacing).points, dtype=np.float64)
+    truth = model.project(truth, iterations=30)
+    if exclude is not None:
+        samples = samples[exclude(samples) > margin]
+        truth = truth[exclude(truth) > margin]
+    to_surface = np.linalg.norm(model.project(samples, iterations=30) - samples, axis=1) if len(samples) else np.zeros(1)
+    from_surface = _distances_to_surface(truth, surface) if len(truth) else np.zeros(1)
+    return float(to_surface.max()), float(from_surface.max())
 
 
 def mesh_metrics(

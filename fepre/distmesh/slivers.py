@@ -317,8 +317,14 @@ def improve(
     min_dihedral: float = DEFAULT_MIN_DIHEDRAL,
     maxiter: int = DEFAULT_MAXITER,
     seed: int = 0,
+    features: bool = True,
 ):
     """Remove slivers and improve the cell shapes of a tetrahedral mesh of ``model``.
+
+    Boundary nodes on the model's sharp edges and corners stay where they are, so the stage
+    never rounds them off: nodes on a crease of the mesh's boundary (the model's gradient
+    differs across it) and, with ``features``, nodes on the features :func:`fepre.features`
+    finds for the mesh's median edge length.
 
     Parameters
     ----------
@@ -334,11 +340,13 @@ def improve(
         Largest number of flip-and-smooth rounds.
     seed : int
         Seed of the random candidate moves.
+    features : bool
+        Also pin the nodes that lie on the model's detected features (within ``1e-6 h``).
 
     Returns
     -------
     pyvista.UnstructuredGrid
-        A new mesh with point data ``"sdf"`` and ``"boundary"``, the cell quality arrays of
+        A new mesh with point data ``"sdf"``, ``"boundary"`` and ``"feature"``, the cell quality arrays of
         :mod:`fepre.quality`, and field data ``improve_*`` (seconds, counts, worst angles).
 
     Examples
@@ -376,8 +384,24 @@ def improve(
     h = float(np.median(np.linalg.norm(edges, axis=2)))
     if not h > 0:
         raise ValueError("mesh must have cells of positive size; all its edges have zero length")
-    new_points, new_tets, info = improve_arrays(points, tets, model, h, min_dihedral=min_dihedral, maxiter=maxiter, seed=seed)
-    grid = to_grid(new_points, new_tets, model, {})
+    if not isinstance(features, (bool, np.bool_)):
+        raise TypeError(f"features must be True or False; got {features!r}")
+    from .finalize import crease_nodes
+
+    pinned = crease_nodes(model, points, tets, h)
+    found = None
+    if features:
+        from ..features import features as detect_features
+
+        bounds = model.bounds if model.bounds is not None else (points.min(axis=0), points.max(axis=0))
+        found = detect_features(model, h, bounds=bounds, warn=False)
+        if found:
+            pinned |= found.distance(points)[0] <= 1e-6 * h
+    new_points, new_tets, info = improve_arrays(
+        points, tets, model, h, fixed_mask=pinned, min_dihedral=min_dihedral, maxiter=maxiter, seed=seed
+    )
+    info["pinned"] = int(pinned.sum())
+    grid = to_grid(new_points, new_tets, model, {}, found)
     for key, value in info.items():
         grid.field_data[f"improve_{key}"] = np.array([value])
     return grid

@@ -131,7 +131,7 @@ def _resample(
     if inner.any():
         labels = np.tile(np.asarray(pair, dtype=np.int64), (int(inner.sum()), 1))
         reach = 0.5 * float(spacing.min())
-        solved, ok = solve_on_patches(model, labels, nodes[inner], tol=1e-12 * scale, step=1e-6 * scale, reach=reach)
+        solved, ok = solve_on_patches(model, labels, nodes[inner], tol=1e-13 * scale, step=1e-6 * scale, reach=reach)
         moved = nodes[inner]
         moved[ok] = solved[ok]
         nodes[inner] = moved
@@ -233,12 +233,28 @@ def _join_junctions(model, chains: list[_Chain], reach: float, tol: float) -> No
     _, group = connected_components(graph, directed=False)
     sizes = np.bincount(group)
     _, representative = np.unique(group, return_index=True)
+    junction = points[representative].copy()
+    # two chains of three patches in all (two sides and a face of a polygon prism that turns
+    # less than the crease angle): their patches meet at one point, found exactly
+    members = np.argsort(group, kind="stable")
+    starts = np.searchsorted(group[members], np.arange(len(sizes)))
+    two = np.flatnonzero(sizes == 2)
+    if len(two):
+        labels = np.sort(np.concatenate([pairs[members[starts[two]]], pairs[members[starts[two] + 1]]], axis=1), axis=1)
+        first_of_run = np.concatenate([np.ones((len(two), 1), bool), labels[:, 1:] != labels[:, :-1]], axis=1)
+        three = first_of_run.sum(axis=1) == 3
+        if three.any():
+            triple = labels[three][first_of_run[three]].reshape(-1, 3)
+            solved, ok = solve_on_patches(model, triple, junction[two[three]], tol=0.1 * tol, step=1e-6 * reach / 3.0,
+                                          reach=reach)
+            ok &= np.abs(model(solved)) <= 100 * tol
+            junction[two[three][ok]] = solved[ok]
     for end_index, (chain_index, side) in enumerate(ends):  # loops over curve ends, a few per curve
         if sizes[group[end_index]] < 2:
             continue
-        target = points[representative[group[end_index]]]
         chain = chains[chain_index]
-        if representative[group[end_index]] == end_index:
+        target = junction[group[end_index]]
+        if representative[group[end_index]] == end_index and np.array_equal(target, points[end_index]):
             chain.fixed_ends[side] = True
         else:
             chain.extend(side == 0, target)

@@ -151,7 +151,7 @@ def find_creases(model, spacing: float, bounds, angle: float, scale: float) -> C
     if len(triangles) == 0:
         return empty
     _, labels = model._patch_labels(vertices)
-    tol = 1e-12 * scale
+    tol = 1e-13 * scale
     step = 1e-6 * scale
     on_surface_tol = 1e-7 * scale
 
@@ -215,7 +215,7 @@ def find_creases(model, spacing: float, bounds, angle: float, scale: float) -> C
             pair_angles = np.stack(
                 [crease_angles(model, triple[:, [i, j]], corners, step) for i, j in ((0, 1), (1, 2), (0, 2))], axis=1
             )
-            sharp = (pair_angles > angle).sum(axis=1) >= 2
+            sharp = (pair_angles > angle).all(axis=1)  # three creases meet (else: a junction of two)
             corners, triple = corners[sharp], triple[sharp]
         keep = _cluster_first(corners, 1e-6 * scale)
         corners, corner_labels = corners[keep], triple[keep]

@@ -1,0 +1,139 @@
+"""DistMesh with sharp features: corners and edges of CSG parts are mesh nodes and stay sharp."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+import fepre
+from fepre import sdf
+from fepre.mesh_metrics import boundary_faces, model_hausdorff
+from fepre.parts import (
+    CUBE_WITH_HOLE_VOLUME,
+    SLOTTED_BOX_VOLUME,
+    cube_with_hole,
+    cube_with_hole_corners,
+    l_bracket,
+    slotted_box,
+    slotted_box_corners,
+)
+
+BRACKET_VOLUME = 7.408  # Monte Carlo, 2e7 points: 7.4092 +- 0.0025 (see test_distmesh_csg.py)
+BRACKET_CORNERS = np.array([[0, 0, 0], [0, 2, 0], [0, 0, 3], [0.6, 0, 3], [0, 2, 3], [0.6, 2, 3],
+                            [4, 0, 0], [4, 0, 0.6], [4, 2, 0], [4, 2, 0.6]], float)
+
+
+def mesh_of(model, h, **options):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        return fepre.distmesh(model, h, **options)
+
+
+def assert_valid(mesh, model, h):
+    assert (mesh["volume"] > 0).all()
+    boundary = np.unique(boundary_faces(np.asarray(mesh.cells_dict[10])))
+    assert np.abs(model(mesh.points[boundary])).max() <= 1e-3 * h
+
+
+def corner_gap(mesh, corners):
+    distance, _ = cKDTree(mesh.points).query(corners)
+    return float(distance.max())
+
+
+@pytest.fixture(scope="module")
+def cube_mesh():
+    model, hole = cube_with_hole()
+    return model, hole, mesh_of(model, 0.5)
+
+
+def test_cube_with_hole_corners_rims_volume_hausdorff_and_quality(cube_mesh):
+    model, hole, mesh = cube_mesh
+    h = 0.5
+    assert_valid(mesh, model, h)
+    assert corner_gap(mesh, cube_with_hole_corners()) <= 1e-9
+    assert int((mesh["feature"] == 2).sum()) == 8
+    # nodes of the hole's rims: on the top or bottom face and on the hole, to 1e-9
+    rim = mesh.points[(mesh["feature"] == 1) & (np.abs(hole(mesh.points)) < 1e-6)]
+    assert len(rim) == 2 * round(2 * np.pi / h)
+    assert np.abs(hole(rim)).max() <= 1e-9
+    assert np.minimum(np.abs(rim[:, 2]), np.abs(rim[:, 2] - 5)).max() <= 1e-9
+    # the mesh boundary is the true surface away from the hole, both ways
+    to_surface, from_surface = model_hausdorff(mesh, model, spacing=h / 8, exclude=hole, margin=h)
+    assert max(to_surface, from_surface) <= 0.01 * h
+    assert mesh.volume == pytest.approx(CUBE_WITH_HOLE_VOLUME, rel=0.005)
+    assert mesh["min_dihedral_angle"].min() >= 12.0
+
+
+def test_without_features_the_edges_are_rounded(cube_mesh):
+    model, hole, sharp = cube_mesh
+    rounded = mesh_of(model, 0.5, features=False)
+    assert corner_gap(rounded, cube_with_hole_corners()) > 1e-3
+    to_surface, from_surface = model_hausdorff(rounded, model, spacing=0.5 / 8, exclude=hole, margin=0.5)
+    assert from_surface > 0.05  # the corners are cut off
+    assert not (rounded["feature"] > 0).any()
+
+
+def test_slotted_box_is_exact_everywhere():
+    model, _ = slotted_box()
+    h = 0.25
+    mesh = mesh_of(model, h)
+    assert_valid(mesh, model, h)
+    assert corner_gap(mesh, slotted_box_corners()) <= 1e-9
+    # every face is planar: the mesh is the part to round-off
+    assert max(model_hausdorff(mesh, model, spacing=h / 8)) <= 1e-9
+    assert mesh.volume == pytest.approx(SLOTTED_BOX_VOLUME, rel=1e-9)
+    assert mesh["min_dihedral_angle"].min() >= 12.0
+
+
+def test_l_bracket_corners_and_hausdorff_away_from_hole_and_fillet():
+    model, hole, _ = l_bracket()
+    h = 0.2
+    mesh = mesh_of(model, h)
+    assert_valid(mesh, model, h)
+    assert corner_gap(mesh, BRACKET_CORNERS) <= 1e-9
+    fillet = sdf.capsule((0.6, -1.0, 0.6), (0.6, 3.0, 0.6), 0.6)  # around the filleted inner edge
+    to_surface, from_surface = model_hausdorff(mesh, model, spacing=h / 8, exclude=hole | fillet, margin=h)
+    assert max(to_surface, from_surface) <= 0.01 * h
+    assert mesh.volume == pytest.approx(BRACKET_VOLUME, rel=0.005)
+    assert mesh["min_dihedral_angle"].min() >= 12.0
+
+
+def test_user_fixed_points_combine_with_features():
+    box = sdf.box(1.0)
+    on_edge = np.array([[0.5, 0.5, 0.1]])  # between the edge's feature nodes at z = 0 and 0.25
+    mesh = mesh_of(box, 0.25, fixed=on_edge)
+    assert corner_gap(mesh, on_edge) == 0.0
+    corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    assert corner_gap(mesh, corners) <= 1e-9
+    # the feature node at z = 0 (closer than h/2 to it) is left out; the one at 0.25 is kept
+    edge = mesh.points[(np.abs(mesh.points[:, 0] - 0.5) < 1e-9) & (np.abs(mesh.points[:, 1] - 0.5) < 1e-9)]
+    assert np.min(np.abs(edge[:, 2] - 0.0)) > 1e-3
+    assert np.min(np.abs(edge[:, 2] - 0.25)) < 1e-9
+
+
+def test_thin_plate_warns_names_what_was_skipped_and_meshes():
+    plate = sdf.box((2.0, 2.0, 0.1))  # half an edge thick: its two rims cannot both be kept
+    with pytest.warns(fepre.FeatureWarning, match="closer than 0.5 h to another corner"):
+        mesh = mesh_of(plate, 0.2)
+    assert_valid(mesh, plate, 0.2)
+    assert mesh.volume == pytest.approx(2 * 2 * 0.1, rel=0.05)
+
+
+def test_improve_keeps_feature_nodes_in_place(cube_mesh):
+    model, hole, _ = cube_mesh
+    raw = mesh_of(model, 0.5, slivers=False)
+    better = fepre.improve(raw, model)
+    assert better["min_dihedral_angle"].min() >= 20.0
+    assert corner_gap(better, cube_with_hole_corners()) <= 1e-9
+    assert max(model_hausdorff(better, model, spacing=0.5 / 8, exclude=hole, margin=0.5)) <= 0.005
+    assert int(better.field_data["improve_pinned"][0]) >= int((raw["feature"] > 0).sum())
+
+
+def test_feature_options_are_checked():
+    with pytest.raises(ValueError, match="feature_angle"):
+        fepre.DistMeshOptions(feature_angle=200.0)
+    with pytest.raises(TypeError, match="features"):
+        fepre.DistMeshOptions(features="yes")
