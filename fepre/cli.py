@@ -107,6 +107,7 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
 
 
 def _edge_length(args: argparse.Namespace, part) -> float:
@@ -129,11 +130,37 @@ def _run_mesh(args: argparse.Namespace) -> int:
     h = _edge_length(args, part)
     _say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
-    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed)
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed, features=not args.no_features)
     _say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
     print(summary(mesh))
     written = fepre.export(mesh, args.output, order=args.order, boundaries=part.boundaries or None, model=part.model)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    return 0
+
+
+def _configure_features(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("--h", type=float, help="node spacing along the curves (default: the model file's h)")
+    parser.add_argument("--angle", type=float, default=30.0, help="crease threshold in degrees (default 30)")
+    parser.add_argument("-o", "--output", help="write the corners and curves here (.vtp or .vtk)")
+
+
+@command("features", "find the sharp corners and edges of a model file; print and write them")(_configure_features)
+def _run_features(args: argparse.Namespace) -> int:
+    import fepre
+
+    from .modelfile import load_model
+
+    part = load_model(args.model)
+    h = _edge_length(args, part)
+    if args.output and Path(args.output).suffix.lower() not in (".vtp", ".vtk"):
+        raise ValueError(f"--output must end in .vtp or .vtk; got {Path(args.output).name!r}")
+    found = fepre.features(part.model, h, angle=args.angle, bounds=part.bounds, warn=False)
+    print(found)
+    if args.output:
+        mesh = found.to_polydata()
+        _write_atomically(lambda path: mesh.save(str(path)), Path(args.output))
+        print(f"wrote {args.output}")
     return 0
 
 

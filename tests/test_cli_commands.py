@@ -150,3 +150,27 @@ def test_missing_files_and_bad_usage(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["mesh", "ball.py"])  # -o is required
     assert exit_.value.code == 2
+
+
+def test_features_prints_and_writes_the_rim_of_the_cut_ball(folder, capsys):
+    out = folder / "ball_features.vtp"
+    assert main(["features", str(folder / "ball.py"), "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "corners          0" in printed and "curves           1 (1 closed)" in printed
+    rim = pv.read(out)
+    assert rim.n_lines == 1
+    # the circle where the plane z = -0.5 cuts the unit sphere: radius sqrt(0.75)
+    np.testing.assert_allclose(np.linalg.norm(rim.points[:, :2], axis=1), math.sqrt(0.75), atol=1e-9)
+    np.testing.assert_allclose(rim.points[:, 2], -0.5, atol=1e-9)
+    assert main(["features", str(folder / "ball.py"), "-o", str(folder / "rim.stl")]) == 1
+    assert "--output must end in .vtp or .vtk" in capsys.readouterr().err
+
+
+def test_mesh_keeps_the_rim_sharp_unless_told_not_to(folder):
+    sharp, rounded = folder / "sharp.vtu", folder / "rounded.vtu"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(sharp)]) == 0
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(rounded), "--no-features"]) == 0
+    on_rim = lambda grid: np.sum((np.abs(grid.points[:, 2] + 0.5) < 1e-9)  # noqa: E731
+                                 & (np.abs(np.linalg.norm(grid.points[:, :2], axis=1) - math.sqrt(0.75)) < 1e-9))
+    assert on_rim(pv.read(sharp)) >= round(2 * math.pi * math.sqrt(0.75) / 0.3)
+    assert on_rim(pv.read(rounded)) < on_rim(pv.read(sharp))

@@ -106,7 +106,8 @@ class Features:
             lines.append(np.concatenate([[len(ids)], ids]))
             curve_ids.append(index)
             angles.append(curve.angle)
-        mesh = pv.PolyData(points)
+        mesh = pv.PolyData()
+        mesh.points = points
         if len(self.corners):
             mesh.verts = np.column_stack([np.ones(len(self.corners), np.int64), np.arange(len(self.corners))]).ravel()
         if lines:
