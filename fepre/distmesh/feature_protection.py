@@ -53,7 +53,7 @@ class FeatureProtection:
         """Mask of points within the protected neighbourhood."""
         if len(points) == 0:
             return np.zeros(0, dtype=bool)
-        distance, _, segment = nearest_on_segments(points, self.segments, self.corners, with_index=True)
+        distance, _, segment = nearest_on_segments(points, self.segments, self.corners, with_index=True, within=self.reach)
         return distance < self.radius(segment)
 
     def push(self, points: np.ndarray, movable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -64,7 +64,9 @@ class FeatureProtection:
         index = np.flatnonzero(movable)
         if index.size == 0:
             return index, np.zeros(0)
-        distance, foot, segment = nearest_on_segments(points[index], self.segments, self.corners, with_index=True)
+        distance, foot, segment = nearest_on_segments(
+            points[index], self.segments, self.corners, with_index=True, within=self.reach
+        )
         radius = self.radius(segment)
         close = distance < radius
         index, distance, foot, radius = index[close], distance[close], foot[close], radius[close]
