@@ -137,3 +137,17 @@ def test_feature_options_are_checked():
         fepre.DistMeshOptions(feature_angle=200.0)
     with pytest.raises(TypeError, match="features"):
         fepre.DistMeshOptions(features="yes")
+
+
+def test_nearly_tangent_crease_meshes_with_or_without_it():
+    # a shallow spherical dimple in the top face: its rim is a crease of only 11.5 degrees
+    part = sdf.box(2.0) - sdf.sphere(1.0, center=(0.0, 0.0, 1.98))
+    exact = 8.0 - np.pi * 0.02**2 * (3.0 - 0.02) / 3.0
+    for angle, rims in ((30.0, 0), (5.0, 1)):
+        found = fepre.features(part, 0.2, angle=angle)
+        assert sum(c.closed for c in found.curves) == rims
+        mesh = mesh_of(part, 0.2, feature_angle=angle)
+        assert_valid(mesh, part, 0.2)
+        assert corner_gap(mesh, found.corners) <= 1e-9
+        assert mesh.volume == pytest.approx(exact, rel=1e-3)
+        assert mesh["min_dihedral_angle"].min() >= 12.0
