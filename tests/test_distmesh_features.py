@@ -151,3 +151,34 @@ def test_nearly_tangent_crease_meshes_with_or_without_it():
         assert corner_gap(mesh, found.corners) <= 1e-9
         assert mesh.volume == pytest.approx(exact, rel=1e-3)
         assert mesh["min_dihedral_angle"].min() >= 12.0
+
+
+def random_csg(seed: int):
+    """Three random boxes, rotated cylinders or spheres, combined by union and difference."""
+    rng = np.random.default_rng(seed)
+
+    def primitive():
+        kind, centre = rng.integers(3), rng.uniform(-0.5, 0.5, 3)
+        if kind == 0:
+            return sdf.box(rng.uniform(0.5, 1.5, 3), center=centre)
+        if kind == 1:
+            return sdf.cylinder(rng.uniform(0.2, 0.6), rng.uniform(0.5, 1.5), center=centre).rotate(
+                rng.uniform(0, 180), rng.normal(size=3))
+        return sdf.sphere(rng.uniform(0.3, 0.7), center=centre)
+
+    a, b, c = primitive(), primitive(), primitive()
+    return [(a | b) - c, (a & sdf.box(1.6)) | b, a - b - c][rng.integers(3)]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 4, 7, 10])
+def test_random_csg_parts_mesh_validly_with_features(seed):
+    model = random_csg(seed)
+    reference = fepre.isosurface(model, spacing=0.01).volume
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mesh = fepre.distmesh(model, 0.12)
+    assert_valid(mesh, model, 0.12)
+    assert mesh.volume == pytest.approx(reference, rel=0.02)
+    assert mesh["min_dihedral_angle"].min() >= 10.0
+    found = fepre.features(model, 0.12, warn=False)
+    assert corner_gap(mesh, found.corners) <= 1e-9 if len(found.corners) else True

@@ -30,6 +30,10 @@ from .topology import boundary_faces, check_topology, repair_selection
 
 __all__ = ["final_mesh", "compact", "crease_nodes"]
 
+#: Delaunay backend used when the chosen one returns overlapping cells (valid on co-spherical points)
+FALLBACK_BACKEND = "scipy"
+#: cells whose centroid is farther outside than this (times h) are never added by the repair
+_FAR_OUTSIDE = 0.25
 #: rounds of "triangulate, then move or drop interior nodes whose star reaches outside"
 _STAR_ROUNDS = 4
 #: points closer than this (times h) are merged
@@ -97,6 +101,23 @@ class _PointSet:
             self.keep(~drop)
 
 
+def _valid_selection(points: np.ndarray, tets: np.ndarray) -> bool:
+    """True when the cells ``tets`` form a valid solid (closed 2-manifold boundary)."""
+    used_points, renumbered = compact(points, tets)
+    return len(renumbered) > 0 and check_topology(renumbered, len(used_points)).ok
+
+
+def _manifold(tets: np.ndarray, n_points: int) -> bool:
+    """True when no face is shared by more than two cells (a triangulation without overlaps)."""
+    from .tet_topology import face_neighbours
+
+    try:
+        face_neighbours(tets, n_points)
+    except ValueError:
+        return False
+    return True
+
+
 def _star_conflicts(points: _PointSet, tets: np.ndarray, centroid_values: np.ndarray) -> np.ndarray:
     """Interior nodes that must leave the interior: their star has a cell with its centroid
     outside, or they lie on the boundary of the kept cells (the convex hull)."""
@@ -138,6 +159,11 @@ def final_mesh(
 ):
     """Triangulate ``points`` and choose the cells of a valid solid.
 
+    ``backend`` triangulates. Nodes on sharp features lie exactly on lines and planes,
+    co-spherical sets on which gmsh can return overlapping cells: such a triangulation (and a
+    ``previous`` one) is refused and the points are triangulated by ``FALLBACK_BACKEND``
+    (Qhull) instead.
+
     ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
     reused when no point had to move or go and every cell is still positive. Returns
     ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
@@ -149,10 +175,12 @@ def final_mesh(
     state.merge()
     changed = len(state.points) != n_before or not np.array_equal(state.points, points)
 
-    tets = previous if not changed else None
+    tets = previous if not changed and previous is not None and _manifold(previous, len(state.points)) else None
     for round_ in range(_STAR_ROUNDS + 1):
         if tets is None or len(tets) == 0 or signed_volumes(state.points, tets).min() <= 1e-9 * h**3:
             tets = tetrahedralize(state.points, backend, h)
+            if not _manifold(tets, len(state.points)):
+                tets = tetrahedralize(state.points, FALLBACK_BACKEND, h)
         centroid_values = model(state.points[tets].mean(axis=1))
         conflicts = _star_conflicts(state, tets, centroid_values)
         if len(conflicts) == 0 or round_ == _STAR_ROUNDS:
@@ -177,10 +205,24 @@ def final_mesh(
     # on the zero set, more as the centroid goes deeper on the other side)
     scale = np.cbrt(np.abs(volumes)) + 1e-300
     outside_share = np.clip(0.5 + centroid_values / (2.0 * scale), 0.0, 1.0)
-    selected = repair_selection(
-        tets, selected, locked, volumes * outside_share + 1e-12 * volumes, volumes * (1.0 - outside_share) + 1e-12 * volumes,
-        len(state.points),
-    )
+    add_cost = volumes * outside_share + 1e-12 * volumes
+    remove_cost = volumes * (1.0 - outside_share) + 1e-12 * volumes
+    # a chord across a concave surface puts a centroid at most about h^2 / (8 R) outside: cells
+    # farther out bridge a concave region: a second repair never adds them, and of the two
+    # repairs the valid one that puts less volume on the wrong side wins
+    bridging = (centroid_values > _FAR_OUTSIDE * h) & ~selected
+    repaired = repair_selection(tets, selected, locked, add_cost, remove_cost, len(state.points))
+    if bridging.any():
+        strict = repair_selection(tets, selected, locked, np.where(bridging, np.inf, add_cost), remove_cost, len(state.points))
+
+        def misplaced(choice: np.ndarray) -> float:
+            return float(add_cost[choice & ~selected].sum() + remove_cost[~choice & selected].sum())
+
+        if _valid_selection(state.points, tets[strict]) and (
+            misplaced(strict) < misplaced(repaired) or not _valid_selection(state.points, tets[repaired])
+        ):
+            repaired = strict
+    selected = repaired
     tets = tets[selected]
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")

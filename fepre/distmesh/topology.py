@@ -189,7 +189,8 @@ def repair_selection(
     the pinched vertices of the selection and mends every such defect at once, by the cheaper
     (``add_cost`` / ``remove_cost``) of: *fill*, add all unselected cells around it (it becomes
     interior), or *carve*, remove the selected cells around it except the most costly fan (the
-    cells joined through faces holding the defect). Cells in ``locked`` are never removed. The
+    cells joined through faces holding the defect). Cells in ``locked`` are never removed, cells
+    of infinite ``add_cost`` never added. The
     second half of the rounds only fills where it can, so the selection grows and the repair
     ends. Returns the new selection mask; its boundary may still be non-manifold when the
     rounds ran out (check it).
@@ -219,6 +220,8 @@ def repair_selection(
         inside = selected[cell]
         fill_cost = np.bincount(defect, np.where(inside, 0.0, add_cost[cell]), n_defects)
         can_fill = np.bincount(defect, ~inside, n_defects) > 0
+        # cells of infinite cost (far outside the solid) are never added
+        can_fill &= np.bincount(defect, ~inside & np.isinf(add_cost[cell]), n_defects) == 0
         # carve: keep the fan of largest cost (locked cells count as infinitely costly)
         fan = np.full(len(cell), -1)
         fan[inside] = _fans(tets, cell[inside], defect[inside], items)

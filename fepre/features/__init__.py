@@ -125,7 +125,7 @@ def features(
     creases = find_creases(model, spacing, (lower, upper), angle, scale)
     local_h = _local_spacing(model, h, size, (lower, upper))
     curves = build_curves(model, creases, local_h, scale)
-    corners, curves, conflicts = resolve_conflicts(creases.corners, curves, local_h, scale)
+    corners, curves, conflicts = resolve_conflicts(creases.corners, curves, local_h, scale, angle)
     skipped.extend(conflicts)
     if skipped and warn:
         warnings.warn("fepre.features: " + "; ".join(skipped), FeatureWarning, stacklevel=2)

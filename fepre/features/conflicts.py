@@ -1,9 +1,12 @@
-"""Features closer together than a mesh can resolve: thin walls, tiny steps, small holes.
+"""Features a mesh cannot resolve: thin walls, tiny steps, small holes, nearly tangent surfaces.
 
 A mesh with edge length ``h`` cannot hold two feature nodes much closer than ``h/2`` without
 tiny or flat elements. Corners are kept first, then the nodes of the longest curves: a node
 within ``h/2`` of a node already kept is skipped, and curves are cut where their nodes were
-skipped. Every skip is reported in words for a warning.
+skipped. Curves where two surfaces meet nearly tangentially with opposite sides (a knife edge,
+or a crevice between a face and a part barely touching it: crease angle above ``180 - angle``)
+are skipped too: the solid or the gap along them is thinner than any element. Every skip is
+reported in words for a warning.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ def resolve_conflicts(
     curves: list[FeatureCurve],
     local_h: Callable[[np.ndarray], np.ndarray],
     scale: float,
+    angle: float,
 ) -> tuple[np.ndarray, list[FeatureCurve], list[str]]:
     """Corners and curves with the nodes too close to other features removed, and what was
     skipped; ``local_h`` gives the mesh's edge length at (N, 3) points."""
@@ -73,6 +77,13 @@ def resolve_conflicts(
     result: list[FeatureCurve] = []
     dropped_nodes = 0
     small_loops = 0
+    knife = [c for c in curves if c.angle > 180.0 - angle]
+    if knife:
+        skipped.append(
+            f"{len(knife)} feature curve(s) where surfaces meet nearly tangentially (crease angle above "
+            f"{180.0 - angle:g} deg: knife edges or crevices): not kept"
+        )
+    curves = [c for c in curves if c.angle <= 180.0 - angle]
     for curve in sorted(curves, key=lambda c: -c.length):  # one pass per curve, longest first
         radius = MIN_SEPARATION * local_h(curve.points)
         if curve.closed and curve.length < 1.5 * float(np.mean(radius)) / MIN_SEPARATION:
