@@ -23,7 +23,7 @@ from typing import Any, Callable
 
 from . import sdf
 from .errors import MeshingError
-from .parts import cube_with_hole, gyroid_block, l_bracket
+from .parts import GYROID_BLOCK_VOLUME, L_BRACKET_VOLUME, cube_with_hole, gyroid_block, l_bracket
 
 __all__ = ["DemoPart", "demo_parts", "run_demo", "DemoResult"]
 
@@ -41,6 +41,7 @@ class DemoPart:
     spacing : float
         Grid spacing of the STL surface.
     exact_volume : float or None
+        The part's volume: exact, or a Monte Carlo reference where there is no closed form.
     boundaries : dict
         Named boundary sets written to the INP file.
     references : tuple of str
@@ -74,12 +75,12 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
                  ("gmsh",) if quick else ("pytetwild", "gmsh"), "unit sphere"),
         DemoPart("torus", sdf.torus(1.0, 0.4), 0.15 * scale, 0.02 * scale, 2.0 * math.pi**2 * 1.0 * 0.4**2, {},
                  ("gmsh",), "torus R=1, r=0.4"),
-        DemoPart("l_bracket", bracket, 0.2 * scale, 0.03 * scale, None,
+        DemoPart("l_bracket", bracket, 0.2 * scale, 0.03 * scale, L_BRACKET_VOLUME,
                  {"bolt_hole": bolt_hole, "mount": sdf.plane((-1, 0, 0), (0, 0, 0))},
                  ("gmsh",), "L-bracket, 0.3 fillet (smooth union), bolt hole"),
     ]
     if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
-        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, None, {},
+        parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, GYROID_BLOCK_VOLUME, {},
                               ("gmsh",), "2x2x1 block, 0.2 wall, gyroid sheet infill (period 1)"))
     return parts
 

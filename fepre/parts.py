@@ -26,10 +26,12 @@ __all__ = [
     "CUBE_WITH_HOLE_VOLUME",
     "cube_with_hole_corners",
     "l_bracket",
+    "L_BRACKET_VOLUME",
     "slotted_box",
     "SLOTTED_BOX_VOLUME",
     "slotted_box_corners",
     "gyroid_block",
+    "GYROID_BLOCK_VOLUME",
 ]
 
 #: Exact volume of :func:`cube_with_hole`: 125 - 5 pi.
@@ -48,6 +50,11 @@ def cube_with_hole() -> tuple[Any, Any]:
 def cube_with_hole_corners() -> np.ndarray:
     """The 8 corners of :func:`cube_with_hole`, (8, 3)."""
     return 5.0 * np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=float)
+
+
+#: Volume of :func:`l_bracket` (no closed form): Monte Carlo with 2e7 points, 7.4092 +- 0.0025;
+#: flying edges at spacing 0.01 encloses 7.4065.
+L_BRACKET_VOLUME = 7.408
 
 
 def l_bracket() -> tuple[Any, Any, Any]:
@@ -86,6 +93,11 @@ def slotted_box_corners() -> np.ndarray:
     block = [[x, y, z] for x in (-2.0, 2.0) for y in (-1.0, 1.0) for z in (0.0, 1.0)]
     slot = [[x, y, z] for x in (-1.2, 1.2) for y in (-0.3, 0.3) for z in (0.5, 1.0)]
     return np.array(block + slot, dtype=float)
+
+
+#: Volume of :func:`gyroid_block`: Monte Carlo with 2e7 points, 3.2775 +- 0.0003; flying edges
+#: at spacing 0.005 encloses 3.2776.
+GYROID_BLOCK_VOLUME = 3.2776
 
 
 def gyroid_block() -> Any:
