@@ -1,0 +1,253 @@
+"""fepre's dual contouring (Ju, Losasso, Schaefer, Warren 2002): sharp edges and corners from a grid.
+
+Connectivity is surface nets' (:mod:`fepre.surface.dual_cells`): one vertex per active cell, one
+quad per crossing grid edge, so the surface is closed, manifold and outward wherever surface
+nets' is. Only the vertices differ: each sits at the minimiser of its cell's quadratic error
+function (:mod:`fepre.surface.qef`), built from the Hermite data of its cut edges
+(:mod:`fepre.surface.hermite`), so a cell cut by a crease gets a vertex on the crease and a cell
+holding a corner gets the corner.
+
+Steps, all vectorised over the active cells:
+
+1. Hermite data: crossings refined on the model, normals from its gradient (or, for a grid
+   without a model, linear crossings and the grid's gradient).
+2. One QEF per cell, solved about the mass point with eigenvalues below ``truncation`` times the
+   largest dropped (rank 1 on smooth surface, 2 on a crease, 3 at a corner).
+3. Crease and corner cells (rank 2 or 3) of a model are solved again from Hermite samples taken
+   close to the vertex: each sample is replaced by the model's tangent plane at the point a
+   twentieth of the way from the vertex towards it (kept only when that plane belongs to the
+   same face, i.e. its normal is within ~37 degrees of the sample's). Planes taken far from
+   the vertex on a curved face (a hole meeting a flat face) put the vertex off the crease by
+   about ``h^2 / (2 R)``; near ones by four hundred times less.
+4. Each vertex is kept in its cell grown by ``margin`` cells: a crease vertex slides along its
+   crease into the cell, others are clamped to the box.
+5. Each quad is split along the diagonal that gives the better triangles: never one of zero
+   area when the other split has none, then the one joining two crease vertices (so the
+   surface folds along the crease, not across it), then the larger smallest triangle quality.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .dual_cells import DualCells, dual_cells, split_quads
+from .hermite import Hermite, hermite_from_grid, hermite_from_model
+from .qef import accumulate_qef
+
+__all__ = ["dual_contouring"]
+
+#: probes for the second solve of crease and corner cells: this fraction of the way to each sample
+_PROBE_FRACTION = 0.05
+#: a probe's plane replaces its sample only when their normals' cosine is above this
+_SAME_FACE_COSINE = 0.8
+#: crossings of one cell all within this many cells of each other count as one point
+_PINCH = 1e-3
+#: a triangle of smaller quality (4 sqrt(3) area / sum of squared sides) counts as degenerate
+_DEGENERATE_QUALITY = 1e-6
+
+
+def dual_contouring(
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    workers: int | None = None,
+    *,
+    model: Any = None,
+    truncation: float = 0.1,
+    margin: float = 0.01,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points (one per active cell) and outward triangles of the ``level`` set, sharp features kept.
+
+    Parameters
+    ----------
+    values : (nz, ny, nx) array
+        Samples in VTK order (x fastest).
+    level : float
+        Iso value; a node with ``value >= level`` is outside.
+    origin, spacing : (3,) arrays
+        Grid geometry.
+    workers : int, optional
+        Threads for the grid scan.
+    model : fepre.sdf.SDF, optional
+        The model the samples came from: gives exact crossings and normals (sharp features).
+        Without it the normals come from the samples' gradient and creases are only as sharp
+        as the grid resolves them.
+    truncation : float
+        Eigenvalues of a cell's ``A^T A`` below this fraction of its largest are dropped.
+    margin : float
+        How far (in cells) a vertex may leave its cell.
+
+    Returns
+    -------
+    points : (C, 3) float64
+    triangles : (T, 3) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> cube = sdf.box((1.0, 1.0, 1.0))
+    >>> axis = np.linspace(-0.77, 0.77, 12)
+    >>> values = cube.values_on_axes(axis, axis, axis)
+    >>> origin, spacing = np.full(3, -0.77), np.full(3, axis[1] - axis[0])
+    >>> points, triangles = dual_contouring(values, 0.0, origin, spacing, model=cube)
+    >>> corner = np.linalg.norm(points - 0.5, axis=1).min()
+    >>> bool(corner < 1e-9), triangles.shape[1]
+    (True, 3)
+    """
+    origin = np.asarray(origin, dtype=float)
+    spacing = np.asarray(spacing, dtype=float)
+    dual = dual_cells(values, level, workers)
+    if dual is None:
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    if model is None:
+        hermite = hermite_from_grid(dual, values, level, origin, spacing)
+    else:
+        hermite = hermite_from_model(dual, values, level, origin, spacing, model)
+    nz, ny, nx = values.shape
+    k, rest = np.divmod(dual.scan.cells, nx * ny)
+    j, i = np.divmod(rest, nx)
+    low = origin + np.stack([i, j, k], axis=1) * spacing
+    centre = low + 0.5 * spacing
+    qef = accumulate_qef(dual.cell, hermite.points[dual.crossing], hermite.normals[dual.crossing], centre)
+    points, rank, vectors = qef.solve(truncation)
+    points = _unpinch(points, rank, vectors, qef, dual, hermite, spacing)
+    box = (low - margin * spacing, low + (1 + margin) * spacing)
+    points = _keep_in_cells(points, rank, vectors, *box)
+    if model is not None:
+        points, rank = _refine_features(dual, hermite, model, level, points, rank, centre, box, truncation)
+    facing = np.stack(
+        [np.bincount(dual.cell, weights=hermite.normals[dual.crossing, a], minlength=dual.n_cells) for a in range(3)],
+        axis=1,
+    )
+    along02 = _better_diagonal(points, dual.quads, rank >= 2, facing)
+    return points, split_quads(dual.quads, along02)
+
+
+def _unpinch(
+    points: np.ndarray, rank: np.ndarray, vectors: np.ndarray, qef, dual: DualCells, hermite: Hermite, spacing: np.ndarray
+) -> np.ndarray:
+    """In the directions a cell's QEF leaves free, use the cell centre where the crossings do not spread.
+
+    A grid node or grid line lying on the surface (value exactly ``level``, so outside) with
+    inside neighbours holds the crossings of all their edges; the cells around it would all get
+    the same mass point, hence the same vertex, and the quads between them zero area. Along a
+    free direction in which a cell's crossings spread less than a thousandth of a cell, the
+    vertex moves half way to the centre's coordinate (the centres differ; half way, so that it
+    does not land on the mass point of a neighbour whose crossings do spread).
+    """
+    relative = hermite.points[dual.crossing] - qef.reference[dual.cell] - qef.mass[dual.cell]
+    count = np.bincount(dual.cell, minlength=dual.n_cells)
+    moments = np.empty((dual.n_cells, 3, 3))
+    for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):
+        moments[:, a, b] = moments[:, b, a] = (
+            np.bincount(dual.cell, weights=relative[:, a] * relative[:, b], minlength=dual.n_cells) / count
+        )
+    points = points.copy()
+    limit = (_PINCH * float(np.min(spacing))) ** 2
+    for column in range(2):
+        u = vectors[:, :, column]
+        free = rank <= 2 - column
+        spread = np.einsum("ci,cij,cj->c", u, moments, u)
+        pinched = free & (spread < limit)
+        shift = -0.5 * np.einsum("ci,ci->c", u[pinched], qef.mass[pinched])  # half way to the centre
+        points[pinched] += shift[:, None] * u[pinched]
+    return points
+
+
+def _keep_in_cells(
+    points: np.ndarray, rank: np.ndarray, vectors: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> np.ndarray:
+    """Slide crease vertices along their crease into the box, then clamp every vertex to it."""
+    points = points.copy()
+    crease = np.flatnonzero(rank == 2)
+    if crease.size:
+        x, u = points[crease], vectors[crease, :, 0]  # the free direction: along the crease
+        lo, hi = low[crease] - x, high[crease] - x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a, b = lo / u, hi / u
+        flat = np.abs(u) < 1e-12
+        enter = np.where(flat, np.where(lo <= 0, -np.inf, np.inf), np.minimum(a, b)).max(axis=1)
+        leave = np.where(flat, np.where(hi >= 0, np.inf, -np.inf), np.maximum(a, b)).min(axis=1)
+        meets = enter <= leave
+        shift = np.clip(0.0, enter, leave)
+        points[crease[meets]] += shift[meets, None] * u[meets]
+    return np.clip(points, low, high)
+
+
+def _refine_features(
+    dual: DualCells,
+    hermite: Hermite,
+    model: Any,
+    level: float,
+    points: np.ndarray,
+    rank: np.ndarray,
+    centre: np.ndarray,
+    box: tuple[np.ndarray, np.ndarray],
+    truncation: float,
+    passes: int = 2,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Solve crease and corner cells again from the model's tangent planes close to their vertex."""
+    feature = np.flatnonzero(rank >= 2)
+    if feature.size == 0:
+        return points, rank
+    compact = np.full(rank.size, -1, dtype=np.int64)
+    compact[feature] = np.arange(feature.size)
+    rows = compact[dual.cell] >= 0
+    cell = compact[dual.cell[rows]]
+    sample_points = hermite.points[dual.crossing[rows]]
+    sample_normals = hermite.normals[dual.crossing[rows]]
+    low, high = box[0][feature], box[1][feature]
+    vertex = points[feature]
+    for _ in range(passes):
+        probe = vertex[cell] + _PROBE_FRACTION * (sample_points - vertex[cell])
+        value, gradient = model.value_and_gradient(probe)
+        norm2 = np.einsum("ij,ij->i", gradient, gradient)
+        safe = np.where(norm2 > 0, norm2, 1.0)
+        normal = gradient / np.sqrt(safe)[:, None]
+        same_face = (norm2 > 0) & (np.einsum("ij,ij->i", normal, sample_normals) > _SAME_FACE_COSINE)
+        on_surface = probe - ((value - level) / safe)[:, None] * gradient
+        plane_points = np.where(same_face[:, None], on_surface, sample_points)
+        plane_normals = np.where(same_face[:, None], normal, sample_normals)
+        qef = accumulate_qef(cell, plane_points, plane_normals, centre[feature])
+        vertex, feature_rank, vectors = qef.solve(truncation)
+        vertex = _keep_in_cells(vertex, feature_rank, vectors, low, high)
+    points = points.copy()
+    rank = rank.copy()
+    points[feature] = vertex
+    rank[feature] = feature_rank
+    return points, rank
+
+
+def _quality(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """4 sqrt(3) area / sum of squared sides: 1 for an equilateral triangle, 0 for a degenerate one."""
+    double_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    squares = sum(np.einsum("ij,ij->i", u - v, u - v) for u, v in ((a, b), (b, c), (c, a)))
+    return np.divide(2 * np.sqrt(3) * double_area, squares, out=np.zeros_like(squares), where=squares > 0)
+
+
+def _facing(points: np.ndarray, facing: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """True where triangle (a, b, c) faces the same way as the summed normals of its vertices' cells."""
+    normal = np.cross(points[b] - points[a], points[c] - points[a])
+    return np.einsum("ij,ij->i", normal, facing[a] + facing[b] + facing[c]) > 0
+
+
+def _better_diagonal(points: np.ndarray, quads: np.ndarray, crease: np.ndarray, facing: np.ndarray) -> np.ndarray:
+    """True where a quad is better split along 0-2 than along 1-3.
+
+    First no zero-area triangle, then no triangle facing against its vertices' normals (a quad
+    folded over itself by vertices moved onto a crease has one good split), then the diagonal
+    joining two crease vertices, then the larger smallest quality.
+    """
+    v0, v1, v2, v3 = quads.T
+    p0, p1, p2, p3 = points[v0], points[v1], points[v2], points[v3]
+    q02 = np.minimum(_quality(p0, p1, p2), _quality(p0, p2, p3))
+    q13 = np.minimum(_quality(p0, p1, p3), _quality(p1, p2, p3))
+    good02 = 2 * (q02 > _DEGENERATE_QUALITY) + (_facing(points, facing, v0, v1, v2) & _facing(points, facing, v0, v2, v3))
+    good13 = 2 * (q13 > _DEGENERATE_QUALITY) + (_facing(points, facing, v0, v1, v3) & _facing(points, facing, v1, v2, v3))
+    crease02 = crease[v0] & crease[v2]
+    crease13 = crease[v1] & crease[v3]
+    return np.where(good02 != good13, good02 > good13, np.where(crease02 != crease13, crease02, q02 >= q13))
