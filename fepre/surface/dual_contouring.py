@@ -12,13 +12,17 @@ Steps, all vectorised over the active cells:
 1. Hermite data: crossings refined on the model, normals from its gradient (or, for a grid
    without a model, linear crossings and the grid's gradient).
 2. One QEF per cell, solved about the mass point with eigenvalues below ``truncation`` times the
-   largest dropped (rank 1 on smooth surface, 2 on a crease, 3 at a corner).
-3. Crease and corner cells (rank 2 or 3) of a model are solved again from Hermite samples taken
-   close to the vertex: each sample is replaced by the model's tangent plane at the point a
-   twentieth of the way from the vertex towards it (kept only when that plane belongs to the
-   same face, i.e. its normal is within ~37 degrees of the sample's). Planes taken far from
-   the vertex on a curved face (a hole meeting a flat face) put the vertex off the crease by
-   about ``h^2 / (2 R)``; near ones by four hundred times less.
+   largest dropped (rank 1 on smooth surface, 2 on a crease, 3 at a corner). In a free
+   direction where a cell's crossings do not spread (a grid node or line on the surface), the
+   vertex moves half way to the cell centre so that neighbouring cells do not share a point.
+3. With a model, smooth-surface vertices (rank 1) take one Newton step onto the level set, and
+   crease and corner cells (rank 2 or 3) are solved again, in four passes, from the model's
+   tangent planes at probes between the vertex and each sample: half, a fifth, then a
+   twentieth of the way (twice). A probe's plane replaces its sample only when it belongs to
+   the same face (normals within ~37 degrees): a vertex still off the crease finds only the
+   nearer face close by, hence far probes first. Planes taken at the crossings of a curved
+   face (a hole meeting a flat face) put the vertex off the crease by about ``h^2 / (2 R)``;
+   planes a twentieth of the way away by four hundred times less.
 4. Each vertex is kept in its cell grown by ``margin`` cells: a crease vertex slides along its
    crease into the cell, others are clamped to the box.
 5. Each quad is split along the diagonal that gives the better triangles: never one of zero
@@ -38,8 +42,9 @@ from .qef import accumulate_qef
 
 __all__ = ["dual_contouring"]
 
-#: probes for the second solve of crease and corner cells: this fraction of the way to each sample
-_PROBE_FRACTION = 0.05
+#: probes for the re-solves of crease and corner cells: these fractions of the way to each sample,
+#: one pass each (far first: a vertex still off the crease would find only the nearer face close by)
+_PROBE_FRACTIONS = (0.5, 0.2, 0.05, 0.05)
 #: a probe's plane replaces its sample only when their normals' cosine is above this
 _SAME_FACE_COSINE = 0.8
 #: crossings of one cell all within this many cells of each other count as one point
@@ -118,6 +123,7 @@ def dual_contouring(
     box = (low - margin * spacing, low + (1 + margin) * spacing)
     points = _keep_in_cells(points, rank, vectors, *box)
     if model is not None:
+        points = _project_smooth(model, level, points, rank, box)
         points, rank = _refine_features(dual, hermite, model, level, points, rank, centre, box, truncation)
     facing = np.stack(
         [np.bincount(dual.cell, weights=hermite.normals[dual.crossing, a], minlength=dual.n_cells) for a in range(3)],
@@ -178,6 +184,25 @@ def _keep_in_cells(
     return np.clip(points, low, high)
 
 
+def _project_smooth(
+    model: Any, level: float, points: np.ndarray, rank: np.ndarray, box: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """One Newton step of each smooth-surface vertex (rank 1) onto the level set, kept in its cell.
+
+    On a curved surface the tangent planes of a cell's crossings meet off the surface by about
+    ``h^2 / (8 R)``; the step removes that to second order.
+    """
+    smooth = np.flatnonzero(rank == 1)
+    if smooth.size == 0:
+        return points
+    value, gradient = model.value_and_gradient(points[smooth])
+    norm2 = np.einsum("ij,ij->i", gradient, gradient)
+    step = np.divide(value - level, norm2, out=np.zeros_like(norm2), where=norm2 > 0)
+    points = points.copy()
+    points[smooth] = np.clip(points[smooth] - step[:, None] * gradient, box[0][smooth], box[1][smooth])
+    return points
+
+
 def _refine_features(
     dual: DualCells,
     hermite: Hermite,
@@ -188,7 +213,6 @@ def _refine_features(
     centre: np.ndarray,
     box: tuple[np.ndarray, np.ndarray],
     truncation: float,
-    passes: int = 2,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Solve crease and corner cells again from the model's tangent planes close to their vertex."""
     feature = np.flatnonzero(rank >= 2)
@@ -202,8 +226,8 @@ def _refine_features(
     sample_normals = hermite.normals[dual.crossing[rows]]
     low, high = box[0][feature], box[1][feature]
     vertex = points[feature]
-    for _ in range(passes):
-        probe = vertex[cell] + _PROBE_FRACTION * (sample_points - vertex[cell])
+    for fraction in _PROBE_FRACTIONS:
+        probe = vertex[cell] + fraction * (sample_points - vertex[cell])
         value, gradient = model.value_and_gradient(probe)
         norm2 = np.einsum("ij,ij->i", gradient, gradient)
         safe = np.where(norm2 > 0, norm2, 1.0)

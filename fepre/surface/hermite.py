@@ -69,7 +69,7 @@ def hermite_from_model(
     origin: np.ndarray,
     spacing: np.ndarray,
     model: Any,
-    iterations: int = 4,
+    iterations: int = 12,
 ) -> Hermite:
     """Crossings refined on ``model`` and its normalised gradients.
 
@@ -85,8 +85,8 @@ def hermite_from_model(
     model : fepre.sdf.SDF
         Evaluated with ``value_and_gradient`` on the crossing edges only.
     iterations : int
-        Largest number of Newton steps per edge (each a model evaluation on the edges not yet
-        converged to a millionth of a cell).
+        Largest number of steps per edge (each a model evaluation on the edges not yet
+        converged to a millionth of a cell; Newton needs two or three on smooth surfaces).
 
     Examples
     --------
@@ -105,12 +105,41 @@ def hermite_from_model(
     step = np.zeros((axis.size, 3))
     step[rows, axis] = spacing[axis]  # the edge vector
     base = origin + ijk * spacing
-    lo, hi = np.zeros_like(t), np.ones_like(t)
-    f_lo, f_hi = v0 - level, v1 - level
     threshold = float(inside_threshold(values.dtype, level))
     start_inside = v0 < threshold
+    _solve_on_edges(model, level, base, step, t, v0 - level, v1 - level, start_inside, iterations, spacing)
+    _first_outside_point(model, level, base, step, t, start_inside)
+    points = base + t[:, None] * step
+    inward = np.where(start_inside, -1.0, 1.0)[:, None] * step  # towards the inside end
+    _, gradient = model.value_and_gradient(points + _NORMAL_OFFSET * inward)
+    return Hermite(points, _unit(gradient))
+
+
+def _solve_on_edges(
+    model: Any,
+    level: float,
+    base: np.ndarray,
+    step: np.ndarray,
+    t: np.ndarray,
+    f_start: np.ndarray,
+    f_end: np.ndarray,
+    start_inside: np.ndarray,
+    iterations: int,
+    spacing: np.ndarray,
+) -> None:
+    """Refine the crossing parameters ``t`` (in place) to ``model == level`` on each edge.
+
+    Newton along the edge where its step stays inside the bracket, otherwise the Illinois
+    variant of false position (the value kept at an end twice in a row is halved), which
+    converges even where the model is piecewise linear along the edge (CSG creases), where
+    plain false position crawls. Edges stop once ``|value - level|`` is below a millionth of a
+    cell; each iteration evaluates the model on the edges still moving.
+    """
+    lo, hi = np.zeros_like(t), np.ones_like(t)
+    f_lo, f_hi = f_start.copy(), f_end.copy()
+    kept = np.zeros(t.size, dtype=np.int8)  # which end the last step kept: 1 lo, 2 hi
     tolerance = 1e-6 * float(np.min(spacing))
-    active = rows
+    active = np.arange(t.size)
     for _ in range(iterations):
         value, gradient = model.value_and_gradient(base[active] + t[active, None] * step[active])
         f = value - level
@@ -119,24 +148,23 @@ def hermite_from_model(
         if active.size == 0:
             break
         at = t[active]
-        # keep the bracket: the end on the start node's side moves to t when f is on that side
-        on_start_side = (f < 0) == start_inside[active]
-        lo[active] = np.where(on_start_side, at, lo[active])
-        f_lo[active] = np.where(on_start_side, f, f_lo[active])
-        hi[active] = np.where(on_start_side, hi[active], at)
-        f_hi[active] = np.where(on_start_side, f_hi[active], f)
+        # the end on the start node's side moves to t when f is on that side
+        replaces_lo = (f < 0) == start_inside[active]
+        a = np.where(replaces_lo, at, lo[active])
+        b = np.where(replaces_lo, hi[active], at)
+        fa = np.where(replaces_lo, f, f_lo[active])
+        fb = np.where(replaces_lo, f_hi[active], f)
+        now_kept = np.where(replaces_lo, 2, 1).astype(np.int8)
+        again = kept[active] == now_kept
+        fa = np.where(again & (now_kept == 1), 0.5 * fa, fa)
+        fb = np.where(again & (now_kept == 2), 0.5 * fb, fb)
+        lo[active], hi[active], f_lo[active], f_hi[active], kept[active] = a, b, fa, fb, now_kept
         slope = np.einsum("ij,ij->i", gradient, step[active])
         with np.errstate(divide="ignore", invalid="ignore"):
             newton = at - f / slope
-            a, b, fa, fb = lo[active], hi[active], f_lo[active], f_hi[active]
             secant = np.where(fb != fa, a - fa * (b - a) / (fb - fa), 0.5 * (a + b))
         inside_bracket = np.isfinite(newton) & (newton > a) & (newton < b)
         t[active] = np.where(inside_bracket, newton, np.clip(secant, a, b))
-    _first_outside_point(model, level, base, step, t, start_inside)
-    points = base + t[:, None] * step
-    inward = np.where(start_inside, -1.0, 1.0)[:, None] * step  # towards the inside end
-    _, gradient = model.value_and_gradient(points + _NORMAL_OFFSET * inward)
-    return Hermite(points, _unit(gradient))
 
 
 def _first_outside_point(
