@@ -38,7 +38,7 @@ import numpy as np
 
 from .dual_cells import DualCells, dual_cells, split_quads
 from .hermite import Hermite, hermite_from_grid, hermite_from_model
-from .qef import accumulate_qef
+from .qef import accumulate_qef, sample_spread
 
 __all__ = ["dual_contouring"]
 
@@ -118,10 +118,10 @@ def dual_contouring(
     low = origin + np.stack([i, j, k], axis=1) * spacing
     centre = low + 0.5 * spacing
     qef = accumulate_qef(dual.cell, hermite.points[dual.crossing], hermite.normals[dual.crossing], centre)
-    points, rank, vectors = qef.solve(truncation)
-    points = _unpinch(points, rank, vectors, qef, dual, hermite, spacing)
+    points, rank, free = qef.solve(truncation)
+    points = _unpinch(points, free, qef, dual, hermite, origin, spacing)
     box = (low - margin * spacing, low + (1 + margin) * spacing)
-    points = _keep_in_cells(points, rank, vectors, *box)
+    points = _keep_in_cells(points, rank, free, *box)
     if model is not None:
         points = _project_smooth(model, level, points, rank, box)
         points, rank = _refine_features(dual, hermite, model, level, points, rank, centre, box, truncation)
@@ -134,44 +134,64 @@ def dual_contouring(
 
 
 def _unpinch(
-    points: np.ndarray, rank: np.ndarray, vectors: np.ndarray, qef, dual: DualCells, hermite: Hermite, spacing: np.ndarray
+    points: np.ndarray, free: np.ndarray, qef, dual: DualCells, hermite: Hermite, origin: np.ndarray, spacing: np.ndarray
 ) -> np.ndarray:
-    """In the directions a cell's QEF leaves free, use the cell centre where the crossings do not spread.
+    """In the directions a cell's QEF leaves free, move half way to the centre where the crossings do not spread.
 
     A grid node or grid line lying on the surface (value exactly ``level``, so outside) with
     inside neighbours holds the crossings of all their edges; the cells around it would all get
     the same mass point, hence the same vertex, and the quads between them zero area. Along a
     free direction in which a cell's crossings spread less than a thousandth of a cell, the
     vertex moves half way to the centre's coordinate (the centres differ; half way, so that it
-    does not land on the mass point of a neighbour whose crossings do spread).
+    does not land on the mass point of a neighbour whose crossings do spread). Crossings only
+    fail to spread when they all sit on grid nodes along a grid line or at one node, so only
+    such cells are examined.
     """
-    relative = hermite.points[dual.crossing] - qef.reference[dual.cell] - qef.mass[dual.cell]
-    count = np.bincount(dual.cell, minlength=dual.n_cells)
-    moments = np.empty((dual.n_cells, 3, 3))
-    for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):
-        moments[:, a, b] = moments[:, b, a] = (
-            np.bincount(dual.cell, weights=relative[:, a] * relative[:, b], minlength=dual.n_cells) / count
-        )
-    points = points.copy()
+    grid_units = (hermite.points - origin) / spacing
+    off_node = (np.abs(grid_units - np.rint(grid_units)) > _PINCH).any(axis=1)
+    candidates = np.flatnonzero(np.bincount(dual.cell, weights=off_node[dual.crossing], minlength=dual.n_cells) == 0)
+    if candidates.size == 0:
+        return points
+    # of those, the cells whose crossings lie on a grid line or at one node (two or three axes flat)
+    chosen = np.zeros(dual.n_cells, dtype=bool)
+    chosen[candidates] = True
+    rows = chosen[dual.cell]  # dual.cell is sorted, so each candidate's rows are contiguous
+    position = hermite.points[dual.crossing[rows]]
+    starts = np.searchsorted(dual.cell[rows], candidates)
+    extent = np.maximum.reduceat(position, starts, axis=0) - np.minimum.reduceat(position, starts, axis=0)
+    candidates = candidates[(extent < _PINCH * spacing).sum(axis=1) >= 2]
+    if candidates.size == 0:
+        return points
+    chosen[:] = False
+    chosen[candidates] = True
+    rows = chosen[dual.cell]
+    compact = np.searchsorted(candidates, dual.cell[rows])
+    spread = sample_spread(compact, hermite.points[dual.crossing[rows]], candidates.size)
     limit = (_PINCH * float(np.min(spacing))) ** 2
-    for column in range(2):
-        u = vectors[:, :, column]
-        free = rank <= 2 - column
-        spread = np.einsum("ci,cij,cj->c", u, moments, u)
-        pinched = free & (spread < limit)
-        shift = -0.5 * np.einsum("ci,ci->c", u[pinched], qef.mass[pinched])  # half way to the centre
-        points[pinched] += shift[:, None] * u[pinched]
+    big = float(np.max(spacing)) ** 2
+    projector = free[candidates]
+    restricted = projector @ spread @ projector + big * (np.eye(3) - projector)  # constrained directions: big
+    values, directions = np.linalg.eigh(restricted)
+    pinched = directions * (values < limit)[:, None, :]
+    # the centre is the reference: the mass point relative to it is qef.mass
+    shift = -0.5 * np.einsum("cik,cjk,cj->ci", pinched, pinched, qef.mass[candidates])
+    points = points.copy()
+    points[candidates] += shift
     return points
 
 
 def _keep_in_cells(
-    points: np.ndarray, rank: np.ndarray, vectors: np.ndarray, low: np.ndarray, high: np.ndarray
+    points: np.ndarray, rank: np.ndarray, free: np.ndarray, low: np.ndarray, high: np.ndarray
 ) -> np.ndarray:
     """Slide crease vertices along their crease into the box, then clamp every vertex to it."""
     points = points.copy()
     crease = np.flatnonzero(rank == 2)
     if crease.size:
-        x, u = points[crease], vectors[crease, :, 0]  # the free direction: along the crease
+        projector = free[crease]  # u u^T for the direction u along the crease
+        column = np.argmax(np.einsum("cii->ci", projector), axis=1)
+        u = projector[np.arange(crease.size), :, column]
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        x = points[crease]
         lo, hi = low[crease] - x, high[crease] - x
         with np.errstate(divide="ignore", invalid="ignore"):
             a, b = lo / u, hi / u
@@ -237,8 +257,8 @@ def _refine_features(
         plane_points = np.where(same_face[:, None], on_surface, sample_points)
         plane_normals = np.where(same_face[:, None], normal, sample_normals)
         qef = accumulate_qef(cell, plane_points, plane_normals, centre[feature])
-        vertex, feature_rank, vectors = qef.solve(truncation)
-        vertex = _keep_in_cells(vertex, feature_rank, vectors, low, high)
+        vertex, feature_rank, free = qef.solve(truncation)
+        vertex = _keep_in_cells(vertex, feature_rank, free, low, high)
     points = points.copy()
     rank = rank.copy()
     points[feature] = vertex
@@ -246,32 +266,43 @@ def _refine_features(
     return points, rank
 
 
-def _quality(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """4 sqrt(3) area / sum of squared sides: 1 for an equilateral triangle, 0 for a degenerate one."""
-    double_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    squares = sum(np.einsum("ij,ij->i", u - v, u - v) for u, v in ((a, b), (b, c), (c, a)))
-    return np.divide(2 * np.sqrt(3) * double_area, squares, out=np.zeros_like(squares), where=squares > 0)
+def _cross(u: tuple, v: tuple) -> tuple:
+    """Cross products of vectors given as (x, y, z) component arrays."""
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
 
-def _facing(points: np.ndarray, facing: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """True where triangle (a, b, c) faces the same way as the summed normals of its vertices' cells."""
-    normal = np.cross(points[b] - points[a], points[c] - points[a])
-    return np.einsum("ij,ij->i", normal, facing[a] + facing[b] + facing[c]) > 0
+def _dot(u: tuple, v: tuple) -> np.ndarray:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 
 
 def _better_diagonal(points: np.ndarray, quads: np.ndarray, crease: np.ndarray, facing: np.ndarray) -> np.ndarray:
     """True where a quad is better split along 0-2 than along 1-3.
 
-    First no zero-area triangle, then no triangle facing against its vertices' normals (a quad
-    folded over itself by vertices moved onto a crease has one good split), then the diagonal
-    joining two crease vertices, then the larger smallest quality.
+    First no zero-area triangle, then no triangle facing against the summed normals of the
+    quad's cells (a quad folded over itself by vertices moved onto a crease has one good
+    split), then the diagonal joining two crease vertices, then the larger smallest quality
+    ``4 sqrt(3) area / sum of squared sides`` (1 for an equilateral triangle).
     """
-    v0, v1, v2, v3 = quads.T
-    p0, p1, p2, p3 = points[v0], points[v1], points[v2], points[v3]
-    q02 = np.minimum(_quality(p0, p1, p2), _quality(p0, p2, p3))
-    q13 = np.minimum(_quality(p0, p1, p3), _quality(p1, p2, p3))
-    good02 = 2 * (q02 > _DEGENERATE_QUALITY) + (_facing(points, facing, v0, v1, v2) & _facing(points, facing, v0, v2, v3))
-    good13 = 2 * (q13 > _DEGENERATE_QUALITY) + (_facing(points, facing, v0, v1, v3) & _facing(points, facing, v1, v2, v3))
-    crease02 = crease[v0] & crease[v2]
-    crease13 = crease[v1] & crease[v3]
+    corners = [tuple(points[quads[:, c], a] for a in range(3)) for c in range(4)]
+
+    def minus(i: int, j: int) -> tuple:
+        return tuple(corners[i][a] - corners[j][a] for a in range(3))
+
+    e01, e12, e23, e30, e02, e13 = minus(1, 0), minus(2, 1), minus(3, 2), minus(0, 3), minus(2, 0), minus(3, 1)
+    s01, s12, s23, s30, s02, s13 = (_dot(e, e) for e in (e01, e12, e23, e30, e02, e13))
+    # twice the area vectors of the four triangles, oriented like the quad
+    n012, n023 = _cross(e01, e02), _cross(e02, minus(3, 0))
+    n013, n123 = _cross(e01, minus(3, 0)), _cross(e12, e13)
+    quad_facing = tuple(facing[quads, a].sum(axis=1) for a in range(3))
+    scale = 2 * np.sqrt(3)
+
+    def quality(n: tuple, squares: np.ndarray) -> np.ndarray:
+        return np.divide(scale * np.sqrt(_dot(n, n)), squares, out=np.zeros_like(squares), where=squares > 0)
+
+    q02 = np.minimum(quality(n012, s01 + s12 + s02), quality(n023, s02 + s23 + s30))
+    q13 = np.minimum(quality(n013, s01 + s13 + s30), quality(n123, s12 + s23 + s13))
+    good02 = 2 * (q02 > _DEGENERATE_QUALITY) + ((_dot(n012, quad_facing) > 0) & (_dot(n023, quad_facing) > 0))
+    good13 = 2 * (q13 > _DEGENERATE_QUALITY) + ((_dot(n013, quad_facing) > 0) & (_dot(n123, quad_facing) > 0))
+    crease02 = crease[quads[:, 0]] & crease[quads[:, 2]]
+    crease13 = crease[quads[:, 1]] & crease[quads[:, 3]]
     return np.where(good02 != good13, good02 > good13, np.where(crease02 != crease13, crease02, q02 >= q13))

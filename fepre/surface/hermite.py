@@ -108,10 +108,17 @@ def hermite_from_model(
     threshold = float(inside_threshold(values.dtype, level))
     start_inside = v0 < threshold
     _solve_on_edges(model, level, base, step, t, v0 - level, v1 - level, start_inside, iterations, spacing)
-    _first_outside_point(model, level, base, step, t, start_inside)
-    points = base + t[:, None] * step
     inward = np.where(start_inside, -1.0, 1.0)[:, None] * step  # towards the inside end
-    _, gradient = model.value_and_gradient(points + _NORMAL_OFFSET * inward)
+    points = base + t[:, None] * step
+    value, gradient = model.value_and_gradient(points + _NORMAL_OFFSET * inward)
+    # a crossing on its outside node whose point just inside is not inside: the edge runs along
+    # the surface from the node, and the crossing is where the inside ends (see _bisect_inside_end)
+    outside_end = np.where(start_inside, 1.0, 0.0)
+    along = np.flatnonzero((np.abs(t - outside_end) < 1e-9) & (value >= level))
+    if along.size:
+        t_along = _bisect_inside_end(model, level, base[along], step[along], 1.0 - outside_end[along], outside_end[along])
+        points[along] = base[along] + t_along[:, None] * step[along]
+        gradient[along] = model.value_and_gradient(points[along] + _NORMAL_OFFSET * inward[along])[1]
     return Hermite(points, _unit(gradient))
 
 
@@ -167,35 +174,22 @@ def _solve_on_edges(
         t[active] = np.where(inside_bracket, newton, np.clip(secant, a, b))
 
 
-def _first_outside_point(
-    model: Any, level: float, base: np.ndarray, step: np.ndarray, t: np.ndarray, start_inside: np.ndarray
-) -> None:
-    """Where a crossing converged onto its outside node, make it the first outside point of the edge.
+def _bisect_inside_end(
+    model: Any, level: float, base: np.ndarray, step: np.ndarray, inside: np.ndarray, outside: np.ndarray
+) -> np.ndarray:
+    """Edge parameters of the first outside point (``value >= level``) between ``inside`` and ``outside``.
 
     When the outside node lies on the surface, the model may be zero along a stretch of the
     edge (a grid edge in the floor of a slot, running from the material to the slot): any point
-    of the stretch is a zero, but the crossing is where the inside ends, on the crease. A point
-    just inside the node tells the two cases apart; only edges running along the surface are
-    bisected on ``value < level``. ``t`` is updated in place.
+    of the stretch is a zero, but the crossing is where the inside ends, on the crease.
     """
-    outside_end = np.where(start_inside, 1.0, 0.0)
-    candidates = np.flatnonzero(np.abs(t - outside_end) < 1e-9)
-    if candidates.size == 0:
-        return
-    inside_end = 1.0 - outside_end[candidates]
-    towards_inside = np.where(inside_end > 0, 1.0, -1.0)
-    near = outside_end[candidates] + _NORMAL_OFFSET * towards_inside
-    along = model(base[candidates] + near[:, None] * step[candidates]) >= level
-    candidates, inside_end = candidates[along], inside_end[along]
-    if candidates.size == 0:
-        return
-    low, high = inside_end, outside_end[candidates]
+    low, high = inside.copy(), outside.copy()
     for _ in range(_BISECTIONS):
         middle = 0.5 * (low + high)
-        outside = model(base[candidates] + middle[:, None] * step[candidates]) >= level
-        high = np.where(outside, middle, high)
-        low = np.where(outside, low, middle)
-    t[candidates] = high
+        is_outside = model(base + middle[:, None] * step) >= level
+        high = np.where(is_outside, middle, high)
+        low = np.where(is_outside, low, middle)
+    return high
 
 
 def hermite_from_grid(

@@ -6,8 +6,12 @@ mass point ``m`` (the mean of the ``p_i``): ``x = m + (A^T A)^+ (A^T b - A^T A m
 pseudo-inverse drops the eigenvalues of ``A^T A`` below ``truncation`` times the largest (Ju et
 al. 2002; Lindstrom 2000). The number of eigenvalues kept is the cell's rank: 1 on a smooth
 surface (the vertex moves from the mass point along the normal only), 2 on a crease (the vertex
-is the point of the crease nearest the mass point), 3 at a corner. Every cell is solved in one
-batched 3x3 eigen-decomposition.
+is the point of the crease nearest the mass point), 3 at a corner.
+
+All cells are solved at once. Eigenvalues come from the closed form for symmetric 3x3 matrices;
+a rank-1 cell (most of them) needs only its dominant eigenvector, a column of
+``(A^T A - l1)(A^T A - l2)``; the others (creases, corners, cells without normals) go through a
+batched LAPACK eigen-decomposition.
 """
 
 from __future__ import annotations
@@ -16,9 +20,39 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["QEF", "accumulate_qef"]
+__all__ = ["QEF", "accumulate_qef", "sample_spread", "symmetric_eigenvalues"]
 
 _UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+
+
+def symmetric_eigenvalues(matrices: np.ndarray) -> np.ndarray:
+    """Ascending eigenvalues (C, 3) of symmetric 3x3 matrices (C, 3, 3), in closed form.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> symmetric_eigenvalues(np.diag([3.0, 1.0, 2.0])[None]).round(12).tolist()
+    [[1.0, 2.0, 3.0]]
+    """
+    a = matrices
+    q = np.trace(a, axis1=1, axis2=2) / 3
+    off = a[:, 0, 1] ** 2 + a[:, 0, 2] ** 2 + a[:, 1, 2] ** 2
+    centred = a - q[:, None, None] * np.eye(3)
+    p = np.sqrt((np.einsum("cii->ci", centred) ** 2).sum(axis=1) / 6 + off / 3)
+    safe = np.where(p > 0, p, 1.0)
+    b = centred / safe[:, None, None]
+    det = (
+        b[:, 0, 0] * (b[:, 1, 1] * b[:, 2, 2] - b[:, 1, 2] * b[:, 2, 1])
+        - b[:, 0, 1] * (b[:, 1, 0] * b[:, 2, 2] - b[:, 1, 2] * b[:, 2, 0])
+        + b[:, 0, 2] * (b[:, 1, 0] * b[:, 2, 1] - b[:, 1, 1] * b[:, 2, 0])
+    )
+    r = np.clip(det / 2, -1.0, 1.0)
+    phi = np.arccos(r) / 3
+    largest = q + 2 * p * np.cos(phi)
+    smallest = q + 2 * p * np.cos(phi + 2 * np.pi / 3)
+    middle = 3 * q - largest - smallest
+    values = np.stack([smallest, middle, largest], axis=1)
+    return np.sort(values, axis=1)  # rounding can swap near-equal ones
 
 
 @dataclass
@@ -43,10 +77,11 @@ class QEF:
     reference: np.ndarray
 
     def solve(self, truncation: float = 0.1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Minimisers (C, 3) in world coordinates, ranks (C,) and eigenvectors (C, 3, 3).
+        """Minimisers (C, 3) in world coordinates, ranks (C,) and free projectors (C, 3, 3).
 
-        The eigenvectors are columns in ascending order of eigenvalue, so for a cell of rank
-        ``r`` the first ``3 - r`` columns span the directions the QEF leaves free.
+        The free projector of a cell projects onto the directions its QEF leaves free (the
+        eigenvectors whose eigenvalues were dropped): the plane of a smooth surface, the line
+        of a crease, nothing at a corner.
 
         Examples
         --------
@@ -54,44 +89,100 @@ class QEF:
         >>> normals = np.eye(3)  # three faces of a box corner at (1, 2, 3)
         >>> points = np.array([[1.0, 2.2, 3.3], [1.4, 2.0, 3.1], [1.2, 2.1, 3.0]])
         >>> qef = accumulate_qef(np.zeros(3, dtype=np.int64), points, normals, np.zeros((1, 3)))
-        >>> x, rank, _ = qef.solve()
-        >>> x.round(12).tolist(), rank.tolist()
-        ([[1.0, 2.0, 3.0]], [3])
+        >>> x, rank, free = qef.solve()
+        >>> x.round(12).tolist(), rank.tolist(), bool(np.allclose(free, 0))
+        ([[1.0, 2.0, 3.0]], [3], True)
         """
-        eigenvalues, vectors = np.linalg.eigh(self.ata)
-        largest = eigenvalues[:, 2:3]
-        keep = eigenvalues > truncation * largest
-        keep &= largest > 0
-        inverse = np.divide(1.0, eigenvalues, out=np.zeros_like(eigenvalues), where=keep)
+        count = self.ata.shape[0]
+        values = symmetric_eigenvalues(self.ata)
+        largest = values[:, 2]
+        keep = (values > truncation * largest[:, None]) & (largest[:, None] > 0)
+        rank = keep.sum(axis=1)
         residual = self.atb - np.einsum("cij,cj->ci", self.ata, self.mass)
-        step = np.einsum("cij,cj,cj->ci", vectors, inverse, np.einsum("cji,cj->ci", vectors, residual))
-        return self.reference + self.mass + step, keep.sum(axis=1), vectors
+        step = np.zeros((count, 3))
+        free = np.zeros((count, 3, 3))
+        # rank 1 with a clear gap: the dominant eigenvector from the spectral projector
+        simple = np.flatnonzero((rank == 1) & (values[:, 1] < 0.5 * truncation * largest))
+        if simple.size:
+            a = self.ata[simple]
+            eye = np.eye(3)
+            product = (a - values[simple, 0, None, None] * eye) @ (a - values[simple, 1, None, None] * eye)
+            column = np.argmax(np.einsum("cij,cij->cj", product, product), axis=1)
+            v = product[np.arange(simple.size), :, column]
+            v /= np.linalg.norm(v, axis=1, keepdims=True)
+            step[simple] = v * (np.einsum("ci,ci->c", v, residual[simple]) / largest[simple])[:, None]
+            free[simple] = eye - v[:, :, None] * v[:, None, :]
+        other = np.setdiff1d(np.arange(count), simple, assume_unique=True)
+        if other.size:
+            lam, vectors = np.linalg.eigh(self.ata[other])
+            kept = keep[other]
+            inverse = np.divide(1.0, lam, out=np.zeros_like(lam), where=kept)
+            coefficients = np.einsum("cji,cj->ci", vectors, residual[other]) * inverse
+            step[other] = np.einsum("cij,cj->ci", vectors, coefficients)
+            dropped = vectors * (~kept)[:, None, :]
+            free[other] = np.einsum("cik,cjk->cij", dropped, dropped)
+        return self.reference + self.mass + step, rank, free
+
+
+def _segment_sums(cell: np.ndarray, rows: np.ndarray, count: int) -> np.ndarray:
+    """Per-cell sums (count, m) of the columns of ``rows`` (m, K); every cell present, sorted or not."""
+    if cell.size > 1 and np.any(cell[1:] < cell[:-1]):
+        order = np.argsort(cell, kind="stable")
+        cell, rows = cell[order], rows[:, order]
+    starts = np.searchsorted(cell, np.arange(count))
+    return np.add.reduceat(rows, starts, axis=1).T
 
 
 def accumulate_qef(
-    cell: np.ndarray, points: np.ndarray, normals: np.ndarray, reference: np.ndarray, weights: np.ndarray | None = None
+    cell: np.ndarray, points: np.ndarray, normals: np.ndarray, reference: np.ndarray
 ) -> QEF:
     """Sum the samples ``(points[i], normals[i])`` into the QEF of cell ``cell[i]``.
 
     Parameters
     ----------
     cell : (K,) int
-        Cell of each sample (``0 <= cell < len(reference)``; every cell needs one sample).
+        Cell of each sample; every cell ``0 <= c < len(reference)`` has at least one sample.
+        Sorted is fastest.
     points, normals : (K, 3)
         Sample positions and unit normals (a zero normal adds only to the mass point).
     reference : (C, 3)
         A point in or near each cell (its centre), the origin of the relative coordinates.
-    weights : (K,), optional
-        Weight of each sample in ``A^T A`` and ``A^T b`` (default 1).
     """
     count = reference.shape[0]
     relative = points - reference[cell]
-    mass = np.stack([np.bincount(cell, weights=relative[:, a], minlength=count) for a in range(3)], axis=1)
-    mass /= np.bincount(cell, minlength=count)[:, None]
-    scaled = normals if weights is None else normals * weights[:, None]
     offset = np.einsum("ij,ij->i", normals, relative)
+    rows = np.empty((13, cell.size))  # one contiguous row per summed quantity
+    rows[0] = 1.0
+    rows[1:4] = relative.T
+    for k, (a, b) in enumerate(_UPPER):
+        rows[4 + k] = normals[:, a] * normals[:, b]
+    rows[10:13] = (normals * offset[:, None]).T
+    sums = _segment_sums(cell, rows, count)
+    mass = sums[:, 1:4] / sums[:, 0:1]
     ata = np.empty((count, 3, 3))
-    for a, b in _UPPER:
-        ata[:, a, b] = ata[:, b, a] = np.bincount(cell, weights=scaled[:, a] * normals[:, b], minlength=count)
-    atb = np.stack([np.bincount(cell, weights=scaled[:, a] * offset, minlength=count) for a in range(3)], axis=1)
-    return QEF(ata, atb, mass, reference)
+    for k, (a, b) in enumerate(_UPPER):
+        ata[:, a, b] = ata[:, b, a] = sums[:, 4 + k]
+    return QEF(ata, sums[:, 10:13], mass, reference)
+
+
+def sample_spread(cell: np.ndarray, points: np.ndarray, count: int) -> np.ndarray:
+    """Second moments (count, 3, 3) of each cell's sample positions about their mean.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spread = sample_spread(np.zeros(2, dtype=np.int64), np.array([[0.0, 0, 0], [2.0, 0, 0]]), 1)
+    >>> spread[0].tolist()
+    [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    """
+    rows = np.empty((10, cell.size))
+    rows[0] = 1.0
+    rows[1:4] = points.T
+    for k, (a, b) in enumerate(_UPPER):
+        rows[4 + k] = points[:, a] * points[:, b]
+    sums = _segment_sums(cell, rows, count)
+    mean = sums[:, 1:4] / sums[:, 0:1]
+    spread = np.empty((count, 3, 3))
+    for k, (a, b) in enumerate(_UPPER):
+        spread[:, a, b] = spread[:, b, a] = sums[:, 4 + k] / sums[:, 0] - mean[:, a] * mean[:, b]
+    return spread
