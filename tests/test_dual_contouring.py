@@ -311,3 +311,21 @@ def test_surface_open_at_a_grid_cut_is_still_oriented():
     surface = fepre.isosurface(sdf.sphere(1.0), shape=20, bounds=cut, method="dual_contouring")
     check = fepre.check_surface(surface)
     assert surface.n_cells > 0 and not check.watertight and check.oriented
+
+
+# -- wiring -----------------------------------------------------------------------------------
+
+
+def test_cli_and_accessor_take_dual_contouring(tmp_path, capsys):
+    from fepre.cli import main
+
+    (tmp_path / "block.py").write_text("from fepre import sdf\nmodel = sdf.box((1.0, 2.0, 0.5))\n")
+    out = tmp_path / "block.stl"
+    assert main(["surface", str(tmp_path / "block.py"), "-o", str(out), "--method", "dual_contouring", "--spacing", "0.1"]) == 0
+    assert "watertight" in capsys.readouterr().out
+    block = pv.read(out)
+    assert block.volume == pytest.approx(1.0, rel=1e-9)  # every edge and corner kept
+    grid = fepre.sample(sdf.box((1.0, 2.0, 0.5)), spacing=0.0937)
+    surface = grid.fepre.isosurface(method="dual_contouring", model=sdf.box((1.0, 2.0, 0.5)))
+    assert fepre.check_surface(surface).volume == pytest.approx(1.0, rel=1e-9)
+    assert surface.field_data["surface_method"][0] == "dual_contouring"
