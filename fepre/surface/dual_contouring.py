@@ -47,6 +47,11 @@ __all__ = ["dual_contouring"]
 _PROBE_FRACTIONS = (0.5, 0.2, 0.05, 0.05)
 #: a probe's plane replaces its sample only when their normals' cosine is above this
 _SAME_FACE_COSINE = 0.8
+#: a corner found by a neighbour is given to the cell holding it when that cell's own planes
+#: pass within this many cells of it
+_DONATION = 0.05
+#: a corner in a cell without a vertex is kept by a neighbour up to this many cells outside it
+_TIP_REACH = 0.5
 #: crossings of one cell all within this many cells of each other count as one point
 _PINCH = 1e-3
 #: a triangle of smaller quality (4 sqrt(3) area / sum of squared sides) counts as degenerate
@@ -117,24 +122,132 @@ def dual_contouring(
     j, i = np.divmod(rest, nx)
     low = origin + np.stack([i, j, k], axis=1) * spacing
     centre = low + 0.5 * spacing
-    qef = accumulate_qef(dual.cell, hermite.points[dual.crossing], hermite.normals[dual.crossing], centre)
-    points, rank, free = qef.solve(truncation)
-    points = _unpinch(points, free, qef, dual, hermite, origin, spacing)
     box = (low - margin * spacing, low + (1 + margin) * spacing)
+    rows_cell, rows_crossing = dual.cell, dual.crossing  # the Hermite samples of each cell
+    qef = accumulate_qef(rows_cell, hermite.points[rows_crossing], hermite.normals[rows_crossing], centre)
+    points, rank, free, corners = _solve_in_cells(qef, truncation, *box)
+    donated = _donated_corners(corners, rank, rows_cell, rows_crossing, hermite, dual, origin, spacing, values.shape)
+    widened = _widened_for_tips(corners, dual, origin, spacing, values.shape, box)
+    if donated is not None:
+        order = np.argsort(np.concatenate([rows_cell, donated[0]]), kind="stable")
+        rows_cell = np.concatenate([rows_cell, donated[0]])[order]
+        rows_crossing = np.concatenate([rows_crossing, donated[1]])[order]
+        qef = accumulate_qef(rows_cell, hermite.points[rows_crossing], hermite.normals[rows_crossing], centre)
+    if widened is not None:
+        box = widened
+    if donated is not None or widened is not None:
+        points, rank, free, _ = _solve_in_cells(qef, truncation, *box)
+    points = _unpinch(points, free, qef, rows_cell, rows_crossing, hermite, origin, spacing)
     points = _keep_in_cells(points, rank, free, *box)
     if model is not None:
         points = _project_smooth(model, level, points, rank, box)
-        points, rank = _refine_features(dual, hermite, model, level, points, rank, centre, box, truncation)
+        points, rank = _refine_features(rows_cell, rows_crossing, hermite, model, level, points, rank, centre, box, truncation)
     facing = np.stack(
-        [np.bincount(dual.cell, weights=hermite.normals[dual.crossing, a], minlength=dual.n_cells) for a in range(3)],
+        [np.bincount(rows_cell, weights=hermite.normals[rows_crossing, a], minlength=dual.n_cells) for a in range(3)],
         axis=1,
     )
     along02 = _better_diagonal(points, dual.quads, rank >= 2, facing)
     return points, split_quads(dual.quads, along02)
 
 
+def _donated_corners(
+    corners: tuple[np.ndarray, np.ndarray],
+    rank: np.ndarray,
+    rows_cell: np.ndarray,
+    rows_crossing: np.ndarray,
+    hermite: Hermite,
+    dual: DualCells,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    shape: tuple[int, int, int],
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Samples to give to the cell that holds a corner but sees only two of its faces.
+
+    Where a corner's tip pokes into a cell, the cell's cut edges may cross only two of the three
+    faces, while a neighbour's cross all three and put their corner outside the neighbour. If
+    the corner lies in an active cell whose own planes all pass within ``_DONATION`` cells of
+    it, that cell also gets the neighbour's samples (its QEF then finds the corner). Returns
+    ``(cell, crossing)`` rows to add, or None. A tip in a cell with no inside node is lost: the
+    dual grid has no vertex there.
+    """
+    donor, point = corners
+    if donor.size == 0:
+        return None
+    nz, ny, nx = shape
+    ijk = np.floor((point - origin) / spacing).astype(np.int64)
+    inside_grid = np.all((ijk >= 0) & (ijk < np.array([nx - 1, ny - 1, nz - 1])), axis=1)
+    ids = ijk @ np.array([1, nx, nx * ny])
+    target = np.minimum(np.searchsorted(dual.scan.cells, ids), dual.n_cells - 1)
+    usable = inside_grid & (dual.scan.cells[target] == ids) & (rank[target] < 3)
+    donor, point, target = donor[usable], point[usable], target[usable]
+    target, first = np.unique(target, return_index=True)  # one donor per target
+    donor, point = donor[first], point[first]
+    if target.size == 0:
+        return None
+    # the target's own planes must pass through the corner
+    start, end = np.searchsorted(rows_cell, target), np.searchsorted(rows_cell, target, side="right")
+    pair = np.repeat(np.arange(target.size), end - start)
+    row = np.arange(pair.size) - np.repeat(np.cumsum(end - start) - (end - start), end - start) + start[pair]
+    crossing = rows_crossing[row]
+    miss = np.abs(np.einsum("ij,ij->i", hermite.normals[crossing], point[pair] - hermite.points[crossing]))
+    worst = np.zeros(target.size)
+    np.maximum.at(worst, pair, miss)
+    keep = worst < _DONATION * float(np.min(spacing))
+    donor, target = donor[keep], target[keep]
+    if target.size == 0:
+        return None
+    start, end = np.searchsorted(rows_cell, donor), np.searchsorted(rows_cell, donor, side="right")
+    pair = np.repeat(np.arange(donor.size), end - start)
+    row = np.arange(pair.size) - np.repeat(np.cumsum(end - start) - (end - start), end - start) + start[pair]
+    return target[pair], rows_crossing[row]
+
+
+def _widened_for_tips(
+    corners: tuple[np.ndarray, np.ndarray],
+    dual: DualCells,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    shape: tuple[int, int, int],
+    box: tuple[np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Boxes grown to take a corner whose tip lies in a cell with no vertex (no inside node).
+
+    No vertex of the dual grid can sit in such a cell, so the neighbour that found the corner
+    keeps it when it lies within ``_TIP_REACH`` cells of the neighbour's own box; of several
+    such neighbours, the nearest. Returns the new ``(low, high)`` or None.
+    """
+    donor, point = corners
+    if donor.size == 0:
+        return None
+    nz, ny, nx = shape
+    ijk = np.floor((point - origin) / spacing).astype(np.int64)
+    ijk = np.clip(ijk, 0, np.array([nx - 2, ny - 2, nz - 2]))
+    ids = ijk @ np.array([1, nx, nx * ny])
+    where = np.minimum(np.searchsorted(dual.scan.cells, ids), dual.n_cells - 1)
+    low, high = box
+    gap = np.maximum(np.maximum(low[donor] - point, point - high[donor]), 0.0) / spacing
+    tip = (dual.scan.cells[where] != ids) & (gap.max(axis=1) < _TIP_REACH)
+    donor, point, ids, distance = donor[tip], point[tip], ids[tip], np.linalg.norm(gap[tip], axis=1)
+    if donor.size == 0:
+        return None
+    order = np.lexsort((distance, ids))
+    first = order[np.r_[True, ids[order][1:] != ids[order][:-1]]]  # the nearest donor per tip cell
+    donor, point = donor[first], point[first]
+    low, high = low.copy(), high.copy()
+    low[donor] = np.minimum(low[donor], point)
+    high[donor] = np.maximum(high[donor], point)
+    return low, high
+
+
 def _unpinch(
-    points: np.ndarray, free: np.ndarray, qef, dual: DualCells, hermite: Hermite, origin: np.ndarray, spacing: np.ndarray
+    points: np.ndarray,
+    free: np.ndarray,
+    qef,
+    rows_cell: np.ndarray,
+    rows_crossing: np.ndarray,
+    hermite: Hermite,
+    origin: np.ndarray,
+    spacing: np.ndarray,
 ) -> np.ndarray:
     """In the directions a cell's QEF leaves free, move half way to the centre where the crossings do not spread.
 
@@ -147,26 +260,27 @@ def _unpinch(
     fail to spread when they all sit on grid nodes along a grid line or at one node, so only
     such cells are examined.
     """
+    count = points.shape[0]
     grid_units = (hermite.points - origin) / spacing
     off_node = (np.abs(grid_units - np.rint(grid_units)) > _PINCH).any(axis=1)
-    candidates = np.flatnonzero(np.bincount(dual.cell, weights=off_node[dual.crossing], minlength=dual.n_cells) == 0)
+    candidates = np.flatnonzero(np.bincount(rows_cell, weights=off_node[rows_crossing], minlength=count) == 0)
     if candidates.size == 0:
         return points
     # of those, the cells whose crossings lie on a grid line or at one node (two or three axes flat)
-    chosen = np.zeros(dual.n_cells, dtype=bool)
+    chosen = np.zeros(count, dtype=bool)
     chosen[candidates] = True
-    rows = chosen[dual.cell]  # dual.cell is sorted, so each candidate's rows are contiguous
-    position = hermite.points[dual.crossing[rows]]
-    starts = np.searchsorted(dual.cell[rows], candidates)
+    rows = chosen[rows_cell]  # rows_cell is sorted, so each candidate's rows are contiguous
+    position = hermite.points[rows_crossing[rows]]
+    starts = np.searchsorted(rows_cell[rows], candidates)
     extent = np.maximum.reduceat(position, starts, axis=0) - np.minimum.reduceat(position, starts, axis=0)
     candidates = candidates[(extent < _PINCH * spacing).sum(axis=1) >= 2]
     if candidates.size == 0:
         return points
     chosen[:] = False
     chosen[candidates] = True
-    rows = chosen[dual.cell]
-    compact = np.searchsorted(candidates, dual.cell[rows])
-    spread = sample_spread(compact, hermite.points[dual.crossing[rows]], candidates.size)
+    rows = chosen[rows_cell]
+    compact = np.searchsorted(candidates, rows_cell[rows])
+    spread = sample_spread(compact, hermite.points[rows_crossing[rows]], candidates.size)
     limit = (_PINCH * float(np.min(spacing))) ** 2
     big = float(np.max(spacing)) ** 2
     projector = free[candidates]
@@ -180,6 +294,49 @@ def _unpinch(
     return points
 
 
+def _crease_interval(
+    points: np.ndarray, free: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Direction (C, 3) of each crease line ``points + s u`` and the interval of ``s`` inside the box.
+
+    ``free`` holds the projectors ``u u^T`` onto the creases; an empty interval has enter > leave.
+    """
+    column = np.argmax(np.einsum("cii->ci", free), axis=1)
+    u = free[np.arange(free.shape[0]), :, column]
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    lo, hi = low - points, high - points
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = lo / u, hi / u
+    flat = np.abs(u) < 1e-12
+    enter = np.where(flat, np.where(lo <= 0, -np.inf, np.inf), np.minimum(a, b)).max(axis=1)
+    leave = np.where(flat, np.where(hi >= 0, np.inf, -np.inf), np.maximum(a, b)).min(axis=1)
+    return u, enter, leave
+
+
+def _solve_in_cells(qef, truncation: float, low: np.ndarray, high: np.ndarray):
+    """Solve, then drop a rank where the solution cannot lie in its cell (box ``low``-``high``).
+
+    A cell next to a corner may see all three faces; their corner lies in another cell, and
+    clamping it into this one would put the vertex off the surface. Such a cell is solved again
+    with two eigenvalues (the crease nearest its mass point), and a crease missing the box with
+    one (the face). Returns points, ranks, free projectors and the corners found outside their
+    cells (cell indices and points).
+    """
+    points, rank, free = qef.solve(truncation)
+    corner = np.flatnonzero(rank == 3)
+    away = corner[np.any((points[corner] < low[corner]) | (points[corner] > high[corner]), axis=1)]
+    corners = (away, points[away].copy())
+    if away.size:
+        points[away], rank[away], free[away] = qef.subset(away).solve(truncation, max_rank=2)
+    crease = np.flatnonzero(rank == 2)
+    if crease.size:
+        _, enter, leave = _crease_interval(points[crease], free[crease], low[crease], high[crease])
+        away = crease[enter > leave]
+        if away.size:
+            points[away], rank[away], free[away] = qef.subset(away).solve(truncation, max_rank=1)
+    return points, rank, free, corners
+
+
 def _keep_in_cells(
     points: np.ndarray, rank: np.ndarray, free: np.ndarray, low: np.ndarray, high: np.ndarray
 ) -> np.ndarray:
@@ -187,17 +344,7 @@ def _keep_in_cells(
     points = points.copy()
     crease = np.flatnonzero(rank == 2)
     if crease.size:
-        projector = free[crease]  # u u^T for the direction u along the crease
-        column = np.argmax(np.einsum("cii->ci", projector), axis=1)
-        u = projector[np.arange(crease.size), :, column]
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
-        x = points[crease]
-        lo, hi = low[crease] - x, high[crease] - x
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a, b = lo / u, hi / u
-        flat = np.abs(u) < 1e-12
-        enter = np.where(flat, np.where(lo <= 0, -np.inf, np.inf), np.minimum(a, b)).max(axis=1)
-        leave = np.where(flat, np.where(hi >= 0, np.inf, -np.inf), np.maximum(a, b)).min(axis=1)
+        u, enter, leave = _crease_interval(points[crease], free[crease], low[crease], high[crease])
         meets = enter <= leave
         shift = np.clip(0.0, enter, leave)
         points[crease[meets]] += shift[meets, None] * u[meets]
@@ -224,7 +371,8 @@ def _project_smooth(
 
 
 def _refine_features(
-    dual: DualCells,
+    rows_cell: np.ndarray,
+    rows_crossing: np.ndarray,
     hermite: Hermite,
     model: Any,
     level: float,
@@ -240,10 +388,10 @@ def _refine_features(
         return points, rank
     compact = np.full(rank.size, -1, dtype=np.int64)
     compact[feature] = np.arange(feature.size)
-    rows = compact[dual.cell] >= 0
-    cell = compact[dual.cell[rows]]
-    sample_points = hermite.points[dual.crossing[rows]]
-    sample_normals = hermite.normals[dual.crossing[rows]]
+    rows = compact[rows_cell] >= 0
+    cell = compact[rows_cell[rows]]
+    sample_points = hermite.points[rows_crossing[rows]]
+    sample_normals = hermite.normals[rows_crossing[rows]]
     low, high = box[0][feature], box[1][feature]
     vertex = points[feature]
     for fraction in _PROBE_FRACTIONS:
@@ -257,7 +405,7 @@ def _refine_features(
         plane_points = np.where(same_face[:, None], on_surface, sample_points)
         plane_normals = np.where(same_face[:, None], normal, sample_normals)
         qef = accumulate_qef(cell, plane_points, plane_normals, centre[feature])
-        vertex, feature_rank, free = qef.solve(truncation)
+        vertex, feature_rank, free, _ = _solve_in_cells(qef, truncation, low, high)
         vertex = _keep_in_cells(vertex, feature_rank, free, low, high)
     points = points.copy()
     rank = rank.copy()

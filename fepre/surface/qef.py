@@ -76,12 +76,17 @@ class QEF:
     mass: np.ndarray
     reference: np.ndarray
 
-    def solve(self, truncation: float = 0.1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def subset(self, cells: np.ndarray) -> "QEF":
+        """The QEFs of the cells ``cells`` only."""
+        return QEF(self.ata[cells], self.atb[cells], self.mass[cells], self.reference[cells])
+
+    def solve(self, truncation: float = 0.1, max_rank: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Minimisers (C, 3) in world coordinates, ranks (C,) and free projectors (C, 3, 3).
 
         The free projector of a cell projects onto the directions its QEF leaves free (the
         eigenvectors whose eigenvalues were dropped): the plane of a smooth surface, the line
-        of a crease, nothing at a corner.
+        of a crease, nothing at a corner. ``max_rank`` keeps at most that many of the largest
+        eigenvalues (2: the crease through the mass point's side of a corner; 1: the plane).
 
         Examples
         --------
@@ -97,6 +102,7 @@ class QEF:
         values = symmetric_eigenvalues(self.ata)
         largest = values[:, 2]
         keep = (values > truncation * largest[:, None]) & (largest[:, None] > 0)
+        keep[:, : 3 - max_rank] = False
         rank = keep.sum(axis=1)
         residual = self.atb - np.einsum("cij,cj->ci", self.ata, self.mass)
         step = np.zeros((count, 3))
