@@ -24,7 +24,7 @@ import numpy as np
 
 from .dual_cells import DualCells
 from .hermite import Hermite
-from .qef import QEF, sample_spread
+from .qef import QEF, incidence, sample_spread
 
 __all__ = ["solve_in_cells", "keep_in_cells", "donated_corners", "widened_for_tips", "unpinch"]
 
@@ -207,7 +207,8 @@ def unpinch(
     count = points.shape[0]
     grid_units = (hermite.points - origin) / spacing
     off_node = (np.abs(grid_units - np.rint(grid_units)) > _PINCH).any(axis=1)
-    candidates = np.flatnonzero(np.bincount(rows_cell, weights=off_node[rows_crossing], minlength=count) == 0)
+    off_count = incidence(rows_cell, rows_crossing, count, off_node.size) @ off_node.astype(float)
+    candidates = np.flatnonzero(off_count == 0)
     if candidates.size == 0:
         return points
     # of those, the cells whose crossings lie on a grid line or at one node (two or three axes flat)

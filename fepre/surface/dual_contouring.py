@@ -42,7 +42,7 @@ import numpy as np
 from .cell_vertices import donated_corners, keep_in_cells, solve_in_cells, unpinch, widened_for_tips
 from .dual_cells import dual_cells, split_quads
 from .hermite import Hermite, hermite_from_grid, hermite_from_model
-from .qef import accumulate_qef
+from .qef import accumulate_qef, incidence
 from .quad_split import better_diagonal
 
 __all__ = ["dual_contouring"]
@@ -120,7 +120,7 @@ def dual_contouring(
     centre = low + 0.5 * spacing
     box = (low - margin * spacing, low + (1 + margin) * spacing)
     rows_cell, rows_crossing = dual.cell, dual.crossing  # the Hermite samples of each cell
-    qef = accumulate_qef(rows_cell, hermite.points[rows_crossing], hermite.normals[rows_crossing], centre)
+    qef = accumulate_qef(rows_cell, hermite.points, hermite.normals, centre, rows_crossing)
     points, rank, free, corners = solve_in_cells(qef, truncation, *box)
     donated = donated_corners(corners, rank, rows_cell, rows_crossing, hermite, dual, origin, spacing, values.shape)
     widened = widened_for_tips(corners, dual, origin, spacing, values.shape, box)
@@ -128,7 +128,7 @@ def dual_contouring(
         order = np.argsort(np.concatenate([rows_cell, donated[0]]), kind="stable")
         rows_cell = np.concatenate([rows_cell, donated[0]])[order]
         rows_crossing = np.concatenate([rows_crossing, donated[1]])[order]
-        qef = accumulate_qef(rows_cell, hermite.points[rows_crossing], hermite.normals[rows_crossing], centre)
+        qef = accumulate_qef(rows_cell, hermite.points, hermite.normals, centre, rows_crossing)
     if widened is not None:
         box = widened
     if donated is not None or widened is not None:
@@ -138,10 +138,7 @@ def dual_contouring(
     if model is not None:
         points = _project_smooth(model, level, points, rank, box)
         points, rank = _refine_features(rows_cell, rows_crossing, hermite, model, level, points, rank, centre, box, truncation)
-    facing = np.stack(
-        [np.bincount(rows_cell, weights=hermite.normals[rows_crossing, a], minlength=dual.n_cells) for a in range(3)],
-        axis=1,
-    )
+    facing = incidence(rows_cell, rows_crossing, dual.n_cells, dual.n_crossings) @ hermite.normals
     along02 = better_diagonal(points, dual.quads, rank >= 2, facing)
     return points, split_quads(dual.quads, along02)
 

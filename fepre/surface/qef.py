@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["QEF", "accumulate_qef", "sample_spread", "symmetric_eigenvalues"]
+__all__ = ["QEF", "accumulate_qef", "incidence", "sample_spread", "symmetric_eigenvalues"]
 
 _UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
@@ -53,6 +53,29 @@ def symmetric_eigenvalues(matrices: np.ndarray) -> np.ndarray:
     middle = 3 * q - largest - smallest
     values = np.stack([smallest, middle, largest], axis=1)
     return np.sort(values, axis=1)  # rounding can swap near-equal ones
+
+
+def _dominant_vector(a: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Unit eigenvectors (C, 3) of the largest eigenvalue of symmetric (C, 3, 3) ``a``.
+
+    ``(a - l0)(a - l1) = a^2 - (l0 + l1) a + l0 l1`` is the largest eigenvalue's projector up to
+    a factor, so its longest column is the eigenvector; written out, not a batched matmul.
+    """
+    a00, a01, a02, a11, a12, a22 = (a[:, i, j] for i, j in _UPPER)
+    total, product = values[:, 0] + values[:, 1], values[:, 0] * values[:, 1]
+    m00 = a00 * a00 + a01 * a01 + a02 * a02 - total * a00 + product
+    m11 = a01 * a01 + a11 * a11 + a12 * a12 - total * a11 + product
+    m22 = a02 * a02 + a12 * a12 + a22 * a22 - total * a22 + product
+    m01 = a00 * a01 + a01 * a11 + a02 * a12 - total * a01
+    m02 = a00 * a02 + a01 * a12 + a02 * a22 - total * a02
+    m12 = a01 * a02 + a11 * a12 + a12 * a22 - total * a12
+    n0, n1, n2 = m00 * m00 + m01 * m01 + m02 * m02, m01 * m01 + m11 * m11 + m12 * m12, m02 * m02 + m12 * m12 + m22 * m22
+    first, second = (n0 >= n1) & (n0 >= n2), n1 >= n2
+    v = np.empty((a.shape[0], 3))
+    v[:, 0] = np.where(first, m00, np.where(second, m01, m02))
+    v[:, 1] = np.where(first, m01, np.where(second, m11, m12))
+    v[:, 2] = np.where(first, m02, np.where(second, m12, m22))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 @dataclass
@@ -110,15 +133,12 @@ class QEF:
         # rank 1 with a clear gap: the dominant eigenvector from the spectral projector
         simple = np.flatnonzero((rank == 1) & (values[:, 1] < 0.5 * truncation * largest))
         if simple.size:
-            a = self.ata[simple]
-            eye = np.eye(3)
-            product = (a - values[simple, 0, None, None] * eye) @ (a - values[simple, 1, None, None] * eye)
-            column = np.argmax(np.einsum("cij,cij->cj", product, product), axis=1)
-            v = product[np.arange(simple.size), :, column]
-            v /= np.linalg.norm(v, axis=1, keepdims=True)
+            v = _dominant_vector(self.ata[simple], values[simple])
             step[simple] = v * (np.einsum("ci,ci->c", v, residual[simple]) / largest[simple])[:, None]
-            free[simple] = eye - v[:, :, None] * v[:, None, :]
-        other = np.setdiff1d(np.arange(count), simple, assume_unique=True)
+            free[simple] = np.eye(3) - v[:, :, None] * v[:, None, :]
+        is_simple = np.zeros(count, dtype=bool)
+        is_simple[simple] = True
+        other = np.flatnonzero(~is_simple)
         if other.size:
             lam, vectors = np.linalg.eigh(self.ata[other])
             kept = keep[other]
@@ -130,6 +150,64 @@ class QEF:
         return self.reference + self.mass + step, rank, free
 
 
+def incidence(cell: np.ndarray, sample: np.ndarray, cells: int, samples: int):
+    """The sparse (cells x samples) matrix with a one where sample ``sample[i]`` belongs to ``cell[i]``.
+
+    Per-cell sums of per-sample quantities are then one sparse product: each sample's terms are
+    computed once, however many cells share it (a crossing belongs to up to four).
+    """
+    from scipy.sparse import csr_matrix
+
+    if cell.size > 1 and np.any(cell[1:] < cell[:-1]):
+        order = np.argsort(cell, kind="stable")
+        cell, sample = cell[order], sample[order]
+    indptr = np.searchsorted(cell, np.arange(cells + 1))
+    return csr_matrix((np.ones(cell.size), sample, indptr), shape=(cells, samples))
+
+
+def accumulate_qef(
+    cell: np.ndarray,
+    points: np.ndarray,
+    normals: np.ndarray,
+    reference: np.ndarray,
+    sample: np.ndarray | None = None,
+) -> QEF:
+    """Sum the samples into the QEF of their cells: row ``i`` adds sample ``sample[i]`` to cell ``cell[i]``.
+
+    Parameters
+    ----------
+    cell : (K,) int
+        Cell of each row; every cell ``0 <= c < len(reference)`` has at least one row.
+    points, normals : (S, 3)
+        Sample positions and unit normals (a zero normal adds only to the mass point).
+    reference : (C, 3)
+        A point in or near each cell (its centre), the origin of the cell's relative coordinates.
+    sample : (K,) int, optional
+        Sample of each row (default: row ``i`` is sample ``i``). A sample shared by several
+        cells is expanded once.
+    """
+    count = reference.shape[0]
+    if sample is None:
+        sample = np.arange(cell.size)
+    origin = reference.mean(axis=0)  # sums in coordinates about one point, shifted per cell after
+    position = points - origin
+    offset = np.einsum("ij,ij->i", normals, position)
+    terms = np.empty((points.shape[0], 13))
+    terms[:, 0] = 1.0
+    terms[:, 1:4] = position
+    for k, (a, b) in enumerate(_UPPER):
+        terms[:, 4 + k] = normals[:, a] * normals[:, b]
+    terms[:, 10:13] = normals * offset[:, None]
+    sums = incidence(cell, sample, count, points.shape[0]) @ terms
+    shift = reference - origin
+    mass = sums[:, 1:4] / sums[:, 0:1] - shift
+    ata = np.empty((count, 3, 3))
+    for k, (a, b) in enumerate(_UPPER):
+        ata[:, a, b] = ata[:, b, a] = sums[:, 4 + k]
+    atb = sums[:, 10:13] - np.einsum("cij,cj->ci", ata, shift)
+    return QEF(ata, atb, mass, reference)
+
+
 def _segment_sums(cell: np.ndarray, rows: np.ndarray, count: int) -> np.ndarray:
     """Per-cell sums (count, m) of the columns of ``rows`` (m, K); every cell present, sorted or not."""
     if cell.size > 1 and np.any(cell[1:] < cell[:-1]):
@@ -137,38 +215,6 @@ def _segment_sums(cell: np.ndarray, rows: np.ndarray, count: int) -> np.ndarray:
         cell, rows = cell[order], rows[:, order]
     starts = np.searchsorted(cell, np.arange(count))
     return np.add.reduceat(rows, starts, axis=1).T
-
-
-def accumulate_qef(
-    cell: np.ndarray, points: np.ndarray, normals: np.ndarray, reference: np.ndarray
-) -> QEF:
-    """Sum the samples ``(points[i], normals[i])`` into the QEF of cell ``cell[i]``.
-
-    Parameters
-    ----------
-    cell : (K,) int
-        Cell of each sample; every cell ``0 <= c < len(reference)`` has at least one sample.
-        Sorted is fastest.
-    points, normals : (K, 3)
-        Sample positions and unit normals (a zero normal adds only to the mass point).
-    reference : (C, 3)
-        A point in or near each cell (its centre), the origin of the relative coordinates.
-    """
-    count = reference.shape[0]
-    relative = points - reference[cell]
-    offset = np.einsum("ij,ij->i", normals, relative)
-    rows = np.empty((13, cell.size))  # one contiguous row per summed quantity
-    rows[0] = 1.0
-    rows[1:4] = relative.T
-    for k, (a, b) in enumerate(_UPPER):
-        rows[4 + k] = normals[:, a] * normals[:, b]
-    rows[10:13] = (normals * offset[:, None]).T
-    sums = _segment_sums(cell, rows, count)
-    mass = sums[:, 1:4] / sums[:, 0:1]
-    ata = np.empty((count, 3, 3))
-    for k, (a, b) in enumerate(_UPPER):
-        ata[:, a, b] = ata[:, b, a] = sums[:, 4 + k]
-    return QEF(ata, sums[:, 10:13], mass, reference)
 
 
 def sample_spread(cell: np.ndarray, points: np.ndarray, count: int) -> np.ndarray:
