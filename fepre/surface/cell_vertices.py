@@ -56,7 +56,9 @@ def crease_interval(
     return u, enter, leave
 
 
-def solve_in_cells(qef: QEF, truncation: float, low: np.ndarray, high: np.ndarray):
+def solve_in_cells(
+    qef: QEF, truncation: float, low: np.ndarray, high: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """Solve, then drop a rank where the solution cannot lie in its cell (box ``low``-``high``).
 
     A cell next to a corner may see all three faces; their corner lies in another cell, and
@@ -64,6 +66,18 @@ def solve_in_cells(qef: QEF, truncation: float, low: np.ndarray, high: np.ndarra
     with two eigenvalues (the crease nearest its mass point), and a crease missing the box with
     one (the face). Returns points, ranks, free projectors and the corners found outside their
     cells (cell indices and points).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre.surface.qef import accumulate_qef
+    >>> # three faces of a corner at (1.2, 0.5, 0.5), seen from the unit cell [0, 1]^3
+    >>> points = np.array([[1.2, 0.2, 0.2], [0.6, 0.5, 0.3], [0.9, 0.5, 0.2], [0.6, 0.3, 0.5], [0.9, 0.2, 0.5]])
+    >>> normals = np.array([[1.0, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]])
+    >>> qef = accumulate_qef(np.zeros(5, dtype=np.int64), points, normals, np.full((1, 3), 0.5))
+    >>> x, rank, _, (finder, corner) = solve_in_cells(qef, 0.1, np.zeros((1, 3)), np.ones((1, 3)))
+    >>> rank.tolist(), corner.round(9).tolist(), x.round(9).tolist()  # the crease along x instead
+    ([2], [[1.2, 0.5, 0.5]], [[0.84, 0.5, 0.5]])
     """
     points, rank, free = qef.solve(truncation)
     corner = np.flatnonzero(rank == 3)
@@ -83,7 +97,15 @@ def solve_in_cells(qef: QEF, truncation: float, low: np.ndarray, high: np.ndarra
 def keep_in_cells(
     points: np.ndarray, rank: np.ndarray, free: np.ndarray, low: np.ndarray, high: np.ndarray
 ) -> np.ndarray:
-    """Slide crease vertices along their crease into the box, then clamp every vertex to it."""
+    """Slide crease vertices along their crease into the box, then clamp every vertex to it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> along_x = np.diag([1.0, 0.0, 0.0])[None]  # a crease along x through (2, 0.5, 0.5)
+    >>> keep_in_cells(np.array([[2.0, 0.5, 0.5]]), np.array([2]), along_x, np.zeros((1, 3)), np.ones((1, 3))).tolist()
+    [[1.0, 0.5, 0.5]]
+    """
     points = points.copy()
     crease = np.flatnonzero(rank == 2)
     if crease.size:

@@ -155,6 +155,13 @@ def incidence(cell: np.ndarray, sample: np.ndarray, cells: int, samples: int):
 
     Per-cell sums of per-sample quantities are then one sparse product: each sample's terms are
     computed once, however many cells share it (a crossing belongs to up to four).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> matrix = incidence(np.array([0, 0, 1]), np.array([0, 1, 1]), 2, 2)
+    >>> (matrix @ np.array([10.0, 1.0])).tolist()
+    [11.0, 1.0]
     """
     from scipy.sparse import csr_matrix
 
