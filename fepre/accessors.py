@@ -92,7 +92,9 @@ class ImageDataAccessor:
         self._image = image
 
     def isosurface(self, method: str = "flying_edges", **options: Any) -> pv.PolyData:
-        """:func:`fepre.isosurface` of this grid (``method``: flying_edges, marching_cubes, ...)."""
+        """:func:`fepre.isosurface` of this grid (``method``: flying_edges, marching_cubes,
+        marching_tetrahedra, surface_nets, dual_contouring; pass ``model=`` the grid was sampled
+        from to give dual contouring sharp edges)."""
         from .surface import isosurface
 
         return isosurface(self._image, method=method, **options)

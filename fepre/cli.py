@@ -77,7 +77,9 @@ def _configure_surface(parser: argparse.ArgumentParser) -> None:
     _model_argument(parser)
     parser.add_argument("-o", "--output", required=True, help="surface file: .stl, .ply, .obj or .vtp")
     parser.add_argument("--method", default="flying_edges",
-                        choices=("flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets"))
+                        choices=("flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets",
+                                 "dual_contouring"),
+                        help="extraction method (dual_contouring keeps sharp edges and corners)")
     parser.add_argument("--spacing", type=float, help="grid spacing (default: largest extent / 100)")
 
 

@@ -45,7 +45,7 @@ def test_grid_without_sdf_needs_scalars():
 @pytest.mark.parametrize(
     "kwargs, error, message",
     [
-        ({"method": "dual_contouring"}, ValueError, "method must be one of"),
+        ({"method": "dual_marching_cubes"}, ValueError, "method must be one of"),
         ({"level": float("nan")}, ValueError, "level must be finite"),
         ({"level": "0"}, TypeError, "level must be a real number"),
         ({"spacing": 0.0}, ValueError, "spacing must be > 0"),

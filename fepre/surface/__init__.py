@@ -2,7 +2,9 @@
 
 Methods: ``"flying_edges"`` (VTK's vtkFlyingEdges3D, the reference), and fepre's own vectorised
 ``"marching_cubes"`` (VTK's case table, same vertices and triangles as flying edges),
-``"marching_tetrahedra"`` (six-tetrahedron split, watertight) and ``"surface_nets"``.
+``"marching_tetrahedra"`` (six-tetrahedron split, watertight), ``"surface_nets"`` and
+``"dual_contouring"`` (surface nets' connectivity, vertices at the QEF minimisers of the model's
+Hermite data: sharp edges and corners kept).
 
 Examples
 --------

@@ -123,7 +123,10 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
     surface : pyvista.PolyData
     model : fepre.sdf.SDF, optional
         Gives ``max_sdf_error``/``mean_sdf_error`` and, for a surface made by
-        :func:`fepre.isosurface`, the default reference: flying edges on the same grid.
+        :func:`fepre.isosurface`, the default reference: flying edges on the same grid. Flying
+        edges chamfers sharp edges and corners, so for a ``"dual_contouring"`` surface of a CSG
+        part ``hausdorff`` is dominated by the reference's own error there (about a cell at a
+        corner); ``max_sdf_error`` measures the surface itself.
     reference : pyvista.PolyData, optional
         Surface to measure the two-sided Hausdorff distance to.
     spacing : float, optional
