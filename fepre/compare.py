@@ -1,7 +1,8 @@
 """Validation: fepre's tetrahedra measured side by side with independent meshers.
 
 :func:`compare` meshes a model with fepre (or takes a given mesh) and with each reference mesher
-(pytetwild, and gmsh when installed, both from the same fine flying-edges surface), then measures
+(pytetwild, and gmsh when installed, both from the same fine surface: dual contouring for a part
+with sharp features, flying edges otherwise), then measures
 every mesh the same way: counts, volume error, boundary fidelity, element quality and time.
 
 Examples
@@ -86,7 +87,7 @@ class Comparison:
     results : list of MeshResult
         fepre first, then each reference.
     surface : pyvista.PolyData
-        The fine flying-edges surface the references meshed (and the Hausdorff reference).
+        The fine surface the references meshed (and the Hausdorff reference).
     surface_check : SurfaceCheck or None
         :func:`fepre.check_surface` of that surface.
     volume_reference : float
@@ -142,7 +143,8 @@ class Comparison:
                 lines.append(f"{result.name}: {result.note}")
         lines.append(
             f"h = {self.h:g}; volume reference {self.volume_reference:.6g} ({self.volume_source}); "
-            f"Hausdorff against the flying-edges surface at spacing {self.settings.get('surface_spacing', float('nan')):g}"
+            f"Hausdorff against the {self.settings.get('surface_method', 'flying_edges').replace('_', '-')} surface at spacing "
+            f"{self.settings.get('surface_spacing', float('nan')):g}"
         )
         return "\n".join(lines)
 
@@ -280,7 +282,7 @@ def compare(
     if exact_volume is not None:
         volume, source = exact_volume, "exact"
     else:
-        volume, source = float(abs(surface.volume)), f"enclosed by the flying-edges surface at spacing {spacing:g}"
+        volume, source = float(abs(surface.volume)), f"enclosed by the {_method_of(surface).replace('_', '-')} surface at spacing {spacing:g}"
 
     results = []
     if mesh is None:
@@ -314,6 +316,7 @@ def compare(
     settings = {
         "h": h,
         "surface_spacing": spacing,
+        "surface_method": _method_of(surface),
         "references": list(references),
         "seed": int(seed),
         "bounds": bounds if bounds is not None else model.bounds,
@@ -322,6 +325,12 @@ def compare(
         "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
     }
     return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+
+
+def _method_of(surface: Any) -> str:
+    """The extraction method recorded in a surface's field data."""
+    method = surface.field_data.get("surface_method")
+    return str(np.asarray(method).ravel()[0]) if method is not None and np.size(method) else "flying_edges"
 
 
 def _check_surface(surface: Any, model: Any) -> Any:

@@ -197,8 +197,11 @@ def _run_part(part: DemoPart, outdir: Path, label: str, references: bool, say: C
     from .compare import compare
     from .export.atomic import staged_files
 
-    say(f"{label}: surface (flying edges, spacing {part.spacing:g}) ...")
-    surface = fepre.isosurface(part.model, spacing=part.spacing)
+    from .references import reference_surface
+
+    say(f"{label}: surface (spacing {part.spacing:g}) ...")
+    # dual contouring keeps sharp edges and corners; flying edges for smooth parts
+    surface = reference_surface(part.model, part.spacing)
     stl = outdir / f"{part.name}.stl"
     with staged_files(stl, [stl.name], overwrite=True) as stage:
         surface.save(str(stage / stl.name))

@@ -29,10 +29,13 @@ __all__ = ["reference_surface", "pytetwild_mesh", "gmsh_mesh", "REFERENCES", "av
 
 
 def reference_surface(model: Any, spacing: float, bounds: Any = None):
-    """The model's zero level set by vtkFlyingEdges3D on a grid of ``spacing``.
+    """The model's zero level set on a grid of ``spacing``: sharp where the model has edges.
 
-    :func:`fepre.isosurface` with ``method="flying_edges"``; the grid covers ``bounds`` (default:
-    the model's bounds) plus padding, so the surface is closed.
+    :func:`fepre.isosurface`: ``method="dual_contouring"`` for a model with sharp features
+    (more than one surface patch), which keeps its edges and corners, else (and whenever that
+    surface is not a closed manifold) ``"flying_edges"``. The grid covers ``bounds`` (default:
+    the model's bounds) plus padding, so the surface is closed. The method is in the field data
+    ``"surface_method"``.
 
     Parameters
     ----------
@@ -59,13 +62,31 @@ def reference_surface(model: Any, spacing: float, bounds: Any = None):
     spacing = positive_float(spacing, "surface_spacing")
     if bounds is None and model.bounds is None:
         raise ValueError("bounds must be given for an unbounded model (its bounds are None)")
-    bounds = as_bounds(bounds if bounds is not None else model.bounds)
+    lower, upper = (np.asarray(b, dtype=float) for b in as_bounds(bounds if bounds is not None else model.bounds))
+    # two cells of padding, as fepre.sample gives a model's own bounds: the surface is closed
+    bounds = (tuple(lower - 2 * spacing), tuple(upper + 2 * spacing))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # an empty surface is reported below as a MeshingError
-        surface = isosurface(model, method="flying_edges", spacing=spacing, bounds=bounds)
+        surface = None
+        if model.patch_count > 1 or len(model.singular_points()):
+            sharp = isosurface(model, method="dual_contouring", spacing=spacing, bounds=bounds)
+            if _closed_manifold(sharp):
+                surface = sharp
+        if surface is None:
+            surface = isosurface(model, method="flying_edges", spacing=spacing, bounds=bounds)
     if surface.n_cells == 0:
         raise MeshingError("the model has no surface inside its bounds (the sampled values never change sign)")
     return surface
+
+
+def _closed_manifold(surface) -> bool:
+    """True when every edge of the triangle surface is shared by exactly two triangles."""
+    triangles = np.asarray(surface.regular_faces, dtype=np.int64) if surface.n_cells else np.zeros((0, 3), np.int64)
+    if len(triangles) == 0:
+        return False
+    edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool(np.all(counts == 2))
 
 
 def _positive_tets(points: np.ndarray, tets: np.ndarray):

@@ -205,7 +205,8 @@ def _section(name: str, comparison: Any, progress: Any) -> str:
 <h2 id="{html.escape(name)}">{html.escape(name)}</h2>
 <p>Target edge length h = {comparison.h:g}. {volume_note} Boundary fidelity: |model| at the boundary
 nodes of each mesh, and the two-sided Hausdorff distance between the mesh boundary and the
-flying-edges surface at spacing {spacing:g} (the surface every reference meshed). Best values in bold.</p>
+{html.escape(str(comparison.settings.get("surface_method", "flying_edges")).replace("_", "-"))} surface at spacing
+{spacing:g} (the surface every reference meshed). Best values in bold.</p>
 {_metrics_table(comparison)}
 {failures}
 <h3>Element quality</h3>
