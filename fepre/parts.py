@@ -27,6 +27,7 @@ __all__ = [
     "cube_with_hole_corners",
     "l_bracket",
     "L_BRACKET_VOLUME",
+    "l_bracket_corners",
     "slotted_box",
     "SLOTTED_BOX_VOLUME",
     "slotted_box_corners",
@@ -71,6 +72,12 @@ def l_bracket() -> tuple[Any, Any, Any]:
     envelope = sdf.box((4.0, 2.0, 3.0), center=(2.0, 1.0, 1.5))
     hole = sdf.cylinder(radius=0.4, height=2.0, center=(2.8, 1.0, 0.3))
     return sdf.union(base, upright, k=0.3) & envelope - hole, hole, base
+
+
+def l_bracket_corners() -> np.ndarray:
+    """The 10 corners of :func:`l_bracket` (its inner edge is filleted: no corner there), (10, 3)."""
+    return np.array([[0, 0, 0], [0, 2, 0], [0, 0, 3], [0.6, 0, 3], [0, 2, 3], [0.6, 2, 3],
+                     [4, 0, 0], [4, 0, 0.6], [4, 2, 0], [4, 2, 0.6]], dtype=float)
 
 
 #: Exact volume of :func:`slotted_box`: the 4 x 2 x 1 box less the 2.4 x 0.6 x 0.5 slot.

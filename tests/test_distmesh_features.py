@@ -13,17 +13,17 @@ from fepre import sdf
 from fepre.mesh_metrics import boundary_faces, model_hausdorff
 from fepre.parts import (
     CUBE_WITH_HOLE_VOLUME,
+    L_BRACKET_VOLUME as BRACKET_VOLUME,
     SLOTTED_BOX_VOLUME,
     cube_with_hole,
     cube_with_hole_corners,
     l_bracket,
+    l_bracket_corners,
     slotted_box,
     slotted_box_corners,
 )
 
-BRACKET_VOLUME = 7.408  # Monte Carlo, 2e7 points: 7.4092 +- 0.0025 (see test_distmesh_csg.py)
-BRACKET_CORNERS = np.array([[0, 0, 0], [0, 2, 0], [0, 0, 3], [0.6, 0, 3], [0, 2, 3], [0.6, 2, 3],
-                            [4, 0, 0], [4, 0, 0.6], [4, 2, 0], [4, 2, 0.6]], float)
+BRACKET_CORNERS = l_bracket_corners()
 
 
 def mesh_of(model, h, **options):

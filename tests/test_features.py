@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import fepre
 from fepre import sdf
-from fepre.parts import cube_with_hole, l_bracket, slotted_box, slotted_box_corners
+from fepre.parts import cube_with_hole, l_bracket, l_bracket_corners, slotted_box, slotted_box_corners
 
 
 def box_corners(size, center=(0.0, 0.0, 0.0)):
@@ -115,8 +115,7 @@ def test_slotted_box_concave_and_convex_edges():
 def test_l_bracket_outer_corners_and_no_corner_at_the_filleted_inner_edge():
     model, _, _ = l_bracket()
     found = fepre.features(model, h=0.2)
-    outer = np.array([[0, 0, 0], [0, 2, 0], [0, 0, 3], [0.6, 0, 3], [0, 2, 3], [0.6, 2, 3],
-                      [4, 0, 0], [4, 0, 0.6], [4, 2, 0], [4, 2, 0.6]], float)
+    outer = l_bracket_corners()
     from scipy.spatial import cKDTree
 
     distance, _ = cKDTree(found.corners).query(outer)

@@ -27,10 +27,6 @@ from typing import Any
 
 import numpy as np
 
-#: Monte Carlo volume of the L-bracket (2e7 points: 7.4092 +- 0.0025).
-BRACKET_VOLUME = 7.408
-BRACKET_CORNERS = np.array([[0, 0, 0], [0, 2, 0], [0, 0, 3], [0.6, 0, 3], [0, 2, 3], [0.6, 2, 3],
-                            [4, 0, 0], [4, 0, 0.6], [4, 2, 0], [4, 2, 0.6]], float)
 
 
 def parts() -> list[dict[str, Any]]:
@@ -38,10 +34,12 @@ def parts() -> list[dict[str, Any]]:
     from .. import sdf
     from ..parts import (
         CUBE_WITH_HOLE_VOLUME,
+        L_BRACKET_VOLUME,
         SLOTTED_BOX_VOLUME,
         cube_with_hole,
         cube_with_hole_corners,
         l_bracket,
+        l_bracket_corners,
         slotted_box,
         slotted_box_corners,
     )
@@ -52,7 +50,7 @@ def parts() -> list[dict[str, Any]]:
     return [
         dict(name="cube with hole", model=cube, h=0.25, corners=cube_with_hole_corners(),
              volume=CUBE_WITH_HOLE_VOLUME, curved=hole),
-        dict(name="L-bracket", model=bracket, h=0.2, corners=BRACKET_CORNERS, volume=BRACKET_VOLUME,
+        dict(name="L-bracket", model=bracket, h=0.2, corners=l_bracket_corners(), volume=L_BRACKET_VOLUME,
              curved=bolt_hole | fillet),
         dict(name="slotted box", model=slotted_box()[0], h=0.25, corners=slotted_box_corners(),
              volume=SLOTTED_BOX_VOLUME, curved=None),
