@@ -64,7 +64,8 @@ def remove_boundary_slivers(
     boundary_face_keys, boundary_edges : the updated sorted keys of the boundary surface
     """
     n = points.shape[0]
-    candidates = np.flatnonzero((quality < threshold) & on_boundary[tets].all(axis=1))
+    candidates = np.flatnonzero(quality < threshold)
+    candidates = candidates[on_boundary[tets[candidates]].all(axis=1)]
     if candidates.size == 0:
         return tets, quality, 0, boundary_face_keys, boundary_edges
     cells = tets[candidates]
@@ -119,7 +120,8 @@ def expose_shallow_vertices(
     """
     n = points.shape[0]
     unchanged = (points, tets, quality, 0, on_boundary, boundary_face_keys, boundary_edges)
-    candidates = np.flatnonzero((quality < threshold) & (on_boundary[tets].sum(axis=1) == 3))
+    candidates = np.flatnonzero(quality < threshold)
+    candidates = candidates[on_boundary[tets[candidates]].sum(axis=1) == 3]
     if candidates.size == 0:
         return unchanged
     cells = tets[candidates]
