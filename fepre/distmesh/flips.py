@@ -7,6 +7,9 @@ applies a set of them that touch disjoint cells. Edge removal covers 3-2 (n = 3)
 and the larger rings up to n = 6 (rings of 7 cost four times as much and rarely help), trying
 every triangulation of the ring; each distinct triangle of a ring is evaluated once.
 
+:func:`shape_flip_round` does the same with 3-2 and 4-4 flips ranked by the smallest radius
+ratio of the new cells, around the cells of poor radius ratio: it raises the mean shape.
+
 Flips never move a vertex and only replace interior cells by cells filling the same region, so
 the boundary surface and the volume are unchanged.
 """
@@ -17,10 +20,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from .tet_shape import min_dihedral
+from .tet_shape import min_dihedral, shape_measures
 from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours
 
-__all__ = ["flip_round", "ring_triangulations", "RING_OF_EDGE"]
+__all__ = ["flip_round", "shape_flip_round", "ring_triangulations", "RING_OF_EDGE"]
 
 #: For the edge (i, j) = EDGE_OF_TET[k], the other two local vertices (k, l) such that the
 #: permutation (i, j, k, l) is even: (a, b, c, d) is then positively oriented.
@@ -29,6 +32,12 @@ RING_OF_EDGE = np.array([[2, 3], [3, 1], [1, 2], [0, 3], [2, 0], [0, 1]])
 MAX_RING = 6
 #: A flip must raise the worst angle of the replaced cells by at least this (degrees).
 MIN_GAIN = 1e-3
+#: Largest ring that shape flips try (3-2 and 4-4 flips): rings of five or more cells, and 2-3
+#: flips, hardly ever hold a better configuration by radius ratio, and they cost most of the
+#: candidates.
+SHAPE_MAX_RING = 4
+#: A shape flip must raise the smallest radius ratio of the replaced cells by at least this.
+MIN_RATIO_GAIN = 1e-3
 
 
 @lru_cache(maxsize=None)
@@ -96,7 +105,7 @@ def _ring_tables(n: int) -> tuple[np.ndarray, np.ndarray]:
     return triangles, np.concatenate([index, index + triangles.shape[0]], axis=1)
 
 
-def _edge_candidates(tets, bad, boundary_edges, n_points):
+def _edge_candidates(tets, bad, boundary_edges, n_points, max_ring=MAX_RING):
     """Edge removals around the interior edges of the bad cells, grouped by ring size.
 
     Yields, for every ring size n with candidates, ``old`` (E, n), the cells around each edge;
@@ -115,7 +124,7 @@ def _edge_candidates(tets, bad, boundary_edges, n_points):
     start = np.searchsorted(sorted_keys, wanted, side="left")
     stop = np.searchsorted(sorted_keys, wanted, side="right")
     count = stop - start
-    for n in range(3, MAX_RING + 1):
+    for n in range(3, max_ring + 1):
         pick = count == n
         if not pick.any():
             continue
@@ -251,3 +260,60 @@ def flip_round(
     tets, (quality,), applied, new_vertices = _apply(tets, candidates, [quality])
     touched[new_vertices] = True
     return tets, quality, applied, touched
+
+
+def shape_flip_round(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    ratio: np.ndarray,
+    ratio_threshold: float,
+    floor: float,
+    boundary_edges: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """One round of flips that raise the radius ratio of the cells below ``ratio_threshold``.
+
+    The same flips as :func:`flip_round`, ranked by the smallest radius ratio of the new cells:
+    a flip is applied when it raises the smallest radius ratio of the cells it replaces and
+    leaves no new cell with a smallest dihedral angle under ``min(floor, the replaced cells'
+    smallest angle)``. It lifts the mean shape (a Delaunay mesh keeps many cells that another
+    local triangulation of the same points beats) without lowering the worst angle.
+
+    Parameters
+    ----------
+    points, tets : the mesh (positively oriented cells)
+    quality : (M,) smallest dihedral angle of each cell (degrees)
+    ratio : (M,) radius ratio of each cell (:func:`~fepre.distmesh.tet_shape.radius_ratio`)
+    ratio_threshold : cells below this radius ratio are improved
+    floor : degrees; no flip creates a cell under ``min(floor, angles of the cells it replaces)``
+    boundary_edges : sorted edge keys of the boundary surface; never removed
+
+    Returns
+    -------
+    tets, quality, ratio : the new cells, their angles and radius ratios
+    flips : number of flips applied
+    """
+    bad_cells = np.flatnonzero(ratio < ratio_threshold)
+    if bad_cells.size == 0:
+        return tets, quality, ratio, 0
+    region, sub, bad = _region(points.shape[0], tets, bad_cells)
+    candidates = []
+    for old, cells, table in _edge_candidates(sub, bad, boundary_edges, points.shape[0], SHAPE_MAX_RING):
+        if old.shape[0] == 0:
+            continue
+        old = region[old]
+        q_cells, r_cells = shape_measures(points[cells])
+        required = np.minimum(quality[old].min(axis=1), floor)
+        score = np.where(q_cells[:, table].min(axis=2) >= required[:, None], r_cells[:, table].min(axis=2), -1.0)
+        choice = np.argmax(score, axis=1)
+        rows = np.arange(old.shape[0])
+        score = score[rows, choice]
+        good = score > ratio[old].min(axis=1) + MIN_RATIO_GAIN
+        if good.any():
+            rows = rows[good, None]
+            best = table[choice[good]]
+            candidates.append((old[good], cells[rows, best], score[good], (q_cells[rows, best], r_cells[rows, best])))
+    if not candidates:
+        return tets, quality, ratio, 0
+    tets, (quality, ratio), applied, _ = _apply(tets, candidates, [quality, ratio])
+    return tets, quality, ratio, applied
