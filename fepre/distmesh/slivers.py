@@ -227,7 +227,7 @@ def improve_arrays(
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
         points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, threshold, movable, on_boundary, model, surface_tol
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
         )
         counts["relaxed"] += relaxed
 
@@ -241,7 +241,7 @@ def improve_arrays(
         )
         counts["flips"] += flipped
         points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, threshold, movable, on_boundary, model, surface_tol
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
         )
         counts["relaxed"] += relaxed
         ratio = radius_ratio(points[tets])
