@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from fepre import quality, sdf
+from fepre.distmesh.boundary_slivers import remove_boundary_slivers
 from fepre.distmesh.flips import flip_round, ring_triangulations
 from fepre.distmesh.smoothing import smooth_round
 from fepre.distmesh.tet_shape import ideal_vertex_positions, min_dihedral, signed_volume, tet_min_dihedral
-from fepre.distmesh.tet_topology import edge_keys, face_neighbours, faces_on_boundary, open_boundary_reason
+from fepre.distmesh.tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
 TRIANGLE = [(1, 0, 0), (-0.5, np.sqrt(3) / 2, 0), (-0.5, -np.sqrt(3) / 2, 0)]
 
@@ -106,3 +107,22 @@ def test_open_boundary_reason():
     assert open_boundary_reason(closed, 4) == ""
     assert "open" in open_boundary_reason(closed[:3], 4)
     assert "same direction" in open_boundary_reason(np.concatenate([closed, closed[:1]]), 4)
+
+
+@pytest.mark.parametrize("z, removed", [(5.0, 1), (0.3, 0)])
+def test_boundary_edges_on_a_crease_are_never_flipped(z, removed):
+    """Three cells around an axis, each with two boundary faces meeting at its rim edge: a tall
+    bipyramid's rim is nearly flat (169 deg) and a cell may go; a flat one's rim is a 62 deg crease."""
+    points = np.array([*TRIANGLE, (0, 0, z), (0, 0, -z)], dtype=float)
+    tets = np.array([[0, 2, 3, 4], [2, 1, 3, 4], [1, 0, 3, 4]])
+    n = len(points)
+    faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    face_keys_ = np.unique(face_keys(faces, n))
+    on_boundary = np.ones(n, dtype=bool)
+    on_zero_set = lambda p: np.zeros(len(p))  # noqa: E731 - every centroid counts as on the surface
+    q = tet_min_dihedral(points, tets)
+    new, _, count, new_faces, _ = remove_boundary_slivers(
+        points, tets, q, 90.0, on_boundary, face_keys_, boundary_edges(tets, n), on_zero_set, 1.0
+    )
+    assert count == removed and len(new) == 3 - removed
+    assert open_boundary_reason(faces_on_boundary(new, face_neighbours(new, n)), n) == ""

@@ -10,8 +10,9 @@ Two kinds of bad cell sit on the boundary surface and resist the other operation
 
 Both keep the boundary a closed manifold (checked through the boundary edge keys), change the
 volume by about the flat cell's volume, and leave every boundary vertex on the zero set. Only cells
-whose centroid lies within ``0.1 h`` of the zero set are removed. The cells removed in one call
-share no vertex.
+whose centroid lies within ``0.1 h`` of the zero set are removed, and a boundary edge is flipped
+only between nearly coplanar faces (normals within ``CREASE_ANGLE``), never on a crease. The
+cells removed in one call share no vertex.
 """
 
 from __future__ import annotations
@@ -28,6 +29,15 @@ SHALLOW = 0.25
 #: Only cells whose centroid is this close to the zero set (times h) are removed: flat cells on
 #: the surface, never cells spanning a concave region or the inside.
 FLAT_DEPTH = 0.1
+#: Boundary faces whose normals differ by more than this (degrees) meet at a crease of the part
+#: (the angle of :func:`fepre.distmesh.finalize.crease_nodes`): their common edge is never flipped.
+CREASE_ANGLE = 30.0
+
+
+def _unit_normals(triangles: np.ndarray) -> np.ndarray:
+    """Unit normals of (K, 3, 3) triangles (right-hand rule)."""
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
 
 
 def _vertex_disjoint(cells: np.ndarray, priority: np.ndarray, allowed: np.ndarray, n: int) -> np.ndarray:
@@ -82,6 +92,10 @@ def remove_boundary_slivers(
     new_edge = edge_keys(c_d, n)
     allowed = ~np.isin(new_edge, boundary_edges)
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
+    # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
+    rows = np.arange(cells.shape[0])[:, None]
+    normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
+    allowed &= np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return tets, quality, 0, boundary_face_keys, boundary_edges
