@@ -1,8 +1,9 @@
 """Sliver-free quality: fepre's DistMesh + quality stage vs pytetwild and gmsh on the issue's models.
 
 For each target model (unit sphere at h = 0.2, 0.1, 0.05; torus R=1, r=0.4 at h=0.1; Persson's
-cylinder with a spherical hole, graded; a smooth union of two capsules; a gyroid infill cube whose
-walls hold three elements) one run measures:
+cylinder with a spherical hole, graded; a smooth union of two capsules; the gyroid infill block of
+:func:`fepre.parts.gyroid_block` at h = 0.05, where its sheet (0.15) holds three elements and its
+shell (0.2) four) one run measures:
 
 * fepre: ``fepre.distmesh`` with the default options, the main loop's time and the quality
   stage's time (from the mesh's field data), and the worst dihedral angle before the stage
@@ -35,7 +36,7 @@ def _cylinder_size(points: np.ndarray) -> np.ndarray:
 
 def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable | None]]:
     """The issue's models as ``(name, model, h, size)``; ``quick`` drops the sphere at h=0.05."""
-    from .. import sdf
+    from .. import parts, sdf
 
     ball = sdf.sphere(1.0)
     capsules = sdf.union(
@@ -48,8 +49,10 @@ def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable |
         ("torus h=0.1", sdf.torus(1.0, 0.4), 0.1, None),
         ("cylinder-hole graded h=0.1", sdf.cylinder(radius=1.0, height=2.0) - sdf.sphere(0.5), 0.1, _cylinder_size),
         ("capsules h=0.1", capsules, 0.1, None),
-        # walls 0.3 thick at h = 0.1: three elements across
-        ("gyroid infill h=0.1", sdf.infill(sdf.box((1, 1, 1)), sdf.gyroid(1.0, 0.3), 0.3), 0.1, None),
+        # sheet 0.15 and shell 0.2 thick at h = 0.05: three and four elements across. (A gyroid
+        # sheet of period 1 thicker than 0.276 fills all space: the earlier infill with a 0.3
+        # sheet was a plain box.)
+        ("gyroid block h=0.05", parts.gyroid_block(), 0.05, None),
     ]
     return models
 

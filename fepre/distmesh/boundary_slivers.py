@@ -10,8 +10,9 @@ Two kinds of bad cell sit on the boundary surface and resist the other operation
 
 Both keep the boundary a closed manifold (checked through the boundary edge keys), change the
 volume by about the flat cell's volume, and leave every boundary vertex on the zero set. Only cells
-whose centroid lies within ``0.1 h`` of the zero set are removed. The cells removed in one call
-share no vertex.
+whose centroid lies within ``0.1 h`` of the zero set are removed, and a boundary edge is flipped
+only between nearly coplanar faces (normals within ``CREASE_ANGLE``), never on a crease. The
+cells removed in one call share no vertex.
 """
 
 from __future__ import annotations
@@ -28,21 +29,21 @@ SHALLOW = 0.25
 #: Only cells whose centroid is this close to the zero set (times h) are removed: flat cells on
 #: the surface, never cells spanning a concave region or the inside.
 FLAT_DEPTH = 0.1
-#: A removal must not change the boundary where its faces meet at more than this angle
-#: (degrees): that is a sharp edge or corner of the part, which the removal would cut off.
+#: Boundary faces whose normals differ by more than this (degrees) meet at a crease of the part
+#: (the angle of :func:`fepre.distmesh.finalize.crease_nodes`): their common edge is never flipped.
 CREASE_ANGLE = 30.0
 
 
-def _unit_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    a, b, c = (points[faces[..., k]] for k in range(3))
-    normals = np.cross(b - a, c - a)
-    return normals / np.maximum(np.linalg.norm(normals, axis=-1), 1e-300)[..., None]
+def _unit_normals(triangles: np.ndarray) -> np.ndarray:
+    """Unit normals of (K, 3, 3) triangles (right-hand rule)."""
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
 
 
 def _smooth_across(points: np.ndarray, first: np.ndarray, second: np.ndarray) -> np.ndarray:
     """True where faces ``first`` and ``second`` (N, 3) are within ``CREASE_ANGLE`` of parallel
     (orientation ignored: the faces of one cell face different ways)."""
-    cosine = np.abs(np.einsum("ij,ij->i", _unit_normals(points, first), _unit_normals(points, second)))
+    cosine = np.abs(np.einsum("ij,ij->i", _unit_normals(points[first]), _unit_normals(points[second])))
     return cosine >= np.cos(np.radians(CREASE_ANGLE))
 
 
@@ -80,7 +81,8 @@ def remove_boundary_slivers(
     boundary_face_keys, boundary_edges : the updated sorted keys of the boundary surface
     """
     n = points.shape[0]
-    candidates = np.flatnonzero((quality < threshold) & on_boundary[tets].all(axis=1))
+    candidates = np.flatnonzero(quality < threshold)
+    candidates = candidates[on_boundary[tets[candidates]].all(axis=1)]
     if candidates.size == 0:
         return tets, quality, 0, boundary_face_keys, boundary_edges
     cells = tets[candidates]
@@ -96,9 +98,11 @@ def remove_boundary_slivers(
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
     allowed = ~np.isin(new_edge, boundary_edges)
-    # flipping ab across a crease would cut the part's edge off
-    allowed &= _smooth_across(points, np.column_stack([a_b, c_d[:, 0]]), np.column_stack([a_b, c_d[:, 1]]))
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
+    # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
+    rows = np.arange(cells.shape[0])[:, None]
+    normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
+    allowed &= np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return tets, quality, 0, boundary_face_keys, boundary_edges
@@ -137,7 +141,8 @@ def expose_shallow_vertices(
     """
     n = points.shape[0]
     unchanged = (points, tets, quality, 0, on_boundary, boundary_face_keys, boundary_edges)
-    candidates = np.flatnonzero((quality < threshold) & (on_boundary[tets].sum(axis=1) == 3))
+    candidates = np.flatnonzero(quality < threshold)
+    candidates = candidates[on_boundary[tets[candidates]].sum(axis=1) == 3]
     if candidates.size == 0:
         return unchanged
     cells = tets[candidates]

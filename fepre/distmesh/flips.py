@@ -1,10 +1,14 @@
-"""Topological flips that remove bad tetrahedra: face removal (2-3) and edge removal (n to 2n-4).
+"""Topological flips that improve tetrahedra: face removal (2-3) and edge removal (n to 2n-4).
 
-A round collects, for every bad tetrahedron, the candidate flips on its faces and edges,
-evaluates every candidate's new tetrahedra at once (their smallest dihedral angle, -1 when
-inverted or flat), keeps those that raise the worst angle of the cells they replace, and
+:func:`flip_round` collects, for every bad tetrahedron, the candidate flips on its faces and
+edges, evaluates every candidate's new tetrahedra at once (their smallest dihedral angle, -1
+when inverted or flat), keeps those that raise the worst angle of the cells they replace, and
 applies a set of them that touch disjoint cells. Edge removal covers 3-2 (n = 3), 4-4 (n = 4)
-and the larger rings up to n = 6 (rings of 7 cost four times as much and rarely help), trying every triangulation of the ring.
+and the larger rings up to n = 6 (rings of 7 cost four times as much and rarely help), trying
+every triangulation of the ring; each distinct triangle of a ring is evaluated once.
+
+:func:`shape_flip_round` does the same with 3-2 and 4-4 flips ranked by the smallest radius
+ratio of the new cells, around the cells of poor radius ratio: it raises the mean shape.
 
 Flips never move a vertex and only replace interior cells by cells filling the same region, so
 the boundary surface and the volume are unchanged.
@@ -16,10 +20,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from .tet_shape import min_dihedral
+from .tet_shape import min_dihedral, shape_measures
 from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours
 
-__all__ = ["flip_round", "ring_triangulations", "RING_OF_EDGE"]
+__all__ = ["flip_round", "shape_flip_round", "ring_triangulations", "RING_OF_EDGE"]
 
 #: For the edge (i, j) = EDGE_OF_TET[k], the other two local vertices (k, l) such that the
 #: permutation (i, j, k, l) is even: (a, b, c, d) is then positively oriented.
@@ -28,6 +32,12 @@ RING_OF_EDGE = np.array([[2, 3], [3, 1], [1, 2], [0, 3], [2, 0], [0, 1]])
 MAX_RING = 6
 #: A flip must raise the worst angle of the replaced cells by at least this (degrees).
 MIN_GAIN = 1e-3
+#: Largest ring that shape flips try (3-2 and 4-4 flips): rings of five or more cells, and 2-3
+#: flips, hardly ever hold a better configuration by radius ratio, and they cost most of the
+#: candidates.
+SHAPE_MAX_RING = 4
+#: A shape flip must raise the smallest radius ratio of the replaced cells by at least this.
+MIN_RATIO_GAIN = 1e-3
 
 
 @lru_cache(maxsize=None)
@@ -55,8 +65,20 @@ def ring_triangulations(n: int) -> np.ndarray:
     return np.array(polygon(tuple(range(n))), dtype=np.int64).reshape(-1, n - 2, 3)
 
 
-def _face_candidates(points, tets, neighbours, bad):
-    """2-3 flips across the interior faces of the bad cells: old (K, 2), new (K, 3, 4), angles."""
+def _region(n_points: int, tets: np.ndarray, bad_cells: np.ndarray):
+    """The cells sharing a vertex with the bad cells (indices): every candidate flip replaces only these.
+
+    Returns ``region`` (their indices, sorted), ``sub`` (their vertices) and ``bad`` (the bad
+    cells' rows in ``sub``).
+    """
+    near = np.zeros(n_points, dtype=bool)
+    near[tets[bad_cells]] = True
+    region = np.flatnonzero(near[tets].any(axis=1))
+    return region, tets[region], np.searchsorted(region, bad_cells)
+
+
+def _face_candidates(tets, neighbours, bad):
+    """2-3 flips across the interior faces of the bad cells: old (K, 2) and new (K, 3, 4) cells."""
     cells = np.repeat(bad, 4)
     local = np.tile(np.arange(4), bad.size)
     other = neighbours[cells, local]
@@ -70,17 +92,29 @@ def _face_candidates(points, tets, neighbours, bad):
     new = np.stack(
         [np.stack([a, b, d, e], 1), np.stack([b, c, d, e], 1), np.stack([c, a, d, e], 1)], 1
     )
-    old = np.stack([cells, other], 1)
-    return old, new, min_dihedral(points[new])
+    return np.stack([cells, other], 1), new
 
 
-def _edge_candidates(points, tets, bad, boundary_edges):
-    """Edge removals around the edges of the bad cells, grouped by ring size.
+@lru_cache(maxsize=None)
+def _ring_tables(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct triangles of :func:`ring_triangulations` (C, 3) and, for each triangulation,
+    the columns of its cells among ``[triangles + b, reversed triangles + a]``: (T, 2n - 4)."""
+    triangulations = ring_triangulations(n)
+    triangles, index = np.unique(triangulations.reshape(-1, 3), axis=0, return_inverse=True)
+    index = index.reshape(triangulations.shape[:2])
+    return triangles, np.concatenate([index, index + triangles.shape[0]], axis=1)
 
-    Returns a list of (old (K, n), new (K, 2n - 4, 4), new cells' angles) triples, one per ring
-    size, with the best triangulation of each ring.
+
+def _edge_candidates(tets, bad, boundary_edges, n_points, max_ring=MAX_RING):
+    """Edge removals around the interior edges of the bad cells, grouped by ring size.
+
+    Yields, for every ring size n with candidates, ``old`` (E, n), the cells around each edge;
+    ``cells`` (E, 2 C, 4), the cells that a triangle of the ring (C of them) makes with either
+    end of the edge; and ``table`` (T, 2n - 4), the columns of ``cells`` that make up each
+    triangulation of the ring (T of them). Every triangle is shared by several triangulations,
+    so evaluating the cells once and gathering them by ``table`` costs a third as much for a
+    ring of six.
     """
-    n_points = points.shape[0]
     all_keys = edge_keys(tets[:, EDGE_OF_TET].reshape(-1, 2), n_points)
     order = np.argsort(all_keys, kind="stable")
     sorted_keys = all_keys[order]
@@ -90,8 +124,7 @@ def _edge_candidates(points, tets, bad, boundary_edges):
     start = np.searchsorted(sorted_keys, wanted, side="left")
     stop = np.searchsorted(sorted_keys, wanted, side="right")
     count = stop - start
-    results = []
-    for n in range(3, MAX_RING + 1):
+    for n in range(3, max_ring + 1):
         pick = count == n
         if not pick.any():
             continue
@@ -120,17 +153,54 @@ def _edge_candidates(points, tets, bad, boundary_edges):
         if not ok.any():
             continue
         ring, cells, a, b = ring[ok], cells[ok], a[ok], b[ok]
-        # Every triangulation of the ring at once; each edge keeps its best one.
-        tri = ring[:, ring_triangulations(n)]  # (E, T, n-2, 3), counter-clockwise seen from b
-        shape = tri.shape[:3] + (1,)
-        up = np.concatenate([tri, np.broadcast_to(b[:, None, None, None], shape)], 3)
-        down = np.concatenate([tri[..., [0, 2, 1]], np.broadcast_to(a[:, None, None, None], shape)], 3)
-        new = np.concatenate([up, down], 2)  # (E, T, 2n-4, 4)
-        q_new = min_dihedral(points[new])
-        best = np.argmax(q_new.min(axis=2), axis=1)
-        pick_best = np.arange(new.shape[0])
-        results.append((cells, new[pick_best, best], q_new[pick_best, best]))
-    return results
+        triangles, table = _ring_tables(n)
+        tri = ring[:, triangles]  # (E, C, 3), counter-clockwise seen from b
+        shape = tri.shape[:2] + (1,)
+        up = np.concatenate([tri, np.broadcast_to(b[:, None, None], shape)], 2)
+        down = np.concatenate([tri[..., [0, 2, 1]], np.broadcast_to(a[:, None, None], shape)], 2)
+        yield cells, np.concatenate([up, down], 1), table
+
+
+def _apply(tets: np.ndarray, candidates: list, cell_values: list[np.ndarray]):
+    """Apply the best candidates that replace disjoint sets of cells.
+
+    ``candidates`` holds ``(old (K, n), new (K, k, 4), score (K,), values)`` groups, ``values`` a
+    tuple of (K, k) arrays, one per entry of ``cell_values`` (M,): the new cells' values. A
+    candidate is applied when it has the best score on every cell it replaces.
+
+    Returns
+    -------
+    tets, cell_values : the updated cells and their values
+    applied : number of candidates applied
+    new_vertices : the vertices of the new cells (flat, with repeats)
+    """
+    score = np.concatenate([group[2] for group in candidates])
+    rank_of = np.empty(score.size, dtype=np.int64)
+    rank_of[np.argsort(-score, kind="stable")] = np.arange(score.size)
+    best = np.full(tets.shape[0], np.iinfo(np.int64).max)
+    ranks, offset = [], 0
+    for old, *_ in candidates:
+        rank = rank_of[offset : offset + old.shape[0]]
+        ranks.append(rank)
+        np.minimum.at(best, old, np.broadcast_to(rank[:, None], old.shape))
+        offset += old.shape[0]
+    remove = np.zeros(tets.shape[0], dtype=bool)
+    added = [[] for _ in range(len(cell_values) + 1)]
+    applied = 0
+    for (old, new, _, values), rank in zip(candidates, ranks):
+        chosen = (best[old] == rank[:, None]).all(axis=1)
+        if not chosen.any():
+            continue
+        remove[old[chosen]] = True
+        added[0].append(new[chosen].reshape(-1, 4))
+        for column, value in zip(added[1:], values):
+            column.append(value[chosen].reshape(-1))
+        applied += int(chosen.sum())
+    keep = ~remove
+    tets = np.concatenate([tets[keep]] + added[0]).astype(np.int64)
+    cell_values = [np.concatenate([value[keep]] + column) for value, column in zip(cell_values, added[1:])]
+    new_vertices = np.concatenate(added[0]).ravel() if added[0] else np.zeros(0, dtype=np.int64)
+    return tets, cell_values, applied, new_vertices
 
 
 def flip_round(
@@ -162,65 +232,88 @@ def flip_round(
     touched : (N,) bool, the vertices of the new cells
     """
     touched = np.zeros(points.shape[0], dtype=bool)
-    bad_cells = quality < threshold
+    bad_cells = np.flatnonzero(quality < threshold)
     if active is not None:
-        bad_cells &= active[tets].any(axis=1)
-    if not bad_cells.any():
+        bad_cells = bad_cells[active[tets[bad_cells]].any(axis=1)]
+    if bad_cells.size == 0:
         return tets, quality, 0, touched
-    # Every candidate replaces cells that share at least two vertices with a bad cell, so the
-    # work is confined to the cells touching the bad cells' vertices.
-    near = np.zeros(points.shape[0], dtype=bool)
-    near[tets[bad_cells]] = True
-    region = np.flatnonzero(near[tets].any(axis=1))
-    sub = tets[region]
-    bad = np.flatnonzero(bad_cells[region])
-    neighbours = face_neighbours(sub, points.shape[0])
-    groups = [_face_candidates(points, sub, neighbours, bad)]
-    groups += _edge_candidates(points, sub, bad, boundary_edges)
-    olds, news, gains, new_quality = [], [], [], []
+    region, sub, bad = _region(points.shape[0], tets, bad_cells)
+    old, new = _face_candidates(sub, face_neighbours(sub, points.shape[0]), bad)
+    groups = [(old, new, min_dihedral(points[new]))]
+    for old, cells, table in _edge_candidates(sub, bad, boundary_edges, points.shape[0]):
+        q_cells = min_dihedral(points[cells])
+        # each edge keeps its best triangulation
+        best = table[np.argmax(q_cells[:, table].min(axis=2), axis=1)]
+        rows = np.arange(old.shape[0])[:, None]
+        groups.append((old, cells[rows, best], q_cells[rows, best]))
+    candidates = []
     for old, new, q_new in groups:
         if old.shape[0] == 0:
             continue
         old = region[old]
         worst_new = q_new.min(axis=1)
-        worst_old = quality[old].min(axis=1)
-        good = worst_new > worst_old + MIN_GAIN
+        good = worst_new > quality[old].min(axis=1) + MIN_GAIN
         if good.any():
-            olds.append(old[good])
-            news.append(new[good])
-            gains.append(worst_new[good])
-            new_quality.append(q_new[good])
-    if not olds:
+            candidates.append((old[good], new[good], worst_new[good], (q_new[good],)))
+    if not candidates:
         return tets, quality, 0, touched
-    # Rank every candidate by the worst angle it produces (best first); a candidate is applied
-    # when it is the best-ranked candidate on every cell it replaces.
-    worst = np.concatenate(gains)
-    rank_of = np.empty(worst.size, dtype=np.int64)
-    rank_of[np.argsort(-worst, kind="stable")] = np.arange(worst.size)
-    best = np.full(tets.shape[0], np.iinfo(np.int64).max)
-    offset = 0
-    ranks = []
-    for old in olds:
-        r = rank_of[offset : offset + old.shape[0]]
-        ranks.append(r)
-        np.minimum.at(best, old, np.broadcast_to(r[:, None], old.shape))
-        offset += old.shape[0]
-    remove = np.zeros(tets.shape[0], dtype=bool)
-    add_tets, add_quality = [], []
-    applied = 0
-    for old, new, q_new, r in zip(olds, news, new_quality, ranks):
-        chosen = (best[old] == r[:, None]).all(axis=1)
-        if not chosen.any():
-            continue
-        # A cell can appear twice in one candidate only if the mesh is broken; guard anyway.
-        remove[old[chosen]] = True
-        add_tets.append(new[chosen].reshape(-1, 4))
-        add_quality.append(q_new[chosen].reshape(-1))
-        applied += int(chosen.sum())
-    keep = ~remove
-    tets = np.concatenate([tets[keep]] + add_tets).astype(np.int64)
-    quality = np.concatenate([quality[keep]] + add_quality)
-    for added in add_tets:
-        touched[added.ravel()] = True
+    tets, (quality,), applied, new_vertices = _apply(tets, candidates, [quality])
+    touched[new_vertices] = True
     return tets, quality, applied, touched
 
+
+def shape_flip_round(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    ratio: np.ndarray,
+    ratio_threshold: float,
+    floor: float,
+    boundary_edges: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """One round of flips that raise the radius ratio of the cells below ``ratio_threshold``.
+
+    The same flips as :func:`flip_round`, ranked by the smallest radius ratio of the new cells:
+    a flip is applied when it raises the smallest radius ratio of the cells it replaces and
+    leaves no new cell with a smallest dihedral angle under ``min(floor, the replaced cells'
+    smallest angle)``. It lifts the mean shape (a Delaunay mesh keeps many cells that another
+    local triangulation of the same points beats) without lowering the worst angle.
+
+    Parameters
+    ----------
+    points, tets : the mesh (positively oriented cells)
+    quality : (M,) smallest dihedral angle of each cell (degrees)
+    ratio : (M,) radius ratio of each cell (:func:`~fepre.distmesh.tet_shape.radius_ratio`)
+    ratio_threshold : cells below this radius ratio are improved
+    floor : degrees; no flip creates a cell under ``min(floor, angles of the cells it replaces)``
+    boundary_edges : sorted edge keys of the boundary surface; never removed
+
+    Returns
+    -------
+    tets, quality, ratio : the new cells, their angles and radius ratios
+    flips : number of flips applied
+    """
+    bad_cells = np.flatnonzero(ratio < ratio_threshold)
+    if bad_cells.size == 0:
+        return tets, quality, ratio, 0
+    region, sub, bad = _region(points.shape[0], tets, bad_cells)
+    candidates = []
+    for old, cells, table in _edge_candidates(sub, bad, boundary_edges, points.shape[0], SHAPE_MAX_RING):
+        if old.shape[0] == 0:
+            continue
+        old = region[old]
+        q_cells, r_cells = shape_measures(points[cells])
+        required = np.minimum(quality[old].min(axis=1), floor)
+        score = np.where(q_cells[:, table].min(axis=2) >= required[:, None], r_cells[:, table].min(axis=2), -1.0)
+        choice = np.argmax(score, axis=1)
+        rows = np.arange(old.shape[0])
+        score = score[rows, choice]
+        good = score > ratio[old].min(axis=1) + MIN_RATIO_GAIN
+        if good.any():
+            rows = rows[good, None]
+            best = table[choice[good]]
+            candidates.append((old[good], cells[rows, best], score[good], (q_cells[rows, best], r_cells[rows, best])))
+    if not candidates:
+        return tets, quality, ratio, 0
+    tets, (quality, ratio), applied, _ = _apply(tets, candidates, [quality, ratio])
+    return tets, quality, ratio, applied

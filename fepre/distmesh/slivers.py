@@ -2,29 +2,35 @@
 
 Raw DistMesh leaves slivers, flat tetrahedra with four well-spaced vertices, that Delaunay
 keeps (BACKGROUND.md section 1). This stage removes them and raises the mean shape quality,
-with three vectorised operations that each check every new cell before accepting it:
+with vectorised operations that each check every new cell before accepting it:
 
 1. *relaxation* (:func:`~fepre.distmesh.smoothing.relax_round`): every vertex moves towards the
    mean of the positions that would make each of its cells regular (boundary vertices slide on
    the model's zero set); moves that make a cell worse than ``min(its old angle, target)`` are
    undone. This lifts the mean radius ratio;
-2. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
+2. *shape flips* (:func:`~fepre.distmesh.flips.shape_flip_round`): 3-2 and 4-4 flips around
+   the cells of radius ratio below 0.8 that raise the smallest radius ratio of the cells they
+   replace. Relaxation alone stops at a fixed point of the connectivity it was given; a flip
+   round frees it, so the two alternate while the mean radius ratio rises by ``SHAPE_GAIN`` a
+   round (near a thin wall or a coarse boundary layer this is worth 0.01-0.03);
+3. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
    removal (3-2, 4-4, ... up to rings of 6) around the bad cells, keeping a flip only if it
    raises the worst dihedral angle of the cells it replaces;
-3. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
+4. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
    cells try a dozen candidate positions each and take the best one if it raises the worst
-   angle of their star.
-
-4. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
+   angle of their star;
+5. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
    (two boundary faces, or one boundary face over a vertex just under the surface) are removed,
    with a boundary edge flip or the vertex projected onto the zero set.
 
-The stage works on the cells below ``min_dihedral + 8`` degrees; flips, smoothing and boundary
+The worst slivers are flipped first, then relaxation and shape flips lift the mean shape; then
+the stage works on the cells below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
 removals alternate until none is left, or the target holds and the worst angle stops rising (or
-twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch the boundary surface; boundary vertices only move along
-the zero set (re-projected, checked to within ``1e-4 h``); the end result is verified (positive
-cells, closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume
-within 2% of the input's) and a violation raises :class:`fepre.MeshingError`.
+twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch
+the boundary surface; boundary vertices only move along the zero set (re-projected, checked to
+within ``1e-4 h``); fixed vertices never move; the end result is verified (positive cells,
+closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume within 2%
+of the input's) and a violation raises :class:`fepre.MeshingError`.
 """
 
 from __future__ import annotations
@@ -38,9 +44,9 @@ import numpy as np
 from ..arguments import finite_float, positive_float, positive_int
 from ..errors import ConvergenceWarning, MeshingError
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
-from .flips import flip_round
+from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
-from .tet_shape import signed_volume, tet_min_dihedral
+from .tet_shape import radius_ratio, signed_volume, tet_min_dihedral
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
 __all__ = ["improve", "improve_arrays", "DEFAULT_MIN_DIHEDRAL", "DEFAULT_MAXITER"]
@@ -51,8 +57,13 @@ DEFAULT_MIN_DIHEDRAL = 20.0
 DEFAULT_MAXITER = 40
 #: Cells up to this many degrees above the target are improved too, for a safety margin.
 MARGIN = 8.0
-#: Relaxation passes over the whole mesh.
-RELAX_ROUNDS = 3
+#: Relaxation passes over the whole mesh before the first shape round.
+RELAX_ROUNDS = 1
+#: Shape rounds (radius-ratio flips on the cells below ``SHAPE_RATIO``, then a relaxation pass):
+#: at most ``SHAPE_ROUNDS``, until a round raises the mean radius ratio by less than ``SHAPE_GAIN``.
+SHAPE_ROUNDS = 8
+SHAPE_RATIO = 0.8
+SHAPE_GAIN = 0.002
 #: Once the target is met, stop when the worst angle has not risen by ``PROGRESS`` degrees for
 #: this many rounds.
 PATIENCE = 8
@@ -216,9 +227,28 @@ def improve_arrays(
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
         points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, threshold, movable, on_boundary, model, surface_tol
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
         )
         counts["relaxed"] += relaxed
+
+    # Shape rounds: flips that raise the radius ratio of the poorest cells free the relaxation,
+    # which had stopped at a fixed point of the old connectivity; repeat while the mean rises.
+    ratio = radius_ratio(points[tets])
+    mean_ratio = float(ratio.mean())
+    for _ in range(SHAPE_ROUNDS):
+        tets, quality, ratio, flipped = timed(
+            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges
+        )
+        counts["flips"] += flipped
+        points, quality, relaxed = timed(
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
+        )
+        counts["relaxed"] += relaxed
+        ratio = radius_ratio(points[tets])
+        gain = float(ratio.mean()) - mean_ratio
+        mean_ratio += gain
+        if gain < SHAPE_GAIN:
+            break
 
     rounds = 0
     best = float(quality.min())

@@ -68,10 +68,10 @@ def smooth_round(
     touched : (N,) bool, the moved vertices
     """
     touched = np.zeros(points.shape[0], dtype=bool)
-    bad = quality < threshold
+    bad = np.flatnonzero(quality < threshold)
     if active is not None:
-        bad &= active[tets].any(axis=1)
-    if not bad.any():
+        bad = bad[active[tets[bad]].any(axis=1)]
+    if bad.size == 0:
         return points, quality, 0, touched
     vertices = np.unique(tets[bad])
     vertices = vertices[movable[vertices]]

@@ -1,21 +1,41 @@
-"""Shape of candidate tetrahedra: signed volume and smallest dihedral angle, vectorised.
+"""Shape of candidate tetrahedra: signed volume, smallest dihedral angle, radius ratio, vectorised.
 
 The quality stage evaluates thousands of candidate tetrahedra (moved vertices, flipped
-configurations) per round. It needs only the orientation and the smallest dihedral angle of
-each, so this kernel computes just those from stacked corner coordinates; the full set of
-reported metrics comes from :mod:`fepre.quality`.
+configurations) per round. It needs only the orientation, the smallest dihedral angle and the
+radius ratio of each, so these kernels compute just those from stacked corner coordinates; the
+full set of reported metrics comes from :mod:`fepre.quality`.
+
+The kernels run over blocks of ``BLOCK`` cells: their few dozen temporaries then stay in the
+CPU cache and their memory is reused, which makes them several times faster on large inputs
+than whole-array numpy expressions (measured: 1.1 million cells, 0.73 s whole, 0.09-0.11 s in
+blocks of 4096-8192).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["signed_volume", "min_dihedral", "tet_min_dihedral", "ideal_vertex_positions"]
+__all__ = ["signed_volume", "min_dihedral", "tet_min_dihedral", "radius_ratio", "shape_measures", "ideal_vertex_positions"]
 
 #: Height of a regular tetrahedron over its base, per unit edge length.
 REGULAR_HEIGHT = float(np.sqrt(2.0 / 3.0))
 #: Orientation below this fraction of (mean edge length)^3 counts as flat (invalid).
 FLAT_VOLUME = 1e-9
+#: Cells per block of the kernels.
+BLOCK = 8192
+
+
+def _blockwise(kernel, corners: np.ndarray):
+    """``kernel`` over (K, 4, 3) blocks of (..., 4, 3) ``corners``; its (K,) results reshaped to (...)."""
+    shape = corners.shape[:-2]
+    flat = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 3)
+    if flat.shape[0] <= BLOCK:
+        parts = [kernel(flat)]
+    else:
+        parts = [kernel(flat[start : start + BLOCK]) for start in range(0, flat.shape[0], BLOCK)]
+    if isinstance(parts[0], tuple):
+        return tuple(np.concatenate(column).reshape(shape) for column in zip(*parts))
+    return np.concatenate(parts).reshape(shape)
 
 
 def signed_volume(corners: np.ndarray) -> np.ndarray:
@@ -70,8 +90,11 @@ def min_dihedral(corners: np.ndarray) -> np.ndarray:
     >>> round(float(min_dihedral(regular)), 2)
     70.53
     """
-    shape = corners.shape[:-2]
-    a, b, c, d = _columns(np.asarray(corners, dtype=np.float64))
+    return _blockwise(_min_dihedral, corners)
+
+
+def _min_dihedral(corners: np.ndarray) -> np.ndarray:
+    a, b, c, d = _columns(corners)
     u, v, w = _sub(b, a), _sub(c, a), _sub(d, a)
     bc, bd, cd = _sub(v, u), _sub(w, u), _sub(w, v)
     # Face normals, all pointing into a positive tetrahedron.
@@ -91,12 +114,70 @@ def min_dihedral(corners: np.ndarray) -> np.ndarray:
         + np.sqrt(_dot(bc, bc)) + np.sqrt(_dot(bd, bd)) + np.sqrt(_dot(cd, cd))
     ) / 6.0
     valid = volume6 > 6.0 * FLAT_VOLUME * mean_edge**3
-    return np.where(valid, angle, -1.0).reshape(shape)
+    return np.where(valid, angle, -1.0)
 
 
 def tet_min_dihedral(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """:func:`min_dihedral` of the tetrahedra ``tets`` (M, 4) over ``points`` (N, 3)."""
     return min_dihedral(points[tets])
+
+
+def shape_measures(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest dihedral angle (degrees) and radius ratio of tetrahedra given as (..., 4, 3) corners.
+
+    The two share their edge vectors, face normals and volume, so this costs little more than
+    :func:`min_dihedral` alone. Inverted and flat cells (as in :func:`min_dihedral`) get ``-1``
+    for both.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> regular = np.array([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1.0]])
+    >>> angle, ratio = shape_measures(regular)
+    >>> round(float(angle), 2), round(float(ratio), 12)
+    (70.53, 1.0)
+    """
+    return _blockwise(_shape_measures, corners)
+
+
+def _shape_measures(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a, b, c, d = _columns(corners)
+    u, v, w = _sub(b, a), _sub(c, a), _sub(d, a)
+    bc, bd, cd = _sub(v, u), _sub(w, u), _sub(w, v)
+    normals = (_cross(bd, bc), _cross(v, w), _cross(w, u), _cross(u, v))
+    norm = [np.sqrt(_dot(n, n)) for n in normals]  # twice the face areas
+    inverse = [1.0 / np.where(length > 0, length, 1.0) for length in norm]
+    largest_cos = None
+    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+        cos = -_dot(normals[i], normals[j]) * (inverse[i] * inverse[j])
+        largest_cos = cos if largest_cos is None else np.maximum(largest_cos, cos)
+    angle = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
+    lu, lv, lw, lbc, lbd, lcd = (np.sqrt(_dot(e, e)) for e in (u, v, w, bc, bd, cd))
+    # R_circ = heron / (6 V) with heron's formula over the products of opposite edge lengths
+    p, q, r = lu * lcd, lv * lbd, lw * lbc
+    s = 0.5 * (p + q + r)
+    heron = np.sqrt(np.maximum(s * (s - p) * (s - q) * (s - r), 0.0))
+    volume6 = _dot(u, normals[1])
+    # 3 r_in / R_circ = 54 V^2 / (total face area * heron), V = volume6 / 6, area = norm / 2
+    denominator = (norm[0] + norm[1] + norm[2] + norm[3]) * heron
+    ratio = 3.0 * volume6**2 / np.where(denominator > 0, denominator, 1.0)
+    mean_edge = (lu + lv + lw + lbc + lbd + lcd) / 6.0
+    valid = volume6 > 6.0 * FLAT_VOLUME * mean_edge**3
+    return np.where(valid, angle, -1.0), np.where(valid, ratio, -1.0)
+
+
+def radius_ratio(corners: np.ndarray) -> np.ndarray:
+    """Radius ratio ``3 r_in / R_circ`` of tetrahedra given as (..., 4, 3) corners (see
+    :func:`shape_measures`); ``-1`` for inverted and flat cells.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> regular = np.array([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1.0]])
+    >>> round(float(radius_ratio(regular)), 12)
+    1.0
+    """
+    return shape_measures(corners)[1]
 
 
 def ideal_vertex_positions(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -114,6 +195,11 @@ def ideal_vertex_positions(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     >>> ideal_vertex_positions(flat, np.array([[0, 1, 2, 3]]))[3, :, 0].round(3).tolist()
     [0.333, 0.333, 0.929]
     """
+    if tets.shape[0] > BLOCK:
+        return np.concatenate(
+            [ideal_vertex_positions(points, tets[start : start + BLOCK]) for start in range(0, tets.shape[0], BLOCK)],
+            axis=2,
+        )
     a, b, c, d = _columns(points[tets])
     u, v, w = _sub(b, a), _sub(c, a), _sub(d, a)
     bc, bd, cd = _sub(v, u), _sub(w, u), _sub(w, v)
