@@ -17,6 +17,7 @@ central differences of their own values.
 from __future__ import annotations
 
 import itertools
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Iterator, Sequence
 
@@ -25,7 +26,7 @@ import numpy as np
 from ..arguments import as_points, positive_int
 from ..config import config
 
-__all__ = ["SDF", "Bounds", "Coords"]
+__all__ = ["SDF", "Bounds", "Coords", "take_scratch", "give_scratch"]
 
 Bounds = tuple[tuple[float, ...], tuple[float, ...]]
 Coords = tuple[np.ndarray, ...]
@@ -38,6 +39,34 @@ _pools: dict[int, ThreadPoolExecutor] = {}
 GRID_BLOCK_DEPTH = 16
 #: Largest number of x-values per block when sampling a 3D grid.
 GRID_BLOCK_WIDTH = 64
+
+
+_scratch = threading.local()
+
+
+def take_scratch(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+    """A C-contiguous array of ``shape`` and ``dtype`` with undefined contents.
+
+    Inside grid sampling (:meth:`SDF.values_on_axes`) arrays handed back with
+    :func:`give_scratch` are reused by the next blocks of the same thread: full-size
+    temporaries are then never allocated per block. Blocks are large, so fresh temporaries
+    would come from ``mmap`` and be unmapped on release, and the page faults (and, with
+    several threads, TLB shoot-downs) cost more than the arithmetic. Outside sampling this is
+    ``np.empty``.
+    """
+    free = getattr(_scratch, "free", None)
+    if free is not None:
+        stack = free.get((shape, dtype))
+        if stack:
+            return stack.pop()
+    return np.empty(shape, dtype=dtype)
+
+
+def give_scratch(array: np.ndarray) -> None:
+    """Hand back an array from :func:`take_scratch` once its contents are no longer needed."""
+    free = getattr(_scratch, "free", None)
+    if free is not None:
+        free.setdefault((array.shape, array.dtype), []).append(array)
 
 
 def thread_pool(workers: int) -> ThreadPoolExecutor:
@@ -84,6 +113,13 @@ class SDF:
     dim: int = 3
     #: True where the node overrides ``_values_and_gradient`` with an analytic gradient.
     analytic_gradient: bool = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # A subclass that redefines _values but inherits an in-place _values_into (written for
+        # its parent's formula) would be sampled with the parent's values: fall back to _values.
+        if "_values" in cls.__dict__ and "_values_into" not in cls.__dict__:
+            cls._values_into = SDF._values_into
 
     def __init__(self, *, bounds: Bounds | None, exact: bool, children: Sequence["SDF"] = ()) -> None:
         if bounds is not None:
@@ -275,7 +311,7 @@ class SDF:
                 for z, y, x in itertools.product(range(0, nz, kz), range(0, ny, ky), range(0, nx, kx))
             ]
 
-            def run(block: tuple[int, int, int, int, int, int]) -> None:
+            def evaluate(block: tuple[int, int, int, int, int, int]) -> None:
                 z0, z1, y0, y1, x0, x1 = block
                 x = vectors[0][None, None, x0:x1]
                 y = vectors[1][None, y0:y1, None]
@@ -288,9 +324,20 @@ class SDF:
             blocks = [(y, min(y + rows_per_block, ny)) for y in range(0, ny, rows_per_block)]
             x = vectors[0][None, :]
 
-            def run(block: tuple[int, int]) -> None:
+            def evaluate(block: tuple[int, int]) -> None:
                 y0, y1 = block
-                out[y0:y1, :] = self._values(x, vectors[1][y0:y1, None])
+                self._values_into(out[y0:y1, :], x, vectors[1][y0:y1, None])
+
+        # Each thread reuses its own scratch arrays from block to block (see take_scratch);
+        # they are dropped with ``arenas`` when sampling ends.
+        arenas: dict[int, dict] = {}
+
+        def run(block: tuple[int, ...]) -> None:
+            _scratch.free = arenas.setdefault(threading.get_ident(), {})
+            try:
+                evaluate(block)
+            finally:
+                _scratch.free = None
 
         workers = config.resolve_workers(workers)
         if workers == 1 or len(blocks) == 1:

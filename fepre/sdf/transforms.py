@@ -84,6 +84,11 @@ class Affine(SDF):
             values = values * self.factor
         return values
 
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        self.children[0]._values_into(target, *self._pulled_back(coords))
+        if self.factor != 1.0:
+            target *= self.factor
+
     def _values_and_gradient(self, *coords):
         values, gradient = self.children[0]._values_and_gradient(*self._pulled_back(coords))
         out = []
