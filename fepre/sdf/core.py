@@ -19,14 +19,14 @@ from __future__ import annotations
 import itertools
 import threading
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from ..arguments import as_points, positive_int
 from ..config import config
 
-__all__ = ["SDF", "Bounds", "Coords", "take_scratch", "give_scratch"]
+__all__ = ["SDF", "Bounds", "Coords", "ScratchArenas", "take_scratch", "give_scratch"]
 
 Bounds = tuple[tuple[float, ...], tuple[float, ...]]
 Coords = tuple[np.ndarray, ...]
@@ -53,18 +53,22 @@ _scratch = threading.local()
 def take_scratch(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
     """A C-contiguous array of ``shape`` and ``dtype`` with undefined contents.
 
-    Inside grid sampling (:meth:`SDF.values_on_axes`) arrays handed back with
-    :func:`give_scratch` are reused by the next blocks of the same thread: full-size
-    temporaries are then never allocated per block. Blocks are large, so fresh temporaries
-    would come from ``mmap`` and be unmapped on release, and the page faults (and, with
-    several threads, TLB shoot-downs) cost more than the arithmetic. Outside sampling this is
-    ``np.empty``.
+    Inside :class:`ScratchArenas` (grid sampling), arrays handed back with :func:`give_scratch`
+    are reused by the next blocks of the same thread, whatever their shapes: full-size
+    temporaries are then not allocated per block. Blocks are large, so fresh temporaries would
+    come from ``mmap`` and be unmapped on release, and the page faults (and, with several
+    threads, TLB shoot-downs) cost more than the arithmetic. Elsewhere this is ``np.empty``.
     """
     free = getattr(_scratch, "free", None)
     if free is not None:
-        stack = free.get((shape, dtype))
+        stack = free.get(dtype)
         if stack:
-            return stack.pop()
+            size = 1
+            for n in shape:
+                size *= n
+            buffer = stack.pop()
+            if buffer.size >= size:
+                return buffer[:size].reshape(shape)
     return np.empty(shape, dtype=dtype)
 
 
@@ -72,7 +76,27 @@ def give_scratch(array: np.ndarray) -> None:
     """Hand back an array from :func:`take_scratch` once its contents are no longer needed."""
     free = getattr(_scratch, "free", None)
     if free is not None:
-        free.setdefault((array.shape, array.dtype), []).append(array)
+        owner = array if array.base is None else array.base
+        free.setdefault(owner.dtype, []).append(owner.reshape(-1))
+
+
+class ScratchArenas:
+    """Per-thread reuse of scratch arrays (see :func:`take_scratch`) during one sampling call.
+
+    The arrays are released with the object.
+    """
+
+    def __init__(self) -> None:
+        self._free: dict[int, dict] = {}
+
+    def run(self, function: Callable[..., Any], *args: Any) -> Any:
+        """Call ``function(*args)`` with this thread's scratch arrays available for reuse."""
+        previous = getattr(_scratch, "free", None)
+        _scratch.free = self._free.setdefault(threading.get_ident(), {})
+        try:
+            return function(*args)
+        finally:
+            _scratch.free = previous
 
 
 def thread_pool(workers: int) -> ThreadPoolExecutor:
@@ -334,16 +358,10 @@ class SDF:
                 y0, y1 = block
                 self._values_into(out[y0:y1, :], x, vectors[1][y0:y1, None])
 
-        # Each thread reuses its own scratch arrays from block to block (see take_scratch);
-        # they are dropped with ``arenas`` when sampling ends.
-        arenas: dict[int, dict] = {}
+        arenas = ScratchArenas()
 
         def run(block: tuple[int, ...]) -> None:
-            _scratch.free = arenas.setdefault(threading.get_ident(), {})
-            try:
-                evaluate(block)
-            finally:
-                _scratch.free = None
+            arenas.run(evaluate, block)
 
         workers = config.resolve_workers(workers)
         if workers == 1 or len(blocks) == 1:
