@@ -69,11 +69,6 @@ def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) ->
     return out
 
 
-def new_values(coords: Coords) -> np.ndarray:
-    """An uninitialised array for a node's values at ``coords`` (broadcast shape, float dtype)."""
-    return np.empty(full_shape(coords), dtype=np.result_type(*coords, np.float32))
-
-
 def _reduce_into(reduce: np.ufunc, target: np.ndarray, child: SDF, coords: Coords) -> None:
     """``target = reduce(target, child)``, with the child's values in a reused scratch array."""
     values = take_scratch(target.shape, target.dtype)
@@ -221,9 +216,7 @@ class Union(SDF):
         return {"k": self.k} if self.k > 0 else {}
 
     def _values(self, *coords):
-        if self.k > 0 or self._guard is not None:
-            return self._minimum(coords, None)
-        return self._minimum(coords, new_values(coords))
+        return self._minimum(coords, None)
 
     def _values_into(self, target: np.ndarray, *coords) -> None:
         if self.k > 0 or self._guard is not None:
@@ -232,7 +225,7 @@ class Union(SDF):
             self._minimum(coords, target)
 
     def _minimum(self, coords, target):
-        """Sharp: the minimum written into ``target``; smooth (``target`` None): a new array."""
+        """The minimum, written into ``target`` (sharp only) or into a new array (None)."""
         shape = full_shape(coords)
         extent = coordinate_extent(coords, shape) if self.k == 0 and self._skippable else None
         out = None
@@ -246,22 +239,19 @@ class Union(SDF):
                         largest = float(out.max())
                     if largest <= gap:
                         continue
-            if target is not None:
-                if out is None:
-                    child._values_into(target, *coords)
-                    out = target
-                else:
-                    _reduce_into(np.minimum, out, child, coords)
-                    largest = None
+            if out is None and target is not None:
+                child._values_into(target, *coords)
+                out = target
+                continue
+            if out is not None and self.k == 0:
+                _reduce_into(np.minimum, out, child, coords)
+                largest = None
                 continue
             values = child._values(*coords)
             if out is None:
                 out = writable(values, shape, coords)
-            elif self.k > 0:
-                out, _ = smooth_min(out, values, self.k)
             else:
-                np.minimum(out, values, out=out)
-                largest = None
+                out, _ = smooth_min(out, values, self.k)
         if self._guard is not None:
             out = np.maximum(out, _box_distance(coords, self._guard))
         return out
@@ -305,18 +295,13 @@ class Intersection(SDF):
         return {"k": self.k} if self.k > 0 else {}
 
     def _values(self, *coords):
-        if self.k == 0:
-            target = new_values(coords)
-            self._values_into(target, *coords)
-            return target
         shape = full_shape(coords)
-        out = None
-        for child in self.children:
-            values = child._values(*coords)
-            if out is None:
-                out = writable(values, shape, coords)
+        out = writable(self.children[0]._values(*coords), shape, coords)
+        for child in self.children[1:]:
+            if self.k == 0:
+                _reduce_into(np.maximum, out, child, coords)
             else:
-                out, _ = smooth_min(-out, -values, self.k)
+                out, _ = smooth_min(-out, -child._values(*coords), self.k)
                 np.negative(out, out=out)
         return out
 
@@ -360,9 +345,7 @@ class Difference(SDF):
         return {"k": self.k} if self.k > 0 else {}
 
     def _values(self, *coords):
-        if self.k > 0:
-            return self._cut(coords, None)
-        return self._cut(coords, new_values(coords))
+        return self._cut(coords, None)
 
     def _values_into(self, target: np.ndarray, *coords) -> None:
         if self.k > 0:
@@ -371,7 +354,7 @@ class Difference(SDF):
             self._cut(coords, target)
 
     def _cut(self, coords, target):
-        """Sharp: ``max(base, -others...)`` written into ``target``; smooth (``target`` None): a new array."""
+        """The difference, written into ``target`` (sharp only) or into a new array (None)."""
         shape = full_shape(coords)
         base, *others = self.children
         if self.k > 0:
@@ -382,7 +365,10 @@ class Difference(SDF):
             return out
         # Base first; an operand whose box is ``gap`` away from this block has -other <= -gap,
         # so it changes nothing where the base is already >= -gap everywhere on the block.
-        base._values_into(target, *coords)
+        if target is None:
+            target = writable(base._values(*coords), shape, coords)
+        else:
+            base._values_into(target, *coords)
         extent = coordinate_extent(coords, shape) if self._skippable is not None else None
         smallest = None
         for other, skippable in zip(others, self._skippable or [False] * len(others)):

@@ -241,9 +241,10 @@ class SDF:
             out[...] = kernel(array)
             return out
         starts = range(0, count, chunk)
+        arenas = ScratchArenas()
 
         def run(start: int) -> None:
-            out[start : start + chunk] = kernel(array[start : start + chunk])
+            out[start : start + chunk] = arenas.run(kernel, array[start : start + chunk])
 
         workers = config.resolve_workers(workers)
         if workers == 1:
