@@ -47,8 +47,8 @@ def _pair(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.nda
     An operand small next to the result (the z part of a grid block, or a plane against a full
     block) is tested for one sign over all of it, which is cheap and saves full-size work:
     where a part is <= 0 the formula is ``max(a, b)``, where it is >= 0 the inside term vanishes.
-    Both shortcuts give the general formula's value exactly (``sqrt(a * a) == |a|`` in IEEE
-    arithmetic; max and min are exact).
+    Both shortcuts give the general formula's value exactly (in IEEE arithmetic
+    ``sqrt(a * a) == |a|`` unless ``a * a`` underflows; max and min are exact).
     """
     size = _broadcast_size(np.shape(a), np.shape(b))
     sign_a = _sign(a) if 8 * np.size(a) <= size else 0
