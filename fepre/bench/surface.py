@@ -140,6 +140,7 @@ def _narrow_band_rows(name: str, model, size: int, repeat: int, workers: int) ->
             "floor": lambda: np.empty(shape, dtype=np.float32).fill(1.0),
         },
         repeat,
+        warm_bytes=4 * int(np.prod(shape)),
     )
     dense, banded, floor = wall["dense"], wall["banded"], wall["floor"]
     dense_cpu = cpu_time(lambda: fepre.sample(model, shape=size, bounds=box, workers=1), repeat)
