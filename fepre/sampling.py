@@ -21,7 +21,7 @@ import numpy as np
 
 from .arguments import as_bounds, as_vector, nonnegative_float, positive_int
 from .config import config
-from .sdf.core import SDF, thread_pool
+from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
 
 __all__ = ["sample", "grid_geometry"]
 
@@ -140,7 +140,7 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     Blocks are aligned (the last one per axis may be short) and about ``BLOCK`` nodes wide along
     the finest axis, fewer along coarser axes, so they stay roughly cubic in world units. Runs of
     all active blocks of a z slab are evaluated in one broadcast call; each run of consecutive
-active blocks along x is then copied into the output with one strided copy.
+    active blocks along x is then copied into the output as contiguous rows.
     """
     counts = [a.size for a in axes]
     finest = float(step.min())
@@ -156,16 +156,23 @@ active blocks along x is then copied into the output with one strided copy.
     margin = half_diagonal + band + 1e-6 * (half_diagonal + band)
     active = np.abs(centre_values) <= margin  # (blocks z, blocks y, blocks x)
     fill = np.where(centre_values > 0, band, -band).astype(dtype)
-    owner_x = np.arange(counts[0]) // width[0]
-    owner_y = np.arange(counts[1]) // width[1]
-    row_fill = fill[:, :, owner_x]  # (blocks z, blocks y, nx)
+    wx, wy, wz = width
+    nx, ny, nz = counts
+    row_fill = np.repeat(fill, wx, axis=2)[:, :, :nx]  # (blocks z, blocks y, nx), rows contiguous
+    whole_y = ny // wy  # block rows without the short last one
 
     edges = np.diff(np.pad(active, ((0, 0), (0, 0), (1, 1))).view(np.int8), axis=2)
     run_z, run_y, run_start = np.nonzero(edges == 1)
     run_end = np.nonzero(edges == -1)[2]
-    x_lo = run_start * width[0]
-    x_hi = np.minimum(run_end * width[0], counts[0])
-    slab_runs = np.searchsorted(run_z, np.arange(nblocks[2] + 1))
+    x_lo = run_start * wx
+    x_hi = np.minimum(run_end * wx, nx)
+    slab_runs = np.searchsorted(run_z, np.arange(nblocks[2] + 1)).tolist()
+    # per run, as Python ints for the copy loop: rows y0:y1, columns x_lo:x_hi of the grid, and
+    # the first column of the run in its slab's block of values
+    y_lo = run_y * wy
+    first_column = (np.cumsum(run_end - run_start) - (run_end - run_start)) * wx
+    first_column -= first_column[np.asarray(slab_runs[:-1])[run_z]] if run_z.size else 0
+    runs = list(zip(y_lo.tolist(), np.minimum(y_lo + wy, ny).tolist(), x_lo.tolist(), x_hi.tolist(), first_column.tolist()))
     block_z, block_y, block_x = np.nonzero(active)  # same order as the runs' blocks
     slab_blocks = np.searchsorted(block_z, np.arange(nblocks[2] + 1))
     # axes extended to whole blocks, so every block is evaluated at full size
@@ -173,38 +180,41 @@ active blocks along x is then copied into the output with one strided copy.
         (axis[0] + h * np.arange(b * w)).astype(dtype) for axis, h, b, w in zip(axes, step, nblocks, width)
     ]
     local = [np.arange(w) for w in width]
-    out = np.empty((counts[2], counts[1], counts[0]), dtype=dtype)
-    wx, wy, wz = width
+    out = np.empty((nz, ny, nx), dtype=dtype)
 
     def slab(bz: int) -> None:
-        z0, z1 = bz * wz, min((bz + 1) * wz, counts[2])
-        out[z0:z1] = row_fill[bz][owner_y][None, :, :]
+        z0, z1 = bz * wz, min((bz + 1) * wz, nz)
+        depth = z1 - z0
+        # Fill: each node row takes its block row's fill row, in one broadcast copy per slab.
+        rows = out[z0:z1, : whole_y * wy]
+        rows.shape = (depth, whole_y, wy, nx)  # a view (raises rather than copy)
+        rows[...] = row_fill[bz, :whole_y, None, :]
+        if whole_y * wy < ny:
+            out[z0:z1, whole_y * wy :] = row_fill[bz, whole_y]
         first, last = slab_blocks[bz], slab_blocks[bz + 1]
         if first == last:
             return
-        # all active blocks of the slab in one call: (blocks, z, y, x) by broadcasting
-        x = padded[0][(block_x[first:last] * wx)[:, None] + local[0]][:, None, None, :]
-        y = padded[1][(block_y[first:last] * wy)[:, None] + local[1]][:, None, :, None]
-        z = padded[2][bz * wz + local[2]][None, :, None, None]
-        values = model._values(x, y, z)
-        block = 0
-        for r in range(slab_runs[bz], slab_runs[bz + 1]):
-            length = run_end[r] - run_start[r]
-            y0 = run_y[r] * wy
-            y1 = min(y0 + wy, counts[1])
-            target = out[z0:z1, y0:y1, x_lo[r] : x_lo[r] + length * wx]
-            run = values[block : block + length, : z1 - z0, : y1 - y0].transpose(1, 2, 0, 3)
-            if x_hi[r] - x_lo[r] == length * wx:
-                target.reshape(z1 - z0, y1 - y0, length, wx)[...] = run
-            else:  # the run ends in the grid's last, short block
-                target[...] = run.reshape(z1 - z0, y1 - y0, length * wx)[:, :, : x_hi[r] - x_lo[r]]
-            block += length
+        # The active blocks of the slab side by side along x, as one grid block of shape
+        # (wz, wy, blocks * wx): y is repeated along each block's x values so that every numpy
+        # loop runs along whole rows, and each run of blocks comes out as contiguous rows.
+        count = last - first
+        columns = (block_x[first:last] * wx)[:, None] + local[0]
+        lines = (block_y[first:last] * wy)[None, :] + local[1][:, None]
+        x = padded[0][columns].reshape(1, 1, count * wx)
+        y = np.repeat(padded[1][lines], wx, axis=1).reshape(1, wy, count * wx)
+        z = padded[2][bz * wz + local[2]][:, None, None]
+        values = take_scratch((wz, wy, count * wx), dtype)
+        model._values_into(values, x, y, z)
+        for y0, y1, x0, x1, column in runs[slab_runs[bz] : slab_runs[bz + 1]]:
+            out[z0:z1, y0:y1, x0:x1] = values[:depth, : y1 - y0, column : column + x1 - x0]
+        give_scratch(values)
 
+    arenas = ScratchArenas()
     if workers > 1:
-        list(thread_pool(workers).map(slab, range(nblocks[2])))
+        list(thread_pool(workers).map(lambda bz: arenas.run(slab, bz), range(nblocks[2])))
     else:
         for bz in range(nblocks[2]):
-            slab(bz)
+            arenas.run(slab, bz)
     z_sizes, y_sizes = sizes[2][run_z], sizes[1][run_y]
     evaluated = centre_values.size + int(np.sum(z_sizes * y_sizes * (x_hi - x_lo)))
     return out, evaluated

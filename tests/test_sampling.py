@@ -58,6 +58,24 @@ def test_banded_surface_is_identical_to_dense(model, h):
         np.testing.assert_array_equal(one.regular_faces, other.regular_faces)
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_banded_grid_with_short_last_blocks_and_unequal_spacing_equals_dense(workers):
+    # 121 x 89 x 73 nodes: no axis is a multiple of its block width, so the last block along
+    # each axis and the last block row are short; the spacings give blocks of different widths.
+    model = sdf.box((2.0, 1.2, 1.0)) - sdf.sphere(0.45, center=(0.4, 0.1, 0.5)) | sdf.torus(0.5, 0.15, center=(-0.6, 0, 0))
+    bounds = ((-1.3, -0.8, -0.7), (1.3, 0.8, 0.7))
+    dense = fepre.sample(model, shape=(121, 89, 73), bounds=bounds, workers=workers)
+    banded = fepre.sample(model, shape=(121, 89, 73), bounds=bounds, band=0.0, workers=workers)
+    assert banded.field_data["sdf_evaluated_fraction"][0] < 0.75
+    d, b = np.asarray(dense["sdf"]), np.asarray(banded["sdf"])
+    band = np.float32(banded.field_data["sdf_band"][0])
+    evaluated = np.abs(b) != band
+    np.testing.assert_array_equal(d[evaluated], b[evaluated])
+    assert np.all(np.sign(d) == np.sign(b)) and np.all(np.abs(d[~evaluated]) > band)
+    one, other = fepre.isosurface(dense, method="marching_cubes"), fepre.isosurface(banded, method="marching_cubes")
+    np.testing.assert_array_equal(one.points, other.points)
+
+
 def test_unbounded_model_needs_bounds():
     half_space = sdf.sphere(1.0) | sdf.complement(sdf.sphere(3.0))
     assert half_space.bounds is None

@@ -80,6 +80,41 @@ def test_values_on_axes_is_vtk_order_and_matches_point_evaluation(monkeypatch):
     np.testing.assert_allclose(single, grid, atol=1e-6)
 
 
+def test_subclass_redefining_values_is_sampled_through_it():
+    # Sphere samples grids in place (_values_into); a subclass that redefines _values must be
+    # sampled with its own values, not its parent's in-place formula.
+    class Shifted(type(sdf.sphere())):
+        def _values(self, x, y, z):
+            return super()._values(x, y, z) + 0.25
+
+    shape = Shifted(1.0, np.zeros(3))
+    axis = np.linspace(-1.5, 1.5, 9)
+    grid = shape.values_on_axes(axis, axis, axis, dtype=np.float64)
+    zz, yy, xx = np.meshgrid(axis, axis, axis, indexing="ij")
+    expected = np.sqrt(xx**2 + yy**2 + zz**2) - 0.75
+    np.testing.assert_allclose(grid, expected, atol=1e-12)
+    np.testing.assert_allclose((shape | sdf.sphere(0.1, center=(5, 5, 5))).values_on_axes(axis, axis, axis, dtype=np.float64), expected, atol=1e-12)
+
+
+def test_scratch_arrays_are_reused_within_an_arena_only():
+    from fepre.sdf.core import ScratchArenas, give_scratch, take_scratch
+
+    first = take_scratch((4, 5), np.dtype(np.float32))
+    give_scratch(first)
+    assert take_scratch((4, 5), np.dtype(np.float32)) is not first  # no arena: plain np.empty
+
+    def reuse():
+        a = take_scratch((8, 8), np.dtype(np.float64))
+        give_scratch(a)
+        b = take_scratch((2, 3, 5), np.dtype(np.float64))  # any shape that fits
+        assert b.flags.c_contiguous and b.shape == (2, 3, 5) and np.shares_memory(a, b)
+        give_scratch(b)
+        c = take_scratch((100,), np.dtype(np.float64))  # too large: a new array
+        assert not np.shares_memory(a, c)
+
+    ScratchArenas().run(reuse)
+
+
 def test_values_on_axes_rejects_bad_axes():
     ball = sdf.sphere()
     with pytest.raises(ValueError, match="3 axis arrays"):

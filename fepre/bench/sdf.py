@@ -93,16 +93,27 @@ def use_vtk_backend(backend: str, threads: int) -> bool:
     return True
 
 
-def interleaved_medians(functions: dict, repeat: int) -> tuple[dict[str, float], dict[str, float]]:
+def interleaved_medians(
+    functions: dict, repeat: int, warm_bytes: int = 0
+) -> tuple[dict[str, float], dict[str, float]]:
     """Median wall and CPU (all threads) times of each function, in interleaved rounds.
 
     One warm-up round is not timed. Interleaving makes the ratios robust to load that changes
     during the run; CPU time measures the work done even when the machine is shared.
+
+    With ``warm_bytes``, each timed call is preceded by an untimed allocate-and-fill of that
+    many bytes, so every function allocates its output from memory in the same state. On a
+    virtual machine that hands freed memory back to its host (virtio-balloon free page
+    reporting), memory freed a second or more earlier costs up to 20x more to touch again
+    (64 MiB: 5 ms right after a free, 15-126 ms after a 0.5-3 s pause): without this, the
+    function that runs after slow peers pays for it and the one that follows it does not.
     """
     wall: dict[str, list[float]] = {name: [] for name in functions}
     cpu: dict[str, list[float]] = {name: [] for name in functions}
     for round_index in range(repeat + 1):
         for name, function in functions.items():
+            if warm_bytes:
+                np.empty(warm_bytes, dtype=np.uint8).fill(0)
             start, start_cpu = time.perf_counter(), time.process_time()
             function()
             if round_index:
@@ -143,7 +154,7 @@ def run(size: int, repeat: int, workers: int | None = None) -> dict[str, float]:
     for backend in ("Sequential", "STDThread"):
         if use_vtk_backend(backend, threads):
             functions[f"vtk {backend}"] = vtk_with(backend)
-    medians, cpu = interleaved_medians(functions, repeat)
+    medians, cpu = interleaved_medians(functions, repeat, warm_bytes=floor_source.nbytes)
     vtk_times = {name.split()[1]: seconds for name, seconds in medians.items() if name.startswith("vtk ")}
     vtk_cpu = {name.split()[1]: seconds for name, seconds in cpu.items() if name.startswith("vtk ")}
     vtk_backend = min(vtk_times, key=vtk_times.get)

@@ -18,7 +18,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..arguments import nonnegative_float
-from .core import SDF, Bounds, Coords
+from .core import SDF, Bounds, Coords, give_scratch, take_scratch
 
 __all__ = ["union", "intersection", "difference", "complement"]
 
@@ -69,12 +69,12 @@ def writable(values: np.ndarray, shape: tuple[int, ...], coords: Coords = ()) ->
     return out
 
 
-def _start(values: np.ndarray, shape: tuple[int, ...], coords: Coords, target: np.ndarray | None) -> np.ndarray:
-    """The accumulator of a reduction: ``target`` filled with ``values``, or ``values`` itself."""
-    if target is None:
-        return writable(values, shape, coords)
-    np.copyto(target, values)
-    return target
+def _reduce_into(reduce: np.ufunc, target: np.ndarray, child: SDF, coords: Coords) -> None:
+    """``target = reduce(target, child)``, with the child's values in a reused scratch array."""
+    values = take_scratch(target.shape, target.dtype)
+    child._values_into(values, *coords)
+    reduce(target, values, out=target)
+    give_scratch(values)
 
 
 def _check_k(k: Any) -> float:
@@ -303,6 +303,7 @@ class Union(_PatchedBoolean, SDF):
             self._minimum(coords, target)
 
     def _minimum(self, coords, target):
+        """The minimum, written into ``target`` (sharp only) or into a new array (None)."""
         shape = full_shape(coords)
         extent = coordinate_extent(coords, shape) if self.k == 0 and self._skippable else None
         out = None
@@ -316,14 +317,19 @@ class Union(_PatchedBoolean, SDF):
                         largest = float(out.max())
                     if largest <= gap:
                         continue
+            if out is None and target is not None:
+                child._values_into(target, *coords)
+                out = target
+                continue
+            if out is not None and self.k == 0:
+                _reduce_into(np.minimum, out, child, coords)
+                largest = None
+                continue
             values = child._values(*coords)
             if out is None:
-                out = _start(values, shape, coords, target)
-            elif self.k > 0:
-                out, _ = smooth_min(out, values, self.k)
+                out = writable(values, shape, coords)
             else:
-                np.minimum(out, values, out=out)
-                largest = None
+                out, _ = smooth_min(out, values, self.k)
         if self._guard is not None:
             out = np.maximum(out, _box_distance(coords, self._guard))
         return out
@@ -374,17 +380,22 @@ class Intersection(_PatchedBoolean, SDF):
 
     def _values(self, *coords):
         shape = full_shape(coords)
-        out = None
-        for child in self.children:
-            values = child._values(*coords)
-            if out is None:
-                out = writable(values, shape, coords)
-            elif self.k > 0:
-                out, _ = smooth_min(-out, -values, self.k)
-                np.negative(out, out=out)
+        out = writable(self.children[0]._values(*coords), shape, coords)
+        for child in self.children[1:]:
+            if self.k == 0:
+                _reduce_into(np.maximum, out, child, coords)
             else:
-                np.maximum(out, values, out=out)
+                out, _ = smooth_min(-out, -child._values(*coords), self.k)
+                np.negative(out, out=out)
         return out
+
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        if self.k > 0:
+            target[...] = self._values(*coords)
+            return
+        self.children[0]._values_into(target, *coords)
+        for child in self.children[1:]:
+            _reduce_into(np.maximum, target, child, coords)
 
     def _values_and_gradient(self, *coords):
         value, gradient = self.children[0]._values_and_gradient(*coords)
@@ -433,6 +444,7 @@ class Difference(_PatchedBoolean, SDF):
             self._cut(coords, target)
 
     def _cut(self, coords, target):
+        """The difference, written into ``target`` (sharp only) or into a new array (None)."""
         shape = full_shape(coords)
         base, *others = self.children
         if self.k > 0:
@@ -441,34 +453,29 @@ class Difference(_PatchedBoolean, SDF):
                 out, _ = smooth_min(-out, other._values(*coords), self.k)
                 np.negative(out, out=out)
             return out
-        if self._skippable is None:
-            cut = None
-            for other in others:
-                values = other._values(*coords)
-                if cut is None:
-                    cut = writable(values, shape, coords)
-                else:
-                    np.minimum(cut, values, out=cut)
-            np.negative(cut, out=cut)
-            return np.maximum(cut, base._values(*coords), out=cut if target is None else target)
         # Base first; an operand whose box is ``gap`` away from this block has -other <= -gap,
         # so it changes nothing where the base is already >= -gap everywhere on the block.
-        out = _start(base._values(*coords), shape, coords, target)
-        extent = coordinate_extent(coords, shape)
+        if target is None:
+            target = writable(base._values(*coords), shape, coords)
+        else:
+            base._values_into(target, *coords)
+        extent = coordinate_extent(coords, shape) if self._skippable is not None else None
         smallest = None
-        for other, skippable in zip(others, self._skippable):
+        for other, skippable in zip(others, self._skippable or [False] * len(others)):
             if extent is not None and skippable:
                 gap = gap_to_box(extent, other.bounds)
                 if gap > 0:
                     if smallest is None:
-                        smallest = float(out.min())
+                        smallest = float(target.min())
                     if smallest >= -gap:
                         continue
-            values = writable(other._values(*coords), shape, coords)
+            values = take_scratch(target.shape, target.dtype)
+            other._values_into(values, *coords)
             np.negative(values, out=values)
-            np.maximum(out, values, out=out)
+            np.maximum(target, values, out=target)
+            give_scratch(values)
             smallest = None
-        return out
+        return target
 
     def _values_and_gradient(self, *coords):
         base, *others = self.children
@@ -513,6 +520,10 @@ class Complement(SDF):
 
     def _values(self, *coords):
         return np.negative(self.children[0]._values(*coords))
+
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        self.children[0]._values_into(target, *coords)
+        np.negative(target, out=target)
 
     def _values_and_gradient(self, *coords):
         value, gradient = self.children[0]._values_and_gradient(*coords)

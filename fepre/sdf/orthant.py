@@ -16,43 +16,88 @@ from typing import Sequence
 
 import numpy as np
 
+from .core import give_scratch, take_scratch
+
 __all__ = ["orthant_distance", "orthant_gradient", "axis_sign"]
 
 
-def orthant_distance(parts: Sequence[np.ndarray]) -> np.ndarray:
+def orthant_distance(parts: Sequence[np.ndarray], out: np.ndarray | None = None) -> np.ndarray:
     """Exact signed distance of the intersection of orthogonal regions with distances ``parts``.
 
-    ``parts`` are broadcastable arrays. Work on each part stays at that part's shape; only the
-    final sums run at the full broadcast shape, in place.
+    ``parts`` are broadcastable arrays; the result is written into ``out`` (an array of the
+    broadcast shape) when given. The formula is associative, so parts are folded in pairs in
+    their given order: on a grid block a box's x and y parts fold on the (y, x) plane and only
+    the fold with the z part runs at full size. A fixed order (not one that depends on the
+    parts' sizes) also makes the rounding the same for blocks of every shape, so a grid gives
+    the same values whichever way it is cut into blocks (dense or narrow-band sampling).
     """
-    # The formula is associative, so parts are folded in pairs, smallest first: the final
-    # operations are the only ones at full size.
-    order = sorted(range(len(parts)), key=lambda i: np.size(parts[i]))
-    result = parts[order[0]]
-    for i in order[1:]:
-        result = _pair(result, parts[i])
+    result = parts[0]
+    last = len(parts) - 1
+    for index in range(1, last + 1):
+        result = _pair(result, parts[index], out if index == last else None)
+    if last == 0 and out is not None:
+        out[...] = result
+        result = out
     return result
 
 
-def _pair(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Exact distance of two orthogonal parts; never modifies ``a`` or ``b``."""
-    if np.size(a) < np.size(b):
-        a, b = b, a
-    if 8 * np.size(b) <= _broadcast_size(np.shape(a), np.shape(b)):
-        # b is small next to the result (e.g. the z part of a grid block, or the y part against
-        # the x part): one sign for all of it is cheap to test and saves most full-size work.
-        if np.all(b <= 0):
-            return np.maximum(a, b)
-        if np.all(b >= 0):
-            total = np.square(np.maximum(a, 0.0))
-            total = _combine(np.add, total, np.square(b))
-            return np.sqrt(total, out=total)
-    # min(max(a, b), 0) == max(min(a, 0), min(b, 0)); both full-size results have the same
-    # shape and dtype, so the final sum runs in place.
-    total = np.add(np.square(np.maximum(a, 0.0)), np.square(np.maximum(b, 0.0)))
+def _pair(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Exact distance of two orthogonal parts (into ``out`` when given); never modifies ``a`` or ``b``.
+
+    An operand small next to the result (the z part of a grid block, or a plane against a full
+    block) is tested for one sign over all of it, which is cheap and saves full-size work:
+    where a part is <= 0 the formula is ``max(a, b)``, where it is >= 0 the inside term vanishes.
+    Both shortcuts give the general formula's value exactly (in IEEE arithmetic
+    ``sqrt(a * a) == |a|`` unless ``a * a`` underflows; max and min are exact).
+    """
+    size = _broadcast_size(np.shape(a), np.shape(b))
+    sign_a = _sign(a) if 8 * np.size(a) <= size else 0
+    sign_b = _sign(b) if 8 * np.size(b) <= size else 0
+    if sign_a < 0 or sign_b < 0:
+        return _maximum(a, b, out)
+    positive_a = a if sign_a > 0 else np.maximum(a, 0.0)
+    positive_b = b if sign_b > 0 else np.maximum(b, 0.0)
+    total = np.add(np.square(positive_a), np.square(positive_b), out=out)
     np.sqrt(total, out=total)
-    total += np.maximum(np.minimum(a, 0.0), np.minimum(b, 0.0))
+    if sign_a > 0 or sign_b > 0:
+        return total
+    # min(max(a, b), 0) == max(min(a, 0), min(b, 0))
+    inside = _maximum(np.minimum(a, 0.0), np.minimum(b, 0.0), take_scratch(total.shape, total.dtype))
+    total += inside
+    give_scratch(inside)
     return total
+
+
+def _sign(part: np.ndarray) -> int:
+    """-1 if every entry is <= 0, 1 if every entry is >= 0, else 0."""
+    if part.max() <= 0:
+        return -1
+    if part.min() >= 0:
+        return 1
+    return 0
+
+
+def _maximum(a: np.ndarray, b: np.ndarray, out: np.ndarray | None) -> np.ndarray:
+    """``np.maximum(a, b)`` into ``out`` (allocated when None).
+
+    numpy's maximum has no SIMD loop for an operand that is constant along the inner loop (a
+    broadcast z part: 0.32 ns per point): ``out`` is filled with the operand that varies least
+    along the last axis, then the maximum with the other runs contiguous (0.13 ns in all).
+    """
+    shape = np.broadcast_shapes(np.shape(a), np.shape(b)) if out is None else out.shape
+    if np.shape(a) == shape or np.shape(b) == shape:
+        return np.maximum(a, b, out=out)
+    if out is None:
+        out = np.empty(shape, dtype=np.result_type(a, b))
+    if _row_length(a) > _row_length(b):
+        a, b = b, a
+    np.copyto(out, a)
+    return np.maximum(out, b, out=out)
+
+
+def _row_length(part: np.ndarray) -> int:
+    shape = np.shape(part)
+    return shape[-1] if shape else 1
 
 
 def _broadcast_size(first: tuple[int, ...], second: tuple[int, ...]) -> int:
@@ -61,20 +106,6 @@ def _broadcast_size(first: tuple[int, ...], second: tuple[int, ...]) -> int:
     for i in range(1, max(len(first), len(second)) + 1):
         size *= max(first[-i] if i <= len(first) else 1, second[-i] if i <= len(second) else 1)
     return size
-
-
-def _combine(ufunc: np.ufunc, fresh: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """``ufunc(fresh, other)``, in place when ``fresh`` (a temporary) already has the result shape.
-
-    The shape test is done by hand: ``np.broadcast_shapes`` costs as much as a small ufunc call.
-    """
-    shape, other_shape = fresh.shape, np.shape(other)
-    fits = len(other_shape) <= len(shape) and all(
-        o == 1 or o == f for o, f in zip(reversed(other_shape), reversed(shape))
-    )
-    if fits and fresh.dtype == getattr(other, "dtype", fresh.dtype):
-        return ufunc(fresh, other, out=fresh)
-    return ufunc(fresh, other)
 
 
 def orthant_gradient(

@@ -72,6 +72,11 @@ class Cylinder(SDF):
         dz = points[:, 2] - cz
         return np.select([labels == 0, labels == 1], [rho - self.radius, dz - self.height / 2.0], -dz - self.height / 2.0)
 
+    def _values_into(self, target: np.ndarray, x, y, z) -> None:
+        cx, cy, cz = self._c
+        _, _, rho = radial(x, y, cx, cy)
+        orthant_distance([rho - self.radius, np.abs(z - cz) - self.height / 2.0], out=target)
+
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c
         dx, dy, rho = radial(x, y, cx, cy)
@@ -223,7 +228,19 @@ class Torus(SDF):
         _, _, rho = radial(x, y, cx, cy)
         ring = rho - self.major_radius
         dz = z - cz
-        return np.sqrt(ring * ring + dz * dz) - self.minor_radius
+        squared = ring * ring + dz * dz  # a fresh array: finish in place
+        np.sqrt(squared, out=squared)
+        squared -= self.minor_radius
+        return squared
+
+    def _values_into(self, target: np.ndarray, x, y, z) -> None:
+        cx, cy, cz = self._c
+        _, _, rho = radial(x, y, cx, cy)
+        ring = rho - self.major_radius
+        dz = z - cz
+        np.add(ring * ring, dz * dz, out=target)  # same operations as _values, without temporaries
+        np.sqrt(target, out=target)
+        target -= self.minor_radius
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c

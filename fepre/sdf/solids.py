@@ -62,6 +62,12 @@ class Sphere(SDF):
         squared -= self.radius
         return squared
 
+    def _values_into(self, target: np.ndarray, x, y, z) -> None:
+        cx, cy, cz = self._c
+        np.add((x - cx) ** 2 + (y - cy) ** 2, (z - cz) ** 2, out=target)  # same order as _values
+        np.sqrt(target, out=target)
+        target -= self.radius
+
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
         cx, cy, cz = self._c
         dx, dy, dz = np.broadcast_arrays(x - cx, y - cy, z - cz)
@@ -142,6 +148,11 @@ class Box(SDF):
         sign = np.where(labels % 2 == 1, 1.0, -1.0)
         offset = points[np.arange(points.shape[0]), axis] - np.asarray(self._c)[axis]
         return sign * offset - np.asarray(self._h)[axis]
+
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        orthant_distance(self._parts(coords), out=target)
+        if self.rounding > 0:
+            target -= self.rounding
 
     def _values_and_gradient(self, *coords) -> tuple[np.ndarray, Coords]:
         parts = self._parts(coords)

@@ -102,6 +102,11 @@ class Affine(SDF):
         points = self.children[0].singular_points()
         return points @ self.matrix[: self.dim, : self.dim].T + self.matrix[: self.dim, self.dim]
 
+    def _values_into(self, target: np.ndarray, *coords) -> None:
+        self.children[0]._values_into(target, *self._pulled_back(coords))
+        if self.factor != 1.0:
+            target *= self.factor
+
     def _values_and_gradient(self, *coords):
         values, gradient = self.children[0]._values_and_gradient(*self._pulled_back(coords))
         out = []
