@@ -129,13 +129,14 @@ def distmesh(
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
 
     t0 = time.perf_counter()
-    found, protection = None, None
+    found, protection, feature_nodes = None, None, 0
     if o.features:
         found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
         for message in found.skipped:
             warnings.warn(f"distmesh: {message}", FeatureWarning, stacklevel=2)
         if found:
             nodes = found.nodes
+            feature_nodes = len(nodes)
             if len(fixed_points):
                 from scipy.spatial import cKDTree
 
@@ -191,7 +192,7 @@ def distmesh(
         loop_seconds=np.array([loop_seconds]),
         slivers_seconds=np.array([sliver_seconds]),
         features_seconds=np.array([features_seconds]),
-        feature_nodes=np.array([0 if found is None else len(found.nodes)]),
+        feature_nodes=np.array([feature_nodes]),
         seconds=np.array([time.perf_counter() - start]),
     )
     grid = to_grid(points, tets, model, history, found)

@@ -10,19 +10,20 @@ from .topology import boundary_faces
 __all__ = ["to_grid"]
 
 
-def feature_flags(points: np.ndarray, features, h: float) -> np.ndarray:
+def feature_flags(points: np.ndarray, features) -> np.ndarray:
     """Per point: 2 at a corner of ``features``, 1 on a feature curve, 0 elsewhere (to 1e-9 h)."""
+    from scipy.spatial import cKDTree
+
     from ..features.geometry import nearest_on_segments
 
     flags = np.zeros(len(points), np.uint8)
     if features is None or not features or len(points) == 0:
         return flags
-    tol = 1e-9 * h
-    distance, _ = nearest_on_segments(points, features.segments, features.corners)
+    tol = 1e-9 * features.h
+    distance, _ = nearest_on_segments(points, features.segments, features.corners, within=tol)
     flags[distance <= tol] = 1
     if len(features.corners):
-        corner_distance, _ = nearest_on_segments(points, np.zeros((0, 2, 3)), features.corners)
-        flags[corner_distance <= tol] = 2
+        flags[cKDTree(features.corners).query(points, distance_upper_bound=tol)[0] <= tol] = 2
     return flags
 
 
@@ -37,7 +38,7 @@ def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.n
     boundary = np.zeros(len(points), np.uint8)
     boundary[boundary_faces(tets).ravel()] = 1
     grid.point_data["boundary"] = boundary
-    grid.point_data["feature"] = feature_flags(points, features, features.h if features is not None else 1.0)
+    grid.point_data["feature"] = feature_flags(points, features)
     for name, values in tet_quality(points, tets).items():
         grid.cell_data[name] = values
     for name, values in history.items():

@@ -164,7 +164,8 @@ def find_creases(model, spacing: float, bounds, angle: float, scale: float) -> C
     pairs = np.sort(labels[edges], axis=1)
     start = vertices[edges].mean(axis=1)
     points, ok = solve_on_patches(model, pairs, start, tol=tol, step=step, reach=2.0 * spacing)
-    ok &= np.abs(model(points)) <= on_surface_tol if len(points) else ok
+    if len(points):
+        ok &= np.abs(model(points)) <= on_surface_tol
     points, pairs = points[ok], pairs[ok]
     real = _labels_around(model, points, pairs, 0.1 * spacing, canonical)
     points, pairs = points[real], pairs[real]
