@@ -46,13 +46,25 @@ from ..errors import ConvergenceWarning, MeshingError
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
-from .tet_shape import radius_ratio, signed_volume, tet_min_dihedral
+from .surface_guard import SurfaceGuard
+from .tet_shape import ShapeTargets, dihedral_extremes, radius_ratio, signed_volume
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
-__all__ = ["improve", "improve_arrays", "DEFAULT_MIN_DIHEDRAL", "DEFAULT_MAXITER"]
+__all__ = [
+    "improve",
+    "improve_arrays",
+    "DEFAULT_MIN_DIHEDRAL",
+    "DEFAULT_MAX_DIHEDRAL",
+    "DEFAULT_MIN_RADIUS_RATIO",
+    "DEFAULT_MAXITER",
+]
 
-#: Default target for the worst dihedral angle (degrees).
-DEFAULT_MIN_DIHEDRAL = 20.0
+#: Default target for the worst (smallest) dihedral angle (degrees).
+DEFAULT_MIN_DIHEDRAL = 25.0
+#: Default target for the largest dihedral angle (degrees).
+DEFAULT_MAX_DIHEDRAL = 150.0
+#: Default target for the smallest radius ratio.
+DEFAULT_MIN_RADIUS_RATIO = 0.25
 #: Default number of flip-and-smooth rounds.
 DEFAULT_MAXITER = 40
 #: Cells up to this many degrees above the target are improved too, for a safety margin.
@@ -102,6 +114,28 @@ def _check_arrays(points: Any, tets: Any, h: Any, fixed_mask: Any) -> tuple[np.n
     return points.copy(), tets.astype(np.int64), h, fixed_mask
 
 
+def _check_targets(min_dihedral: Any, max_dihedral: Any, min_radius_ratio: Any) -> ShapeTargets:
+    smallest = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
+    if not 0.0 < smallest < REGULAR_DIHEDRAL:
+        raise ValueError(
+            f"min_dihedral must be in (0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
+        )
+    largest = DEFAULT_MAX_DIHEDRAL if max_dihedral is None else finite_float(max_dihedral, "max_dihedral")
+    if not REGULAR_DIHEDRAL < largest < 180.0:
+        raise ValueError(
+            f"max_dihedral must be in ({REGULAR_DIHEDRAL:.2f}, 180) degrees (above a regular tetrahedron's angle); got {max_dihedral!r}"
+        )
+    ratio = DEFAULT_MIN_RADIUS_RATIO if min_radius_ratio is None else finite_float(min_radius_ratio, "min_radius_ratio")
+    if not 0.0 < ratio < 1.0:
+        raise ValueError(f"min_radius_ratio must be in (0, 1) (1 is a regular tetrahedron); got {min_radius_ratio!r}")
+    return ShapeTargets(smallest, largest, ratio)
+
+
+def _extremes(points: np.ndarray, tets: np.ndarray) -> dict[str, float]:
+    smallest, largest, ratio = dihedral_extremes(points[tets])
+    return {"min_dihedral": float(smallest.min()), "max_dihedral": float(largest.max()), "min_radius_ratio": float(ratio.min())}
+
+
 def improve_arrays(
     points: np.ndarray,
     tets: np.ndarray,
@@ -111,6 +145,8 @@ def improve_arrays(
     fixed_mask: np.ndarray | None = None,
     size: Callable | None = None,
     min_dihedral: float | None = None,
+    max_dihedral: float | None = None,
+    min_radius_ratio: float | None = None,
     maxiter: int | None = None,
     seed: int = 0,
     deadline_seconds: float | None = None,
@@ -123,7 +159,8 @@ def improve_arrays(
     tets : (M, 4) int array, every cell positively oriented in VTK's convention (flat cells
         are accepted and repaired; inverted ones are refused)
     model : fepre.sdf.SDF
-        The model the mesh was made from; boundary vertices stay on its zero set.
+        The model the mesh was made from; boundary vertices stay on its zero set, each on its
+        own surface patch.
     h : float
         Target edge length (the smallest one for graded meshes); sets tolerances.
     fixed_mask : (N,) bool, optional
@@ -131,9 +168,13 @@ def improve_arrays(
     size : callable, optional
         The relative size function the mesh was made with. The stage measures local sizes from
         the mesh itself, so it only checks that ``size`` is callable.
-    min_dihedral : float, optional
-        Target worst dihedral angle in degrees (default 20). Unreachable targets warn with
-        :class:`fepre.ConvergenceWarning` and return the best mesh reached.
+    min_dihedral, max_dihedral : float, optional
+        Targets for every cell's smallest and largest dihedral angle in degrees (default 25
+        and 150).
+    min_radius_ratio : float, optional
+        Target for every cell's radius ratio ``3 r_in / R_circ`` (default 0.25).
+        Unreachable targets warn with :class:`fepre.ConvergenceWarning` and return the best
+        mesh reached.
     maxiter : int, optional
         Largest number of flip-and-smooth rounds (default 40).
     seed : int
@@ -145,8 +186,9 @@ def improve_arrays(
     -------
     points, tets, info : the improved mesh (same points count and order; ``tets`` renewed) and a
         dict with ``seconds``, ``relax_seconds``, ``flip_seconds``, ``smooth_seconds``,
-        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, ``min_dihedral_before``,
-        ``min_dihedral_after`` and ``converged``.
+        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, the worst figures before
+        and after (``min_dihedral_before``, ``max_dihedral_before``,
+        ``min_radius_ratio_before``, and the same ``_after``) and ``converged``.
 
     Examples
     --------
@@ -160,6 +202,8 @@ def improve_arrays(
     >>> new_points, new_tets, info = improve_arrays(points, tets, ball, h=1.0)
     >>> round(info["min_dihedral_before"], 1), round(info["min_dihedral_after"], 1)
     (7.7, 35.3)
+    >>> round(info["max_dihedral_before"], 1), round(info["max_dihedral_after"], 1)
+    (160.3, 120.0)
     >>> bool(np.abs(new_points[0]).max() < 1e-9)  # the inner vertex moved back to the centre
     True
     """
@@ -167,11 +211,8 @@ def improve_arrays(
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
-    target = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
-    if not 0.0 <= target < REGULAR_DIHEDRAL:
-        raise ValueError(
-            f"min_dihedral must be in [0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
-        )
+    targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
+    target = targets.min_dihedral  # the score of a cell that meets all three targets
     maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
     deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
     n = points.shape[0]
@@ -208,27 +249,32 @@ def improve_arrays(
     rng = np.random.default_rng(seed)
     boundary_edges = _boundary_edge_keys(faces, n)
     boundary_face_keys = np.unique(face_keys(faces, n))
+    guard = SurfaceGuard(model, h, points, on_boundary)
     threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
     volume_before = float(volumes.sum())
 
-    quality = tet_min_dihedral(points, tets)
-    before = float(quality.min())
+    quality = targets.score(points[tets])
+    before = _extremes(points, tets)
     timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
     counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
 
-    def timed(kind: str, function, *args):
+    def timed(kind: str, function, *args, **kwargs):
         t0 = time.perf_counter()
-        result = function(*args)
+        result = function(*args, **kwargs)
         timings[kind] += time.perf_counter() - t0
         return result
 
+    def relax(quality):
+        return timed(
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol,
+            targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
+        )
+
     # Flip the worst slivers away first: they pin their vertices during relaxation.
-    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
+    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges, targets=targets)
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
-        points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
-        )
+        points, quality, relaxed = relax(quality)
         counts["relaxed"] += relaxed
 
     # Shape rounds: flips that raise the radius ratio of the poorest cells free the relaxation,
@@ -237,12 +283,11 @@ def improve_arrays(
     mean_ratio = float(ratio.mean())
     for _ in range(SHAPE_ROUNDS):
         tets, quality, ratio, flipped = timed(
-            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges
+            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges,
+            targets=targets,
         )
         counts["flips"] += flipped
-        points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
-        )
+        points, quality, relaxed = relax(quality)
         counts["relaxed"] += relaxed
         ratio = radius_ratio(points[tets])
         gain = float(ratio.mean()) - mean_ratio
@@ -260,20 +305,20 @@ def improve_arrays(
             break
         rounds += 1
         tets, quality, flipped, touched = timed(
-            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active
+            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active, targets=targets
         )
         # Smoothing retries every bad cell: its random candidates differ from round to round.
         points, quality, moved, moved_vertices = timed(
             "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
-            surface_tol,
+            surface_tol, targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
         )
         tets, quality, removed, boundary_face_keys, boundary_edges = timed(
             "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges, model, h,
+            boundary_edges, model, h, guard=guard,
         )
         points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
             "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
-            boundary_face_keys, boundary_edges, model, h, surface_tol,
+            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets, guard=guard,
         )
         counts["flips"] += flipped
         counts["moves"] += moved
@@ -293,7 +338,8 @@ def improve_arrays(
                 break
 
     _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys)
-    after = float(quality.min())
+    after = _extremes(points, tets)
+    converged = bool(quality.min() >= target)
     info = {
         "seconds": time.perf_counter() - start,
         "relax_seconds": timings["relax"],
@@ -301,14 +347,17 @@ def improve_arrays(
         "smooth_seconds": timings["smooth"],
         "rounds": rounds,
         **counts,
-        "min_dihedral_before": before,
-        "min_dihedral_after": after,
-        "converged": after >= target,
+        **{f"{key}_before": value for key, value in before.items()},
+        **{f"{key}_after": value for key, value in after.items()},
+        "converged": converged,
     }
-    if after < target:
+    if not converged:
         warnings.warn(
-            f"the quality stage reached a worst dihedral angle of {after:.2f} deg, short of "
-            f"min_dihedral={target:g} deg, after {rounds} rounds (maxiter={maxiter}); returning the best mesh reached",
+            f"the quality stage reached a worst dihedral angle of {after['min_dihedral']:.2f} deg, a largest of "
+            f"{after['max_dihedral']:.2f} deg and a smallest radius ratio of {after['min_radius_ratio']:.3f}, short of "
+            f"min_dihedral={targets.min_dihedral:g} deg, max_dihedral={targets.max_dihedral:g} deg, "
+            f"min_radius_ratio={targets.min_radius_ratio:g}, after {rounds} rounds (maxiter={maxiter}); "
+            "returning the best mesh reached",
             ConvergenceWarning,
             stacklevel=2,
         )
@@ -345,6 +394,8 @@ def improve(
     model,
     *,
     min_dihedral: float = DEFAULT_MIN_DIHEDRAL,
+    max_dihedral: float = DEFAULT_MAX_DIHEDRAL,
+    min_radius_ratio: float = DEFAULT_MIN_RADIUS_RATIO,
     maxiter: int = DEFAULT_MAXITER,
     seed: int = 0,
     features: bool = True,
@@ -363,9 +414,11 @@ def improve(
         whose boundary nodes lie on the zero set of ``model`` (within half an edge length).
     model : fepre.sdf.SDF
         The model of the mesh; boundary nodes stay on its zero set (within ``1e-3 h``).
-    min_dihedral : float
-        Target worst dihedral angle in degrees; an unreachable target warns with
-        :class:`fepre.ConvergenceWarning` and returns the best mesh reached.
+    min_dihedral, max_dihedral : float
+        Targets for every cell's smallest and largest dihedral angle, degrees.
+    min_radius_ratio : float
+        Target for every cell's radius ratio ``3 r_in / R_circ``. Unreachable targets warn
+        with :class:`fepre.ConvergenceWarning` and return the best mesh reached.
     maxiter : int
         Largest number of flip-and-smooth rounds.
     seed : int
@@ -428,7 +481,8 @@ def improve(
         if found:
             pinned |= found.distance(points)[0] <= 1e-6 * h
     new_points, new_tets, info = improve_arrays(
-        points, tets, model, h, fixed_mask=pinned, min_dihedral=min_dihedral, maxiter=maxiter, seed=seed
+        points, tets, model, h, fixed_mask=pinned, min_dihedral=min_dihedral, max_dihedral=max_dihedral,
+        min_radius_ratio=min_radius_ratio, maxiter=maxiter, seed=seed,
     )
     info["pinned"] = int(pinned.sum())
     grid = to_grid(new_points, new_tets, model, {}, found)
