@@ -32,6 +32,8 @@ STEPS = (1.0, 0.5, 0.25, 0.1)
 #: Random step lengths, times h, and how many random directions per length.
 RANDOM_STEPS = (0.03, 0.1, 0.2)
 RANDOM_DIRECTIONS = 3
+#: Largest number of passes that grow the set of vertices moving together.
+INDEPENDENT_PASSES = 8
 
 
 def _segment_ids(counts: np.ndarray) -> np.ndarray:
@@ -75,6 +77,35 @@ def _guarded(points, vertices, candidates, pairs, guard, faces, face_segment, po
     refused = ~guard.faces_allowed(old, new)
     allowed[np.unique(pair_of_face[refused])] = False
     return allowed
+
+
+def _independent_moves(n_cells, cells, segment, seg_starts, improving, current, best):
+    """Mask of the improving vertices that move together: no two share a cell.
+
+    Worst stars first, and among the vertices of one bad cell (equal ``current``) the one
+    reaching the best star; a vertex is taken when it has the highest priority on every cell
+    of its star among the vertices still free, in passes until none is left (a maximal set).
+    """
+    rank = np.full(improving.size, np.iinfo(np.int64).max)
+    order = np.flatnonzero(improving)[np.lexsort((-best[improving], current[improving]))]
+    rank[order] = np.arange(order.size)
+    free = improving.copy()
+    selected = np.zeros_like(improving)
+    for _ in range(INDEPENDENT_PASSES):
+        holder = np.full(n_cells, np.iinfo(np.int64).max)
+        entries = free[segment]
+        np.minimum.at(holder, cells[entries], rank[segment[entries]])
+        owns = holder[cells] == rank[segment]
+        taken = free & np.logical_and.reduceat(owns, seg_starts)
+        if not taken.any():
+            break
+        selected |= taken
+        blocked = np.zeros(n_cells, dtype=bool)
+        blocked[cells[taken[segment]]] = True
+        free &= ~np.logical_or.reduceat(blocked[cells], seg_starts)
+        if not free.any():
+            break
+    return selected
 
 
 def smooth_round(
@@ -187,15 +218,7 @@ def smooth_round(
     if not improving.any():
         return points, quality, 0, touched
 
-    # Independent set: worst stars first; a vertex moves if it has the highest priority among
-    # the improving vertices on every cell of its star.
-    rank = np.full(vertices.size, np.iinfo(np.int64).max)
-    order = np.flatnonzero(improving)[np.argsort(current[improving], kind="stable")]
-    rank[order] = np.arange(order.size)
-    holder = np.full(tets.shape[0], np.iinfo(np.int64).max)
-    np.minimum.at(holder, cells, rank[segment])
-    owns = holder[cells] == rank[segment]
-    selected = improving & np.logical_and.reduceat(owns, seg_starts)
+    selected = _independent_moves(tets.shape[0], cells, segment, seg_starts, improving, current, best)
     points = points.copy()
     quality = quality.copy()
     points[vertices[selected]] = candidates[choice[selected], np.flatnonzero(selected)]
