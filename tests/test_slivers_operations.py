@@ -187,3 +187,25 @@ def test_boundary_edges_on_a_crease_are_never_flipped(z, removed):
     )
     assert count == removed and len(new) == 3 - removed
     assert open_boundary_reason(faces_on_boundary(new, face_neighbours(new, n)), n) == ""
+
+
+def test_face_keys_do_not_wrap_above_two_million_points():
+    """(s0 n + s1) n + s2 wraps int64 above 2^21 points: with n = 2^22, faces whose smallest
+    index differs by 2^20 got the same key, so two separate cells were glued."""
+    n = 2**22
+    k = 2**20
+    tets = np.array([[0, k + 5, k + 6, n - 1], [k, k + 5, k + 6, n - 2]])
+    np.testing.assert_array_equal(face_neighbours(tets, n), -np.ones((2, 4), dtype=np.int64))
+    keys = face_keys(tets[:, [0, 1, 2]], n)
+    assert keys[0] != keys[1]
+    assert np.unique(face_keys(np.array([[5, 1, 2], [2, 5, 1], [1, 2, 6]]), n)).size == 2
+    # the wide keys sort in the order of the sorted triples
+    triples = np.random.default_rng(0).integers(0, n, size=(200, 3))
+    order = np.argsort(face_keys(triples, n), kind="stable")
+    s = np.sort(triples, axis=1)
+    np.testing.assert_array_equal(order, np.lexsort((s[:, 2], s[:, 1], s[:, 0])))
+    from fepre.distmesh.topology import boundary_faces, tet_faces
+
+    _, counts, _ = tet_faces(tets)
+    assert (counts == 1).all() and counts.size == 8
+    assert boundary_faces(tets).shape == (8, 3)
