@@ -44,6 +44,7 @@ import numpy as np
 from ..arguments import finite_float, positive_float, positive_int
 from ..errors import ConvergenceWarning, MeshingError
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
+from .feature_snap import snap_pinned_nodes
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
 from .surface_guard import SurfaceGuard
@@ -405,7 +406,9 @@ def improve(
     Boundary nodes on the model's sharp edges and corners stay where they are, so the stage
     never rounds them off: nodes on a crease of the mesh's boundary (the model's gradient
     differs across it) and, with ``features``, nodes on the features :func:`fepre.features`
-    finds for the mesh's median edge length.
+    finds for the mesh's median edge length. Those that another mesher left off the model
+    (more than ``1e-4 h``) are first moved onto the nearest feature within ``h/4``, or else
+    onto the zero set (:func:`~fepre.distmesh.feature_snap.snap_pinned_nodes`).
 
     Parameters
     ----------
@@ -430,7 +433,8 @@ def improve(
     -------
     pyvista.UnstructuredGrid
         A new mesh with point data ``"sdf"``, ``"boundary"`` and ``"feature"``, the cell quality arrays of
-        :mod:`fepre.quality`, and field data ``improve_*`` (seconds, counts, worst angles).
+        :mod:`fepre.quality`, and field data ``improve_*`` (seconds, counts, worst angles,
+        ``pinned`` and ``snapped`` nodes).
 
     Examples
     --------
@@ -480,11 +484,13 @@ def improve(
         found = detect_features(model, h, bounds=bounds, warn=False)
         if found:
             pinned |= found.distance(points)[0] <= 1e-6 * h
+    points, snapped = snap_pinned_nodes(model, points, tets, pinned, found, h)
     new_points, new_tets, info = improve_arrays(
         points, tets, model, h, fixed_mask=pinned, min_dihedral=min_dihedral, max_dihedral=max_dihedral,
         min_radius_ratio=min_radius_ratio, maxiter=maxiter, seed=seed,
     )
     info["pinned"] = int(pinned.sum())
+    info["snapped"] = snapped
     grid = to_grid(new_points, new_tets, model, {}, found)
     for key, value in info.items():
         grid.field_data[f"improve_{key}"] = np.array([value])
