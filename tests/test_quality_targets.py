@@ -99,3 +99,25 @@ def test_improve_puts_another_meshers_sharp_edge_nodes_on_the_model():
     corners = np.array([[x, y, z] for x in (0, 5) for y in (0, 5) for z in (0, 5)], dtype=float)
     gap = np.linalg.norm(np.asarray(better.points)[:, None] - corners[None], axis=2).min(axis=0)
     assert gap.max() <= 1e-9
+
+
+@pytest.mark.slow
+def test_boundary_faces_stay_on_the_surface_of_a_thin_gyroid_infill():
+    """Sheets 1.2 h thick, shell 1.5 h: without the surface guard, smoothing slid a boundary
+    vertex along the sheet until a boundary face turned over (its normal 177 deg from the
+    model's, cosine -0.998); with it the boundary keeps the loop's orientation (cosine -0.10,
+    at a crease between the sheet and the shell) and the targets hold."""
+    part = sdf.infill(sdf.box((2.0, 2.0, 1.0)), sdf.gyroid(period=1.0, thickness=0.12), wall=0.15)
+    h = 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.ConvergenceWarning)
+        mesh = fepre.distmesh(part, h)
+    assert_targets(mesh, part, h)
+    points = np.asarray(mesh.points)
+    faces = check_topology(mesh.cells_dict[pv.CellType.TETRA], len(points)).boundary_faces
+    corners = points[faces]
+    values, gradient = part.value_and_gradient(corners.mean(axis=1))
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    cosine = np.einsum("ij,ij->i", normals, gradient) / np.linalg.norm(normals, axis=1) / np.linalg.norm(gradient, axis=1)
+    assert cosine.min() > -0.5
+    assert np.abs(values).max() <= 0.35 * h
