@@ -2,12 +2,17 @@
 
 Raw DistMesh leaves slivers, flat tetrahedra with four well-spaced vertices, that Delaunay
 keeps (BACKGROUND.md section 1). This stage removes them and raises the mean shape quality,
-with vectorised operations that each check every new cell before accepting it:
+with vectorised operations that each check every new cell before accepting it. Cells are
+ranked by one *score* (:class:`~fepre.distmesh.tet_shape.ShapeTargets`): the worst of their
+smallest dihedral angle, largest dihedral angle and radius ratio, each mapped to degrees so
+that a cell meets all three targets (default 25 deg, 150 deg, 0.25) exactly when its score
+reaches ``min_dihedral``; every operation below raises the worst score, so it improves
+whichever measure is worst:
 
 1. *relaxation* (:func:`~fepre.distmesh.smoothing.relax_round`): every vertex moves towards the
    mean of the positions that would make each of its cells regular (boundary vertices slide on
-   the model's zero set); moves that make a cell worse than ``min(its old angle, target)`` are
-   undone. This lifts the mean radius ratio;
+   the model's zero set); moves that leave a cell scoring below ``min(its old score, target)``
+   are undone. This lifts the mean radius ratio;
 2. *shape flips* (:func:`~fepre.distmesh.flips.shape_flip_round`): 3-2 and 4-4 flips around
    the cells of radius ratio below 0.8 that raise the smallest radius ratio of the cells they
    replace. Relaxation alone stops at a fixed point of the connectivity it was given; a flip
@@ -15,20 +20,22 @@ with vectorised operations that each check every new cell before accepting it:
    round (near a thin wall or a coarse boundary layer this is worth 0.01-0.03);
 3. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
    removal (3-2, 4-4, ... up to rings of 6) around the bad cells, keeping a flip only if it
-   raises the worst dihedral angle of the cells it replaces;
+   raises the worst score of the cells it replaces;
 4. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
-   cells try a dozen candidate positions each and take the best one if it raises the worst
-   angle of their star;
+   cells try a couple of dozen candidate positions each and take the best one if it raises
+   the worst score of their star; a maximal set of vertices that share no cell moves at once,
+   and of one bad cell's vertices the one that lifts its star most moves first;
 5. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
    (two boundary faces, or one boundary face over a vertex just under the surface) are removed,
    with a boundary edge flip or the vertex projected onto the zero set.
 
 The worst slivers are flipped first, then relaxation and shape flips lift the mean shape; then
-the stage works on the cells below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
+the stage works on the cells scoring below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
 removals alternate until none is left, or the target holds and the worst angle stops rising (or
 twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch
 the boundary surface; boundary vertices only move along the zero set (re-projected, checked to
-within ``1e-4 h``); fixed vertices never move; the end result is verified (positive cells,
+within ``1e-4 h``), on their own surface patch, along paths near the surface and keeping their
+faces on it (:class:`~fepre.distmesh.surface_guard.SurfaceGuard`); fixed vertices never move; the end result is verified (positive cells,
 closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume within 2%
 of the input's) and a violation raises :class:`fepre.MeshingError`.
 """
