@@ -209,3 +209,15 @@ def test_face_keys_do_not_wrap_above_two_million_points():
     _, counts, _ = tet_faces(tets)
     assert (counts == 1).all() and counts.size == 8
     assert boundary_faces(tets).shape == (8, 3)
+
+
+def test_in_sorted_matches_isin_for_int_and_wide_keys():
+    from fepre.distmesh.tet_topology import in_sorted
+
+    rng = np.random.default_rng(1)
+    for n in (1000, 2**22):
+        keys = np.unique(face_keys(rng.integers(0, n, size=(300, 3)), n))
+        query = face_keys(rng.integers(0, n, size=(200, 3)), n)
+        query[:50] = keys[rng.integers(0, keys.size, 50)]
+        np.testing.assert_array_equal(in_sorted(query, keys), np.isin(query, keys))
+    assert not in_sorted(np.array([1, 2]), np.zeros(0, dtype=np.int64)).any()

@@ -21,7 +21,7 @@ import numpy as np
 
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets
-from .tet_topology import FACE_OF_TET, edge_keys, face_keys
+from .tet_topology import FACE_OF_TET, edge_keys, face_keys, in_sorted
 
 __all__ = ["remove_boundary_slivers", "expose_shallow_vertices"]
 
@@ -91,7 +91,7 @@ def remove_boundary_slivers(
         return tets, quality, 0, boundary_face_keys, boundary_edges
     cells = tets[candidates]
     keys = face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n).reshape(-1, 4)
-    on_surface = np.isin(keys, boundary_face_keys)
+    on_surface = in_sorted(keys, boundary_face_keys)
     two = on_surface.sum(axis=1) == 2
     cells, candidates, on_surface, keys = cells[two], candidates[two], on_surface[two], keys[two]
     if candidates.size == 0:
@@ -101,7 +101,7 @@ def remove_boundary_slivers(
     c_d = np.take_along_axis(cells, order[:, :2], axis=1)
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
-    allowed = ~np.isin(new_edge, boundary_edges)
+    allowed = ~in_sorted(new_edge, boundary_edges)
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
     rows = np.arange(cells.shape[0])[:, None]
@@ -165,7 +165,7 @@ def expose_shallow_vertices(
     local = np.argmin(on_boundary[cells], axis=1)
     vertex = cells[rows, local]
     face = cells[rows[:, None], FACE_OF_TET[local]]
-    allowed = np.isin(face_keys(face, n), boundary_face_keys) & movable[vertex]
+    allowed = in_sorted(face_keys(face, n), boundary_face_keys) & movable[vertex]
     allowed &= model(points[vertex]) > -SHALLOW * h
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the exposed faces continue the removed one: no face of them crosses a crease

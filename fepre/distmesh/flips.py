@@ -23,7 +23,7 @@ from functools import lru_cache
 import numpy as np
 
 from .tet_shape import ShapeTargets
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours, in_sorted
 
 __all__ = ["flip_round", "shape_flip_round", "ring_triangulations", "RING_OF_EDGE"]
 
@@ -122,7 +122,7 @@ def _edge_candidates(tets, bad, boundary_edges, n_points, max_ring=MAX_RING):
     sorted_keys = all_keys[order]
     wanted = np.unique(edge_keys(tets[bad][:, EDGE_OF_TET].reshape(-1, 2), n_points))
     if boundary_edges.size:
-        wanted = wanted[~np.isin(wanted, boundary_edges)]
+        wanted = wanted[~in_sorted(wanted, boundary_edges)]
     start = np.searchsorted(sorted_keys, wanted, side="left")
     stop = np.searchsorted(sorted_keys, wanted, side="right")
     count = stop - start

@@ -21,7 +21,7 @@ import numpy as np
 
 from .surface_guard import SurfaceGuard, boundary_faces_of_cells
 from .tet_shape import ShapeTargets, ideal_vertex_positions
-from .tet_topology import FACE_OF_TET, face_keys, vertex_stars
+from .tet_topology import FACE_OF_TET, face_keys, in_sorted, vertex_stars
 
 __all__ = ["smooth_round", "relax_round"]
 
@@ -50,7 +50,7 @@ def _star_boundary_faces(tets, cells, local, segment, vertices, boundary_face_ke
     rows = np.repeat(np.arange(cells.size), 3)
     opposite = ((local[:, None] + np.arange(1, 4)) % 4).ravel()  # faces opposite these hold the vertex
     faces = tets[cells[rows][:, None], FACE_OF_TET[opposite]]
-    on_surface = np.isin(face_keys(faces, n_points), boundary_face_keys)
+    on_surface = in_sorted(face_keys(faces, n_points), boundary_face_keys)
     faces, rows = faces[on_surface], rows[on_surface]
     face_segment = segment[rows]
     position = np.argmax(faces == vertices[face_segment][:, None], axis=1)

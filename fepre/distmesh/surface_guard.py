@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tet_topology import FACE_OF_TET, face_keys
+from .tet_topology import FACE_OF_TET, face_keys, in_sorted
 
 __all__ = ["SurfaceGuard", "boundary_faces_of_cells", "CREASE_ANGLE", "PATH_DEPTH", "FACE_DEPTH", "FACE_ANGLE"]
 
@@ -55,7 +55,7 @@ def boundary_faces_of_cells(
     """
     corners = tets[cells][:, FACE_OF_TET]  # (K, 4, 3)
     keys = face_keys(corners.reshape(-1, 3), n_points)
-    on_surface = np.isin(keys, boundary_face_keys).reshape(-1, 4)
+    on_surface = in_sorted(keys, boundary_face_keys).reshape(-1, 4)
     row, local = np.nonzero(on_surface)
     return corners[row, local], cells[row]
 
