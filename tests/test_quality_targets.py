@@ -121,3 +121,24 @@ def test_boundary_faces_stay_on_the_surface_of_a_thin_gyroid_infill():
     cosine = np.einsum("ij,ij->i", normals, gradient) / np.linalg.norm(normals, axis=1) / np.linalg.norm(gradient, axis=1)
     assert cosine.min() > -0.5
     assert np.abs(values).max() <= 0.35 * h
+
+
+def test_stage_pins_release_feature_nodes_left_inside_and_keep_the_users():
+    from fepre.distmesh.improve_mesh import stage_pins
+
+    ball, h = sdf.sphere(1.0), 0.3
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        raw = fepre.distmesh(ball, h, slivers=False)
+    points = np.asarray(raw.points, dtype=np.float64)
+    tets = raw.cells_dict[pv.CellType.TETRA].astype(np.int64)
+    boundary = raw["boundary"].astype(bool)
+    inside = np.flatnonzero(~boundary)
+    fixed = np.zeros(len(points), dtype=bool)
+    fixed[inside[:3]] = True  # as feature nodes the final mesh left inside
+    fixed[np.flatnonzero(boundary)[:2]] = True
+    pinned = stage_pins(points, tets, fixed, points[inside[2:3]], ball, h)  # the user's point
+    assert pinned[np.flatnonzero(boundary)[:2]].all()
+    assert not pinned[inside[:2]].any()
+    assert pinned[inside[2]]
+    assert not pinned[inside[3:]].any()

@@ -13,7 +13,39 @@ from .feature_snap import snap_pinned_nodes
 from .slivers import DEFAULT_MAX_DIHEDRAL, DEFAULT_MAXITER, DEFAULT_MIN_DIHEDRAL, DEFAULT_MIN_RADIUS_RATIO, improve_arrays
 from .tet_shape import signed_volume
 
-__all__ = ["improve"]
+__all__ = ["improve", "stage_pins"]
+
+
+def stage_pins(points: np.ndarray, tets: np.ndarray, fixed_mask: np.ndarray, user_fixed, model, h: float) -> np.ndarray:
+    """The nodes the quality stage keeps in place after DistMesh, (N,) bool.
+
+    The user's fixed points, the fixed nodes (feature corners and curve nodes) on the mesh's
+    boundary, and the boundary nodes on a crease (:func:`~fepre.distmesh.finalize.crease_nodes`):
+    sliding those along the surface and projecting them back would round the part's creases
+    off. A feature node that the final mesh left inside (cells on both sides of it, as at the
+    tip of a thin void) shapes no crease; pinned, it froze its cells (gyroid infill at 1.04M
+    cells: worst dihedral angle 8.3 deg, 30.0 with it released).
+
+    Parameters
+    ----------
+    points, tets : the mesh
+    fixed_mask : (N,) bool, the loop's fixed nodes (the user's and the feature nodes)
+    user_fixed : (K, 3) array or None, the points the user asked to keep
+    model : fepre.sdf.SDF
+    h : float
+    """
+    from scipy.spatial import cKDTree
+
+    from .finalize import crease_nodes
+    from .tet_topology import face_neighbours, faces_on_boundary
+
+    on_boundary = np.zeros(points.shape[0], dtype=bool)
+    on_boundary[faces_on_boundary(tets, face_neighbours(tets, points.shape[0])).ravel()] = True
+    pinned = (fixed_mask & on_boundary) | crease_nodes(model, points, tets, h)
+    if user_fixed is not None and len(user_fixed):
+        distance, index = cKDTree(points).query(np.asarray(user_fixed, dtype=np.float64))
+        pinned[index[distance <= 1e-9 * h]] = True
+    return pinned
 
 
 def improve(
