@@ -221,3 +221,18 @@ def test_in_sorted_matches_isin_for_int_and_wide_keys():
         query[:50] = keys[rng.integers(0, keys.size, 50)]
         np.testing.assert_array_equal(in_sorted(query, keys), np.isin(query, keys))
     assert not in_sorted(np.array([1, 2]), np.zeros(0, dtype=np.int64)).any()
+
+
+def test_shape_score_is_the_worst_of_the_three_measures_mapped_to_degrees():
+    targets = ShapeTargets(25.0, 150.0, 0.25)
+    rng = np.random.default_rng(3)
+    corners = rng.normal(size=(500, 4, 3))
+    smallest, largest, ratio = dihedral_extremes(corners)
+    score = targets.score(corners)
+    valid = smallest >= 0
+    expected = np.minimum.reduce([smallest, 25.0 / 30.0 * (180.0 - largest), 100.0 * ratio])
+    np.testing.assert_allclose(score[valid], expected[valid])
+    assert (score[~valid] == -1).all()
+    # a cell meets the three targets exactly when its score reaches min_dihedral
+    meets = (smallest >= 25) & (largest <= 150) & (ratio >= 0.25)
+    assert (meets == (score >= 25.0 - 1e-12))[valid].all()

@@ -4,7 +4,6 @@ import numpy as np
 
 from fepre import sdf
 from fepre.distmesh.surface_guard import SurfaceGuard
-from fepre.distmesh.tet_shape import ShapeTargets, dihedral_extremes
 
 
 def two_plates():
@@ -45,18 +44,3 @@ def test_faces_that_leave_the_surface_are_refused():
     assert guard.faces_allowed(None, np.concatenate([on, flipped, sunk])).tolist() == [True, False, False]
     # a face no worse than before passes
     assert guard.faces_allowed(sunk, sunk * 1.01).tolist() == [True]
-
-
-def test_shape_score_is_the_worst_of_the_three_measures_mapped_to_degrees():
-    targets = ShapeTargets(25.0, 150.0, 0.25)
-    rng = np.random.default_rng(3)
-    corners = rng.normal(size=(500, 4, 3))
-    smallest, largest, ratio = dihedral_extremes(corners)
-    score = targets.score(corners)
-    valid = smallest >= 0
-    expected = np.minimum.reduce([smallest, 25.0 / 30.0 * (180.0 - largest), 100.0 * ratio])
-    np.testing.assert_allclose(score[valid], expected[valid])
-    assert (score[~valid] == -1).all()
-    # a cell meets the three targets exactly when its score reaches min_dihedral
-    meets = (smallest >= 25) & (largest <= 150) & (ratio >= 0.25)
-    assert (meets == (score >= 25.0 - 1e-12))[valid].all()
