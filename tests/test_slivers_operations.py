@@ -11,6 +11,8 @@ from fepre.distmesh.boundary_slivers import remove_boundary_slivers
 from fepre.distmesh.flips import flip_round, ring_triangulations, shape_flip_round
 from fepre.distmesh.smoothing import relax_round, smooth_round
 from fepre.distmesh.tet_shape import (
+    ShapeTargets,
+    dihedral_extremes,
     ideal_vertex_positions,
     min_dihedral,
     radius_ratio,
@@ -21,6 +23,11 @@ from fepre.distmesh.tet_shape import (
 from fepre.distmesh.tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
 TRIANGLE = [(1, 0, 0), (-0.5, np.sqrt(3) / 2, 0), (-0.5, -np.sqrt(3) / 2, 0)]
+TARGETS = ShapeTargets()
+
+
+def score(points, tets):
+    return TARGETS.score(points[tets])
 
 
 def boundary_edges(tets, n):
@@ -65,11 +72,11 @@ def test_two_three_and_three_two_flips_keep_the_region(z, before, after):
     points = np.array([*TRIANGLE, (0, 0, z), (0, 0, -z)], dtype=float)
     configurations = {2: np.array([[0, 1, 2, 3], [0, 2, 1, 4]]), 3: np.array([[0, 2, 3, 4], [2, 1, 3, 4], [1, 0, 3, 4]])}
     tets = configurations[before]
-    q = tet_min_dihedral(points, tets)
+    q = score(points, tets)
     new, new_q, flips, touched = flip_round(points, tets, q, 70.0, boundary_edges(tets, 5))
     assert flips == 1 and len(new) == after
     assert new_q.min() > q.min()
-    np.testing.assert_allclose(new_q, tet_min_dihedral(points, new))
+    np.testing.assert_allclose(new_q, score(points, new))
     assert signed_volume(points[new]).sum() == pytest.approx(signed_volume(points[tets]).sum(), rel=1e-12)
     old_faces = {tuple(sorted(f)) for f in faces_on_boundary(tets, face_neighbours(tets, 5))}
     new_faces = {tuple(sorted(f)) for f in faces_on_boundary(new, face_neighbours(new, 5))}
@@ -99,15 +106,18 @@ def test_smoothing_recentres_a_displaced_vertex_and_never_inverts():
     r = 1 / np.sqrt(3)
     points = np.array([[0.35, 0.25, 0.1], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
     tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
-    q = tet_min_dihedral(points, tets)
+    q = score(points, tets)
     movable = np.array([True, False, False, False, False])
     on_boundary = ~movable
     rng = np.random.default_rng(0)
     for _ in range(10):
         points, q, moved, _ = smooth_round(points, tets, q, 70.0, movable, on_boundary, sdf.sphere(1.0), 1.0, rng, 1e-4)
         assert (tet_min_dihedral(points, tets) > 0).all()
+        np.testing.assert_allclose(q, score(points, tets))
     assert np.linalg.norm(points[0]) < 1e-6
-    assert q.min() == pytest.approx(np.degrees(np.arctan(np.sqrt(2) / 2)), abs=1e-6)  # 35.26 deg
+    smallest, largest, _ = dihedral_extremes(points[tets])
+    assert smallest.min() == pytest.approx(np.degrees(np.arctan(np.sqrt(2) / 2)), abs=1e-6)  # 35.26 deg
+    assert largest.max() == pytest.approx(120.0, abs=1e-6)
 
 
 def test_open_boundary_reason():
@@ -127,14 +137,14 @@ def test_shape_flips_raise_the_radius_ratio_and_keep_the_worst_angle_and_the_reg
     on_boundary[faces_on_boundary(tets, face_neighbours(tets, n)).ravel()] = True
     points[on_boundary] = ball.project(points[on_boundary], iterations=20)
     # the stage's order: slivers flipped away and one relaxation pass first
-    tets, q, _, _ = flip_round(points, tets, tet_min_dihedral(points, tets), 28.0, boundary_edges(tets, n))
+    tets, q, _, _ = flip_round(points, tets, score(points, tets), 28.0, boundary_edges(tets, n))
     points, q, _ = relax_round(points, tets, q, 20.0, np.ones(n, dtype=bool), on_boundary, ball, 1e-5)
     ratio = radius_ratio(points[tets])
     floor = 28.0
     new, new_q, new_ratio, flips = shape_flip_round(points, tets, q, ratio, 0.8, floor, boundary_edges(tets, len(points)))
     assert flips > 0
     np.testing.assert_allclose(new_ratio, radius_ratio(points[new]))
-    np.testing.assert_allclose(new_q, tet_min_dihedral(points, new))
+    np.testing.assert_allclose(new_q, score(points, new))
     assert new_ratio.mean() > ratio.mean() + 0.001  # 0.0021 measured (26 flips)
     assert (new_ratio < 0.8).sum() < (ratio < 0.8).sum()
     assert new_ratio.min() >= ratio.min()
@@ -177,3 +187,52 @@ def test_boundary_edges_on_a_crease_are_never_flipped(z, removed):
     )
     assert count == removed and len(new) == 3 - removed
     assert open_boundary_reason(faces_on_boundary(new, face_neighbours(new, n)), n) == ""
+
+
+def test_face_keys_do_not_wrap_above_two_million_points():
+    """(s0 n + s1) n + s2 wraps int64 above 2^21 points: with n = 2^22, faces whose smallest
+    index differs by 2^20 got the same key, so two separate cells were glued."""
+    n = 2**22
+    k = 2**20
+    tets = np.array([[0, k + 5, k + 6, n - 1], [k, k + 5, k + 6, n - 2]])
+    np.testing.assert_array_equal(face_neighbours(tets, n), -np.ones((2, 4), dtype=np.int64))
+    keys = face_keys(tets[:, [0, 1, 2]], n)
+    assert keys[0] != keys[1]
+    assert np.unique(face_keys(np.array([[5, 1, 2], [2, 5, 1], [1, 2, 6]]), n)).size == 2
+    # the wide keys sort in the order of the sorted triples
+    triples = np.random.default_rng(0).integers(0, n, size=(200, 3))
+    order = np.argsort(face_keys(triples, n), kind="stable")
+    s = np.sort(triples, axis=1)
+    np.testing.assert_array_equal(order, np.lexsort((s[:, 2], s[:, 1], s[:, 0])))
+    from fepre.distmesh.topology import boundary_faces, tet_faces
+
+    _, counts, _ = tet_faces(tets)
+    assert (counts == 1).all() and counts.size == 8
+    assert boundary_faces(tets).shape == (8, 3)
+
+
+def test_in_sorted_matches_isin_for_int_and_wide_keys():
+    from fepre.distmesh.tet_topology import in_sorted
+
+    rng = np.random.default_rng(1)
+    for n in (1000, 2**22):
+        keys = np.unique(face_keys(rng.integers(0, n, size=(300, 3)), n))
+        query = face_keys(rng.integers(0, n, size=(200, 3)), n)
+        query[:50] = keys[rng.integers(0, keys.size, 50)]
+        np.testing.assert_array_equal(in_sorted(query, keys), np.isin(query, keys))
+    assert not in_sorted(np.array([1, 2]), np.zeros(0, dtype=np.int64)).any()
+
+
+def test_shape_score_is_the_worst_of_the_three_measures_mapped_to_degrees():
+    targets = ShapeTargets(25.0, 150.0, 0.25)
+    rng = np.random.default_rng(3)
+    corners = rng.normal(size=(500, 4, 3))
+    smallest, largest, ratio = dihedral_extremes(corners)
+    score = targets.score(corners)
+    valid = smallest >= 0
+    expected = np.minimum.reduce([smallest, 25.0 / 30.0 * (180.0 - largest), 100.0 * ratio])
+    np.testing.assert_allclose(score[valid], expected[valid])
+    assert (score[~valid] == -1).all()
+    # a cell meets the three targets exactly when its score reaches min_dihedral
+    meets = (smallest >= 25) & (largest <= 150) & (ratio >= 0.25)
+    assert (meets == (score >= 25.0 - 1e-12))[valid].all()

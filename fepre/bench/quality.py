@@ -3,7 +3,8 @@
 For each target model (unit sphere at h = 0.2, 0.1, 0.05; torus R=1, r=0.4 at h=0.1; Persson's
 cylinder with a spherical hole, graded; a smooth union of two capsules; the gyroid infill block of
 :func:`fepre.parts.gyroid_block` at h = 0.05, where its sheet (0.15) holds three elements and its
-shell (0.2) four) one run measures:
+shell (0.2) four; the revolved stepped shaft at h=2 and a flange at h=4 of issue 12) one run
+measures:
 
 * fepre: ``fepre.distmesh`` with the default options, the main loop's time and the quality
   stage's time (from the mesh's field data), and the worst dihedral angle before the stage
@@ -11,10 +12,11 @@ shell (0.2) four) one run measures:
 * pytetwild (``edge_length_abs=h``) and gmsh (when installed) on the same flying-edges surface
   (spacing h/2; :func:`fepre.compare` uses h/4, which makes pytetwild several times slower);
 
-and prints, per mesher, time, points, cells, worst and 1st-percentile smallest dihedral angle,
-mean radius ratio, with fepre's ratios to each peer. ``--out DIR`` writes one PNG per model with
-histograms of the smallest dihedral angle and of the radius ratio of every cell, the three
-meshers side by side (the seed's Fig. 13).
+and prints, per mesher, time, points, cells, worst smallest dihedral angle, largest dihedral
+angle, smallest radius ratio, 1st-percentile smallest angle and mean radius ratio, with fepre's
+ratios to each peer. ``--out DIR`` writes one PNG per model with histograms of the smallest
+dihedral angle and of the radius ratio of every cell, the three meshers side by side (the
+seed's Fig. 13).
 """
 
 from __future__ import annotations
@@ -53,8 +55,23 @@ def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable |
         # sheet of period 1 thicker than 0.276 fills all space: the earlier infill with a 0.3
         # sheet was a plain box.)
         ("gyroid block h=0.05", parts.gyroid_block(), 0.05, None),
+        # CAD-style parts (issue 12): a revolved stepped shaft and a flange with bore and bolt holes
+        ("stepped shaft h=2", sdf.revolve(sdf.polygon([(0, 0), (10, 0), (10, 40), (6, 40), (6, 80), (0, 80)])), 2.0, None),
+        ("flange h=4", _flange(), 4.0, None),
     ]
     return models
+
+
+def _flange():
+    """Disk r50 (z 0-10) and hub r25 (to z 40), bore r12, six r4 bolt holes on a r38 circle."""
+    from .. import sdf
+
+    body = sdf.cylinder(radius=50, height=10, center=(0, 0, 5)) | sdf.cylinder(radius=25, height=30, center=(0, 0, 25))
+    body = body - sdf.cylinder(radius=12, height=60, center=(0, 0, 20))
+    for k in range(6):
+        angle = k * np.pi / 3
+        body = body - sdf.cylinder(radius=4, height=30, center=(38 * np.cos(angle), 38 * np.sin(angle), 5))
+    return body
 
 
 def _fepre(model, h: float, size) -> dict[str, Any]:
@@ -91,6 +108,8 @@ def _figures(mesh) -> dict[str, float]:
         "points": mesh.n_points,
         "cells": mesh.n_cells,
         "worst": float(angle.min()),
+        "largest": float(np.asarray(mesh.cell_data["max_dihedral_angle"]).max()),
+        "min_rr": float(ratio.min()),
         "p1": float(np.percentile(angle, 1)),
         "mean_rr": float(ratio.mean()),
         "inverted": int((np.asarray(mesh.cell_data["volume"]) <= 0).sum()),
@@ -125,7 +144,7 @@ def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
     """Measure every target model; returns the printed lines."""
     lines = [
         f"{'model':28} {'mesher':10} {'seconds':>8} {'loop':>7} {'stage':>7} {'stage%':>6} {'points':>7} "
-        f"{'cells':>8} {'worst':>6} {'p1':>6} {'mean rr':>7}  ratios fepre/peer (worst, mean rr, time)"
+        f"{'cells':>8} {'worst':>6} {'max':>6} {'min rr':>6} {'p1':>6} {'mean rr':>7}  ratios fepre/peer (worst, mean rr, time)"
     ]
     print(lines[0], flush=True)
     for name, model, h, size in target_models(quick):
@@ -152,7 +171,8 @@ def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
                     else f"{result['seconds']:8.2f} {'':7} {'':7} {'':6}"
                 )
                 line = (
-                    f"{name:28} {mesher:10} {timing} {f['points']:7d} {f['cells']:8d} {f['worst']:6.2f} "
+                    f"{name:28} {mesher:10} {timing} {f['points']:7d} {f['cells']:8d} {f['worst']:6.2f} {f['largest']:6.1f} "
+                    f"{f['min_rr']:6.3f} "
                     f"{f['p1']:6.2f} {f['mean_rr']:7.4f}"
                 )
                 if mesher != "fepre":

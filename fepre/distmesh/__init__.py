@@ -15,7 +15,7 @@ import types
 from .loop import DistMeshState
 from .mesher import distmesh
 from .options import DistMeshOptions
-from .slivers import improve
+from .improve_mesh import improve
 
 __all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve"]
 

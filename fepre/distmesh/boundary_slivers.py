@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tet_shape import min_dihedral
-from .tet_topology import FACE_OF_TET, edge_keys, face_keys
+from .surface_guard import SurfaceGuard
+from .tet_shape import ShapeTargets
+from .tet_topology import FACE_OF_TET, edge_keys, face_keys, in_sorted
 
 __all__ = ["remove_boundary_slivers", "expose_shallow_vertices"]
 
@@ -67,12 +68,15 @@ def remove_boundary_slivers(
     boundary_edges: np.ndarray,
     model,
     h: float,
+    *,
+    guard: SurfaceGuard | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
     """Remove bad cells with four boundary vertices and two boundary faces.
 
     Removing one exposes its other two faces, whose vertices are all on the zero set: the
     boundary surface undergoes an edge flip (``ab`` to ``cd``), which keeps it a closed manifold
-    as long as ``cd`` is not already a boundary edge.
+    as long as ``cd`` is not already a boundary edge. With a ``guard``, the exposed faces must
+    lie on the surface (:meth:`~fepre.distmesh.surface_guard.SurfaceGuard.faces_allowed`).
 
     Returns
     -------
@@ -87,7 +91,7 @@ def remove_boundary_slivers(
         return tets, quality, 0, boundary_face_keys, boundary_edges
     cells = tets[candidates]
     keys = face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n).reshape(-1, 4)
-    on_surface = np.isin(keys, boundary_face_keys)
+    on_surface = in_sorted(keys, boundary_face_keys)
     two = on_surface.sum(axis=1) == 2
     cells, candidates, on_surface, keys = cells[two], candidates[two], on_surface[two], keys[two]
     if candidates.size == 0:
@@ -97,12 +101,18 @@ def remove_boundary_slivers(
     c_d = np.take_along_axis(cells, order[:, :2], axis=1)
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
-    allowed = ~np.isin(new_edge, boundary_edges)
+    allowed = ~in_sorted(new_edge, boundary_edges)
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
     rows = np.arange(cells.shape[0])[:, None]
     normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
     allowed &= np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
+    if guard is not None and allowed.any():
+        check = np.flatnonzero(allowed)
+        # the faces opposite a and b, seen from outside once the cell is gone
+        exposed = [cells[check[:, None], FACE_OF_TET[order[check, k]]][:, ::-1] for k in (2, 3)]
+        fine = guard.faces_allowed(None, points[np.concatenate(exposed)]).reshape(2, -1).all(axis=0)
+        allowed[check[~fine]] = False
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():
         return tets, quality, 0, boundary_face_keys, boundary_edges
@@ -128,18 +138,23 @@ def expose_shallow_vertices(
     model,
     h: float,
     surface_tol: float,
+    *,
+    targets: ShapeTargets | None = None,
+    guard: SurfaceGuard | None = None,
 ):
     """Remove bad cells made of a boundary face and a vertex just under it; project that vertex.
 
     A candidate is accepted when the projected vertex reaches the zero set (within
-    ``surface_tol``) and no other cell around it becomes invalid or worse than
-    ``min(its angle, the removed cell's angle)``.
+    ``surface_tol``), the exposed faces lie on the surface (with a ``guard``, which then records
+    the vertex's patch) and no other cell around it becomes invalid or scores worse than
+    ``min(its score, the removed cell's score)`` (``targets.score``).
 
     Returns
     -------
     points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges
     """
     n = points.shape[0]
+    score = (ShapeTargets() if targets is None else targets).score
     unchanged = (points, tets, quality, 0, on_boundary, boundary_face_keys, boundary_edges)
     candidates = np.flatnonzero(quality < threshold)
     candidates = candidates[on_boundary[tets[candidates]].sum(axis=1) == 3]
@@ -150,7 +165,7 @@ def expose_shallow_vertices(
     local = np.argmin(on_boundary[cells], axis=1)
     vertex = cells[rows, local]
     face = cells[rows[:, None], FACE_OF_TET[local]]
-    allowed = np.isin(face_keys(face, n), boundary_face_keys) & movable[vertex]
+    allowed = in_sorted(face_keys(face, n), boundary_face_keys) & movable[vertex]
     allowed &= model(points[vertex]) > -SHALLOW * h
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the exposed faces continue the removed one: no face of them crosses a crease
@@ -164,6 +179,18 @@ def expose_shallow_vertices(
     cells, candidates, vertex = cells[chosen], candidates[chosen], vertex[chosen]
     projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol)
     reached = np.abs(model(projected)) <= surface_tol
+    if guard is not None and reached.any():
+        check = np.flatnonzero(reached)
+        local_of = np.argmax(cells[check] == vertex[check, None], axis=1)
+        # the removed cell's three faces around the vertex, seen from outside once it is gone
+        others = np.stack([FACE_OF_TET[(local_of + k) % 4] for k in range(1, 4)], axis=1)  # (K, 3, 3)
+        faces = np.take_along_axis(cells[check][:, None, :], others, axis=2)[..., ::-1].reshape(-1, 3)
+        old = points[faces]
+        new = old.copy()
+        at_vertex = faces == np.repeat(vertex[check], 3)[:, None]
+        new[at_vertex] = np.repeat(projected[check], 3, axis=0)
+        fine = guard.faces_allowed(old, new).reshape(-1, 3).all(axis=1)
+        reached[check[~fine]] = False
     cells, candidates, vertex, projected = cells[reached], candidates[reached], vertex[reached], projected[reached]
     removed_quality = quality[candidates]
     new_points = points.copy()
@@ -178,7 +205,7 @@ def expose_shallow_vertices(
         limit = np.full(n, np.inf)
         np.minimum.at(limit, vertex[accepted], removed_quality[accepted])
         allowed_quality = np.minimum(quality[star], limit[tets[star]].min(axis=1))
-        new_quality = min_dihedral(new_points[tets[star]])
+        new_quality = score(new_points[tets[star]])
         failing = (new_quality <= 0) | (new_quality < allowed_quality - 1e-9)
         if not failing.any():
             break
@@ -203,4 +230,6 @@ def expose_shallow_vertices(
     boundary_edges = np.union1d(boundary_edges, new_edges)
     on_boundary = on_boundary.copy()
     on_boundary[vertex] = True
+    if guard is not None:
+        guard.add(vertex, new_points)
     return (new_points, tets[keep], quality[keep], int(accepted.sum()), on_boundary, boundary_face_keys, boundary_edges)

@@ -1,8 +1,10 @@
 """Topological flips that improve tetrahedra: face removal (2-3) and edge removal (n to 2n-4).
 
 :func:`flip_round` collects, for every bad tetrahedron, the candidate flips on its faces and
-edges, evaluates every candidate's new tetrahedra at once (their smallest dihedral angle, -1
-when inverted or flat), keeps those that raise the worst angle of the cells they replace, and
+edges, evaluates every candidate's new tetrahedra at once (their score,
+:class:`~fepre.distmesh.tet_shape.ShapeTargets`: the worst of the smallest and largest dihedral
+angle and the radius ratio, in degrees; -1 when inverted or flat), keeps those that raise the
+worst score of the cells they replace, and
 applies a set of them that touch disjoint cells. Edge removal covers 3-2 (n = 3), 4-4 (n = 4)
 and the larger rings up to n = 6 (rings of 7 cost four times as much and rarely help), trying
 every triangulation of the ring; each distinct triangle of a ring is evaluated once.
@@ -20,8 +22,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .tet_shape import min_dihedral, shape_measures
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours
+from .tet_shape import ShapeTargets
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_neighbours, in_sorted
 
 __all__ = ["flip_round", "shape_flip_round", "ring_triangulations", "RING_OF_EDGE"]
 
@@ -30,7 +32,7 @@ __all__ = ["flip_round", "shape_flip_round", "ring_triangulations", "RING_OF_EDG
 RING_OF_EDGE = np.array([[2, 3], [3, 1], [1, 2], [0, 3], [2, 0], [0, 1]])
 #: Largest ring of tetrahedra around an edge that edge removal tries.
 MAX_RING = 6
-#: A flip must raise the worst angle of the replaced cells by at least this (degrees).
+#: A flip must raise the worst score of the replaced cells by at least this (degrees).
 MIN_GAIN = 1e-3
 #: Largest ring that shape flips try (3-2 and 4-4 flips): rings of five or more cells, and 2-3
 #: flips, hardly ever hold a better configuration by radius ratio, and they cost most of the
@@ -120,7 +122,7 @@ def _edge_candidates(tets, bad, boundary_edges, n_points, max_ring=MAX_RING):
     sorted_keys = all_keys[order]
     wanted = np.unique(edge_keys(tets[bad][:, EDGE_OF_TET].reshape(-1, 2), n_points))
     if boundary_edges.size:
-        wanted = wanted[~np.isin(wanted, boundary_edges)]
+        wanted = wanted[~in_sorted(wanted, boundary_edges)]
     start = np.searchsorted(sorted_keys, wanted, side="left")
     stop = np.searchsorted(sorted_keys, wanted, side="right")
     count = stop - start
@@ -210,27 +212,32 @@ def flip_round(
     threshold: float,
     boundary_edges: np.ndarray,
     active: np.ndarray | None = None,
+    *,
+    targets: ShapeTargets | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
-    """One round of flips on the cells whose smallest dihedral angle is below ``threshold``.
+    """One round of flips on the cells whose score is below ``threshold``.
 
     Parameters
     ----------
     points : (N, 3) float array
     tets : (M, 4) int array, positively oriented
-    quality : (M,) smallest dihedral angle of each cell (degrees)
-    threshold : cells below this angle are improved
+    quality : (M,) score of each cell (``targets.score``, degrees)
+    threshold : cells below this score are improved
     boundary_edges : sorted edge keys (see :func:`edge_keys`) of the boundary surface; edges
         on the boundary are never removed.
     active : (N,) bool, optional
         Only bad cells with an active vertex are tried (the vertices whose surroundings
         changed since the last try); all bad cells when None.
+    targets : ShapeTargets, optional
+        The score (default targets).
 
     Returns
     -------
-    tets, quality : the new cells and their angles
+    tets, quality : the new cells and their scores
     flips : number of flips applied
     touched : (N,) bool, the vertices of the new cells
     """
+    score = (ShapeTargets() if targets is None else targets).score
     touched = np.zeros(points.shape[0], dtype=bool)
     bad_cells = np.flatnonzero(quality < threshold)
     if active is not None:
@@ -239,9 +246,9 @@ def flip_round(
         return tets, quality, 0, touched
     region, sub, bad = _region(points.shape[0], tets, bad_cells)
     old, new = _face_candidates(sub, face_neighbours(sub, points.shape[0]), bad)
-    groups = [(old, new, min_dihedral(points[new]))]
+    groups = [(old, new, score(points[new]))]
     for old, cells, table in _edge_candidates(sub, bad, boundary_edges, points.shape[0]):
-        q_cells = min_dihedral(points[cells])
+        q_cells = score(points[cells])
         # each edge keeps its best triangulation
         best = table[np.argmax(q_cells[:, table].min(axis=2), axis=1)]
         rows = np.arange(old.shape[0])[:, None]
@@ -270,29 +277,34 @@ def shape_flip_round(
     ratio_threshold: float,
     floor: float,
     boundary_edges: np.ndarray,
+    *,
+    targets: ShapeTargets | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """One round of flips that raise the radius ratio of the cells below ``ratio_threshold``.
 
     The same flips as :func:`flip_round`, ranked by the smallest radius ratio of the new cells:
     a flip is applied when it raises the smallest radius ratio of the cells it replaces and
-    leaves no new cell with a smallest dihedral angle under ``min(floor, the replaced cells'
-    smallest angle)``. It lifts the mean shape (a Delaunay mesh keeps many cells that another
-    local triangulation of the same points beats) without lowering the worst angle.
+    leaves no new cell with a score under ``min(floor, the replaced cells' smallest score)``.
+    It lifts the mean shape (a Delaunay mesh keeps many cells that another local triangulation
+    of the same points beats) without lowering the worst score.
 
     Parameters
     ----------
     points, tets : the mesh (positively oriented cells)
-    quality : (M,) smallest dihedral angle of each cell (degrees)
+    quality : (M,) score of each cell (``targets.score``, degrees)
     ratio : (M,) radius ratio of each cell (:func:`~fepre.distmesh.tet_shape.radius_ratio`)
     ratio_threshold : cells below this radius ratio are improved
-    floor : degrees; no flip creates a cell under ``min(floor, angles of the cells it replaces)``
+    floor : degrees; no flip creates a cell scoring under ``min(floor, scores of the cells it replaces)``
     boundary_edges : sorted edge keys of the boundary surface; never removed
+    targets : ShapeTargets, optional
+        The score (default targets).
 
     Returns
     -------
-    tets, quality, ratio : the new cells, their angles and radius ratios
+    tets, quality, ratio : the new cells, their scores and radius ratios
     flips : number of flips applied
     """
+    measures = (ShapeTargets() if targets is None else targets).score_and_ratio
     bad_cells = np.flatnonzero(ratio < ratio_threshold)
     if bad_cells.size == 0:
         return tets, quality, ratio, 0
@@ -302,7 +314,7 @@ def shape_flip_round(
         if old.shape[0] == 0:
             continue
         old = region[old]
-        q_cells, r_cells = shape_measures(points[cells])
+        q_cells, r_cells = measures(points[cells])
         required = np.minimum(quality[old].min(axis=1), floor)
         score = np.where(q_cells[:, table].min(axis=2) >= required[:, None], r_cells[:, table].min(axis=2), -1.0)
         choice = np.argmax(score, axis=1)

@@ -54,6 +54,12 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
     cells -= cells.min(axis=0)
     span = cells.max(axis=0) + 1
     codes = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+    # the two sides of a wall up to 1.1 h thick share cubes: one point per cube and side (the
+    # normal's main axis and sign), or a plate h thick kept points on one face only
+    _, gradient = model.value_and_gradient(projected)
+    axis = np.argmax(np.abs(gradient), axis=1)
+    side_of = 2 * axis + (gradient[np.arange(len(axis)), axis] > 0)
+    codes = codes * 6 + side_of
     offset = np.linalg.norm(projected - (lower + (cells + 0.5) * side), axis=1)
     order = np.lexsort((offset, codes))
     _, first = np.unique(codes[order], return_index=True)

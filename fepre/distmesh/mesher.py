@@ -13,7 +13,7 @@ from ..errors import ConvergenceWarning, FeatureWarning, MeshingError
 from ..features import features as detect_features
 from ..sdf.core import SDF
 from .feature_protection import FeatureProtection
-from .finalize import crease_nodes, final_mesh
+from .finalize import final_mesh
 from .initial_points import evaluate_size, initial_points
 from .loop import DistMeshState, iterate
 from .options import DistMeshOptions, resolve_options
@@ -169,9 +169,9 @@ def distmesh(
         from .slivers import improve_arrays
 
         t0 = time.perf_counter()
-        # nodes on sharp edges and corners stay where they are: sliding them along the surface
-        # and projecting them back would round the part's creases off
-        pinned = fixed_mask | crease_nodes(model, points, tets, h)
+        from .improve_mesh import stage_pins
+
+        pinned = stage_pins(points, tets, fixed_mask, None if fixed is None else as_points(fixed, 3, "fixed")[0], model, h)
         try:
             points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed)
         except MeshingError as exc:

@@ -2,12 +2,17 @@
 
 Raw DistMesh leaves slivers, flat tetrahedra with four well-spaced vertices, that Delaunay
 keeps (BACKGROUND.md section 1). This stage removes them and raises the mean shape quality,
-with vectorised operations that each check every new cell before accepting it:
+with vectorised operations that each check every new cell before accepting it. Cells are
+ranked by one *score* (:class:`~fepre.distmesh.tet_shape.ShapeTargets`): the worst of their
+smallest dihedral angle, largest dihedral angle and radius ratio, each mapped to degrees so
+that a cell meets all three targets (default 25 deg, 150 deg, 0.25) exactly when its score
+reaches ``min_dihedral``; every operation below raises the worst score, so it improves
+whichever measure is worst:
 
 1. *relaxation* (:func:`~fepre.distmesh.smoothing.relax_round`): every vertex moves towards the
    mean of the positions that would make each of its cells regular (boundary vertices slide on
-   the model's zero set); moves that make a cell worse than ``min(its old angle, target)`` are
-   undone. This lifts the mean radius ratio;
+   the model's zero set); moves that leave a cell scoring below ``min(its old score, target)``
+   are undone. This lifts the mean radius ratio;
 2. *shape flips* (:func:`~fepre.distmesh.flips.shape_flip_round`): 3-2 and 4-4 flips around
    the cells of radius ratio below 0.8 that raise the smallest radius ratio of the cells they
    replace. Relaxation alone stops at a fixed point of the connectivity it was given; a flip
@@ -15,20 +20,22 @@ with vectorised operations that each check every new cell before accepting it:
    round (near a thin wall or a coarse boundary layer this is worth 0.01-0.03);
 3. *flips* (:func:`~fepre.distmesh.flips.flip_round`): 2-3 face removal and n-to-(2n-4) edge
    removal (3-2, 4-4, ... up to rings of 6) around the bad cells, keeping a flip only if it
-   raises the worst dihedral angle of the cells it replaces;
+   raises the worst score of the cells it replaces;
 4. *vertex smoothing* (:func:`~fepre.distmesh.smoothing.smooth_round`): the vertices of bad
-   cells try a dozen candidate positions each and take the best one if it raises the worst
-   angle of their star;
+   cells try a couple of dozen candidate positions each and take the best one if it raises
+   the worst score of their star; a maximal set of vertices that share no cell moves at once,
+   and of one bad cell's vertices the one that lifts its star most moves first;
 5. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
    (two boundary faces, or one boundary face over a vertex just under the surface) are removed,
    with a boundary edge flip or the vertex projected onto the zero set.
 
 The worst slivers are flipped first, then relaxation and shape flips lift the mean shape; then
-the stage works on the cells below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
+the stage works on the cells scoring below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
 removals alternate until none is left, or the target holds and the worst angle stops rising (or
 twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch
 the boundary surface; boundary vertices only move along the zero set (re-projected, checked to
-within ``1e-4 h``); fixed vertices never move; the end result is verified (positive cells,
+within ``1e-4 h``), on their own surface patch, along paths near the surface and keeping their
+faces on it (:class:`~fepre.distmesh.surface_guard.SurfaceGuard`); fixed vertices never move; the end result is verified (positive cells,
 closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume within 2%
 of the input's) and a violation raises :class:`fepre.MeshingError`.
 """
@@ -46,13 +53,24 @@ from ..errors import ConvergenceWarning, MeshingError
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
-from .tet_shape import radius_ratio, signed_volume, tet_min_dihedral
+from .surface_guard import SurfaceGuard
+from .tet_shape import ShapeTargets, dihedral_extremes, radius_ratio, signed_volume
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
-__all__ = ["improve", "improve_arrays", "DEFAULT_MIN_DIHEDRAL", "DEFAULT_MAXITER"]
+__all__ = [
+    "improve_arrays",
+    "DEFAULT_MIN_DIHEDRAL",
+    "DEFAULT_MAX_DIHEDRAL",
+    "DEFAULT_MIN_RADIUS_RATIO",
+    "DEFAULT_MAXITER",
+]
 
-#: Default target for the worst dihedral angle (degrees).
-DEFAULT_MIN_DIHEDRAL = 20.0
+#: Default target for the worst (smallest) dihedral angle (degrees).
+DEFAULT_MIN_DIHEDRAL = 25.0
+#: Default target for the largest dihedral angle (degrees).
+DEFAULT_MAX_DIHEDRAL = 150.0
+#: Default target for the smallest radius ratio.
+DEFAULT_MIN_RADIUS_RATIO = 0.25
 #: Default number of flip-and-smooth rounds.
 DEFAULT_MAXITER = 40
 #: Cells up to this many degrees above the target are improved too, for a safety margin.
@@ -102,6 +120,28 @@ def _check_arrays(points: Any, tets: Any, h: Any, fixed_mask: Any) -> tuple[np.n
     return points.copy(), tets.astype(np.int64), h, fixed_mask
 
 
+def _check_targets(min_dihedral: Any, max_dihedral: Any, min_radius_ratio: Any) -> ShapeTargets:
+    smallest = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
+    if not 0.0 < smallest < REGULAR_DIHEDRAL:
+        raise ValueError(
+            f"min_dihedral must be in (0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
+        )
+    largest = DEFAULT_MAX_DIHEDRAL if max_dihedral is None else finite_float(max_dihedral, "max_dihedral")
+    if not REGULAR_DIHEDRAL < largest < 180.0:
+        raise ValueError(
+            f"max_dihedral must be in ({REGULAR_DIHEDRAL:.2f}, 180) degrees (above a regular tetrahedron's angle); got {max_dihedral!r}"
+        )
+    ratio = DEFAULT_MIN_RADIUS_RATIO if min_radius_ratio is None else finite_float(min_radius_ratio, "min_radius_ratio")
+    if not 0.0 < ratio < 1.0:
+        raise ValueError(f"min_radius_ratio must be in (0, 1) (1 is a regular tetrahedron); got {min_radius_ratio!r}")
+    return ShapeTargets(smallest, largest, ratio)
+
+
+def _extremes(points: np.ndarray, tets: np.ndarray) -> dict[str, float]:
+    smallest, largest, ratio = dihedral_extremes(points[tets])
+    return {"min_dihedral": float(smallest.min()), "max_dihedral": float(largest.max()), "min_radius_ratio": float(ratio.min())}
+
+
 def improve_arrays(
     points: np.ndarray,
     tets: np.ndarray,
@@ -111,6 +151,8 @@ def improve_arrays(
     fixed_mask: np.ndarray | None = None,
     size: Callable | None = None,
     min_dihedral: float | None = None,
+    max_dihedral: float | None = None,
+    min_radius_ratio: float | None = None,
     maxiter: int | None = None,
     seed: int = 0,
     deadline_seconds: float | None = None,
@@ -123,7 +165,8 @@ def improve_arrays(
     tets : (M, 4) int array, every cell positively oriented in VTK's convention (flat cells
         are accepted and repaired; inverted ones are refused)
     model : fepre.sdf.SDF
-        The model the mesh was made from; boundary vertices stay on its zero set.
+        The model the mesh was made from; boundary vertices stay on its zero set, each on its
+        own surface patch.
     h : float
         Target edge length (the smallest one for graded meshes); sets tolerances.
     fixed_mask : (N,) bool, optional
@@ -131,9 +174,13 @@ def improve_arrays(
     size : callable, optional
         The relative size function the mesh was made with. The stage measures local sizes from
         the mesh itself, so it only checks that ``size`` is callable.
-    min_dihedral : float, optional
-        Target worst dihedral angle in degrees (default 20). Unreachable targets warn with
-        :class:`fepre.ConvergenceWarning` and return the best mesh reached.
+    min_dihedral, max_dihedral : float, optional
+        Targets for every cell's smallest and largest dihedral angle in degrees (default 25
+        and 150).
+    min_radius_ratio : float, optional
+        Target for every cell's radius ratio ``3 r_in / R_circ`` (default 0.25).
+        Unreachable targets warn with :class:`fepre.ConvergenceWarning` and return the best
+        mesh reached.
     maxiter : int, optional
         Largest number of flip-and-smooth rounds (default 40).
     seed : int
@@ -145,8 +192,9 @@ def improve_arrays(
     -------
     points, tets, info : the improved mesh (same points count and order; ``tets`` renewed) and a
         dict with ``seconds``, ``relax_seconds``, ``flip_seconds``, ``smooth_seconds``,
-        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, ``min_dihedral_before``,
-        ``min_dihedral_after`` and ``converged``.
+        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, the worst figures before
+        and after (``min_dihedral_before``, ``max_dihedral_before``,
+        ``min_radius_ratio_before``, and the same ``_after``) and ``converged``.
 
     Examples
     --------
@@ -160,6 +208,8 @@ def improve_arrays(
     >>> new_points, new_tets, info = improve_arrays(points, tets, ball, h=1.0)
     >>> round(info["min_dihedral_before"], 1), round(info["min_dihedral_after"], 1)
     (7.7, 35.3)
+    >>> round(info["max_dihedral_before"], 1), round(info["max_dihedral_after"], 1)
+    (160.3, 120.0)
     >>> bool(np.abs(new_points[0]).max() < 1e-9)  # the inner vertex moved back to the centre
     True
     """
@@ -167,11 +217,8 @@ def improve_arrays(
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
-    target = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
-    if not 0.0 <= target < REGULAR_DIHEDRAL:
-        raise ValueError(
-            f"min_dihedral must be in [0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
-        )
+    targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
+    target = targets.min_dihedral  # the score of a cell that meets all three targets
     maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
     deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
     n = points.shape[0]
@@ -208,27 +255,32 @@ def improve_arrays(
     rng = np.random.default_rng(seed)
     boundary_edges = _boundary_edge_keys(faces, n)
     boundary_face_keys = np.unique(face_keys(faces, n))
+    guard = SurfaceGuard(model, h, points, on_boundary)
     threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
     volume_before = float(volumes.sum())
 
-    quality = tet_min_dihedral(points, tets)
-    before = float(quality.min())
+    quality = targets.score(points[tets])
+    before = _extremes(points, tets)
     timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
     counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
 
-    def timed(kind: str, function, *args):
+    def timed(kind: str, function, *args, **kwargs):
         t0 = time.perf_counter()
-        result = function(*args)
+        result = function(*args, **kwargs)
         timings[kind] += time.perf_counter() - t0
         return result
 
+    def relax(quality):
+        return timed(
+            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol,
+            targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
+        )
+
     # Flip the worst slivers away first: they pin their vertices during relaxation.
-    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges)
+    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges, targets=targets)
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
-        points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
-        )
+        points, quality, relaxed = relax(quality)
         counts["relaxed"] += relaxed
 
     # Shape rounds: flips that raise the radius ratio of the poorest cells free the relaxation,
@@ -237,12 +289,11 @@ def improve_arrays(
     mean_ratio = float(ratio.mean())
     for _ in range(SHAPE_ROUNDS):
         tets, quality, ratio, flipped = timed(
-            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges
+            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges,
+            targets=targets,
         )
         counts["flips"] += flipped
-        points, quality, relaxed = timed(
-            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol
-        )
+        points, quality, relaxed = relax(quality)
         counts["relaxed"] += relaxed
         ratio = radius_ratio(points[tets])
         gain = float(ratio.mean()) - mean_ratio
@@ -260,20 +311,20 @@ def improve_arrays(
             break
         rounds += 1
         tets, quality, flipped, touched = timed(
-            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active
+            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active, targets=targets
         )
         # Smoothing retries every bad cell: its random candidates differ from round to round.
         points, quality, moved, moved_vertices = timed(
             "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
-            surface_tol,
+            surface_tol, targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
         )
         tets, quality, removed, boundary_face_keys, boundary_edges = timed(
             "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges, model, h,
+            boundary_edges, model, h, guard=guard,
         )
         points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
             "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
-            boundary_face_keys, boundary_edges, model, h, surface_tol,
+            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets, guard=guard,
         )
         counts["flips"] += flipped
         counts["moves"] += moved
@@ -293,7 +344,8 @@ def improve_arrays(
                 break
 
     _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys)
-    after = float(quality.min())
+    after = _extremes(points, tets)
+    converged = bool(quality.min() >= target)
     info = {
         "seconds": time.perf_counter() - start,
         "relax_seconds": timings["relax"],
@@ -301,14 +353,17 @@ def improve_arrays(
         "smooth_seconds": timings["smooth"],
         "rounds": rounds,
         **counts,
-        "min_dihedral_before": before,
-        "min_dihedral_after": after,
-        "converged": after >= target,
+        **{f"{key}_before": value for key, value in before.items()},
+        **{f"{key}_after": value for key, value in after.items()},
+        "converged": converged,
     }
-    if after < target:
+    if not converged:
         warnings.warn(
-            f"the quality stage reached a worst dihedral angle of {after:.2f} deg, short of "
-            f"min_dihedral={target:g} deg, after {rounds} rounds (maxiter={maxiter}); returning the best mesh reached",
+            f"the quality stage reached a worst dihedral angle of {after['min_dihedral']:.2f} deg, a largest of "
+            f"{after['max_dihedral']:.2f} deg and a smallest radius ratio of {after['min_radius_ratio']:.3f}, short of "
+            f"min_dihedral={targets.min_dihedral:g} deg, max_dihedral={targets.max_dihedral:g} deg, "
+            f"min_radius_ratio={targets.min_radius_ratio:g}, after {rounds} rounds (maxiter={maxiter}); "
+            "returning the best mesh reached",
             ConvergenceWarning,
             stacklevel=2,
         )
@@ -338,100 +393,3 @@ def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_bef
     change = abs(float(volumes.sum()) - volume_before) / volume_before
     if change > 0.02:
         raise MeshingError(f"the quality stage changed the volume by {100 * change:.2f}% (> 2%)")
-
-
-def improve(
-    mesh,
-    model,
-    *,
-    min_dihedral: float = DEFAULT_MIN_DIHEDRAL,
-    maxiter: int = DEFAULT_MAXITER,
-    seed: int = 0,
-    features: bool = True,
-):
-    """Remove slivers and improve the cell shapes of a tetrahedral mesh of ``model``.
-
-    Boundary nodes on the model's sharp edges and corners stay where they are, so the stage
-    never rounds them off: nodes on a crease of the mesh's boundary (the model's gradient
-    differs across it) and, with ``features``, nodes on the features :func:`fepre.features`
-    finds for the mesh's median edge length.
-
-    Parameters
-    ----------
-    mesh : pyvista.UnstructuredGrid
-        A purely tetrahedral mesh (VTK_TETRA cells; negatively oriented cells are reoriented),
-        whose boundary nodes lie on the zero set of ``model`` (within half an edge length).
-    model : fepre.sdf.SDF
-        The model of the mesh; boundary nodes stay on its zero set (within ``1e-3 h``).
-    min_dihedral : float
-        Target worst dihedral angle in degrees; an unreachable target warns with
-        :class:`fepre.ConvergenceWarning` and returns the best mesh reached.
-    maxiter : int
-        Largest number of flip-and-smooth rounds.
-    seed : int
-        Seed of the random candidate moves.
-    features : bool
-        Also pin the nodes that lie on the model's detected features (within ``1e-6 h``).
-
-    Returns
-    -------
-    pyvista.UnstructuredGrid
-        A new mesh with point data ``"sdf"``, ``"boundary"`` and ``"feature"``, the cell quality arrays of
-        :mod:`fepre.quality`, and field data ``improve_*`` (seconds, counts, worst angles).
-
-    Examples
-    --------
-    >>> import fepre
-    >>> from fepre import sdf
-    >>> ball = sdf.sphere(1.0)
-    >>> raw = fepre.distmesh(ball, h=0.3, slivers=False)
-    >>> better = fepre.improve(raw, ball)
-    >>> bool(better.cell_data["min_dihedral_angle"].min() >= 20)
-    True
-    """
-    import pyvista as pv
-
-    from .output import to_grid
-
-    if not isinstance(mesh, pv.UnstructuredGrid):
-        raise TypeError(f"mesh must be a pyvista.UnstructuredGrid of tetrahedra; got {type(mesh).__name__}")
-    if mesh.n_cells == 0:
-        raise ValueError("mesh must contain tetrahedra; got an empty mesh")
-    types = np.unique(np.asarray(mesh.celltypes))
-    if not np.array_equal(types, [pv.CellType.TETRA]):
-        names = ", ".join(pv.CellType(int(t)).name for t in types)
-        raise ValueError(f"mesh must be purely tetrahedral (VTK_TETRA cells only); got cell types {names}")
-    points = np.asarray(mesh.points, dtype=np.float64)
-    tets = np.asarray(mesh.cells_dict[pv.CellType.TETRA], dtype=np.int64).copy()
-    used = np.zeros(points.shape[0], dtype=bool)
-    used[tets.ravel()] = True
-    if not used.all():
-        new_index = np.cumsum(used) - 1
-        points, tets = points[used], new_index[tets]
-    negative = signed_volume(points[tets]) < 0
-    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
-    edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
-    h = float(np.median(np.linalg.norm(edges, axis=2)))
-    if not h > 0:
-        raise ValueError("mesh must have cells of positive size; all its edges have zero length")
-    if not isinstance(features, (bool, np.bool_)):
-        raise TypeError(f"features must be True or False; got {features!r}")
-    from .finalize import crease_nodes
-
-    pinned = crease_nodes(model, points, tets, h)
-    found = None
-    if features:
-        from ..features import features as detect_features
-
-        bounds = model.bounds if model.bounds is not None else (points.min(axis=0), points.max(axis=0))
-        found = detect_features(model, h, bounds=bounds, warn=False)
-        if found:
-            pinned |= found.distance(points)[0] <= 1e-6 * h
-    new_points, new_tets, info = improve_arrays(
-        points, tets, model, h, fixed_mask=pinned, min_dihedral=min_dihedral, maxiter=maxiter, seed=seed
-    )
-    info["pinned"] = int(pinned.sum())
-    grid = to_grid(new_points, new_tets, model, {}, found)
-    for key, value in info.items():
-        grid.field_data[f"improve_{key}"] = np.array([value])
-    return grid

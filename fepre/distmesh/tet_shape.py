@@ -13,9 +13,20 @@ blocks of 4096-8192).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["signed_volume", "min_dihedral", "tet_min_dihedral", "radius_ratio", "shape_measures", "ideal_vertex_positions"]
+__all__ = [
+    "signed_volume",
+    "min_dihedral",
+    "tet_min_dihedral",
+    "radius_ratio",
+    "shape_measures",
+    "dihedral_extremes",
+    "ShapeTargets",
+    "ideal_vertex_positions",
+]
 
 #: Height of a regular tetrahedron over its base, per unit edge length.
 REGULAR_HEIGHT = float(np.sqrt(2.0 / 3.0))
@@ -141,17 +152,29 @@ def shape_measures(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _shape_measures(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    smallest, _, ratio = _extremes(corners)
+    return smallest, ratio
+
+
+def _extremes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smallest and largest dihedral angle (degrees) and radius ratio of (K, 4, 3) corners; -1
+    for all three where the cell is inverted or flat."""
     a, b, c, d = _columns(corners)
     u, v, w = _sub(b, a), _sub(c, a), _sub(d, a)
     bc, bd, cd = _sub(v, u), _sub(w, u), _sub(w, v)
     normals = (_cross(bd, bc), _cross(v, w), _cross(w, u), _cross(u, v))
     norm = [np.sqrt(_dot(n, n)) for n in normals]  # twice the face areas
     inverse = [1.0 / np.where(length > 0, length, 1.0) for length in norm]
-    largest_cos = None
+    largest_cos = smallest_cos = None
     for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
         cos = -_dot(normals[i], normals[j]) * (inverse[i] * inverse[j])
-        largest_cos = cos if largest_cos is None else np.maximum(largest_cos, cos)
-    angle = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
+        if largest_cos is None:
+            largest_cos, smallest_cos = cos, cos
+        else:
+            largest_cos = np.maximum(largest_cos, cos)
+            smallest_cos = np.minimum(smallest_cos, cos)
+    smallest = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
+    largest = np.degrees(np.arccos(np.clip(smallest_cos, -1.0, 1.0)))
     lu, lv, lw, lbc, lbd, lcd = (np.sqrt(_dot(e, e)) for e in (u, v, w, bc, bd, cd))
     # R_circ = heron / (6 V) with heron's formula over the products of opposite edge lengths
     p, q, r = lu * lcd, lv * lbd, lw * lbc
@@ -163,7 +186,83 @@ def _shape_measures(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ratio = 3.0 * volume6**2 / np.where(denominator > 0, denominator, 1.0)
     mean_edge = (lu + lv + lw + lbc + lbd + lcd) / 6.0
     valid = volume6 > 6.0 * FLAT_VOLUME * mean_edge**3
-    return np.where(valid, angle, -1.0), np.where(valid, ratio, -1.0)
+    return np.where(valid, smallest, -1.0), np.where(valid, largest, -1.0), np.where(valid, ratio, -1.0)
+
+
+def dihedral_extremes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smallest and largest dihedral angle (degrees) and radius ratio of (..., 4, 3) corners.
+
+    All three are ``-1`` for inverted and flat cells (as in :func:`min_dihedral`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> right = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> [round(float(x), 2) for x in dihedral_extremes(right)]
+    [54.74, 90.0, 0.73]
+    """
+    return _blockwise(_extremes, corners)
+
+
+@dataclass(frozen=True)
+class ShapeTargets:
+    """The quality stage's targets, and the one score that measures a cell against all three.
+
+    A cell's *score* is its worst measure expressed as a smallest dihedral angle (degrees):
+    ``min(smallest angle, (180 - largest angle) * a, radius ratio * b)`` with ``a`` and ``b``
+    chosen so that each target maps to ``min_dihedral``. A cell meets all three targets
+    exactly when its score is at least ``min_dihedral``; flips and smoothing raise the worst
+    score, so they improve whichever measure is worst. Inverted and flat cells score ``-1``.
+
+    Attributes
+    ----------
+    min_dihedral : float
+        Smallest dihedral angle wanted, degrees.
+    max_dihedral : float
+        Largest dihedral angle wanted, degrees.
+    min_radius_ratio : float
+        Smallest radius ratio ``3 r_in / R_circ`` wanted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> targets = ShapeTargets(25.0, 150.0, 0.25)
+    >>> right = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> round(float(targets.score(right)), 2)   # limited by its 54.7 deg angle
+    54.74
+    >>> cap = np.array([[1, 0, 0], [-0.5, 0.87, 0], [-0.5, -0.87, 0], [0, 0, 0.2]])
+    >>> [round(float(x), 3) for x in dihedral_extremes(cap)], round(float(targets.score(cap)), 1)  # a cap: radius ratio worst
+    ([21.734, 142.636, 0.111], 11.1)
+    """
+
+    min_dihedral: float = 25.0
+    max_dihedral: float = 150.0
+    min_radius_ratio: float = 0.25
+
+    @property
+    def max_weight(self) -> float:
+        """Degrees of score per degree of ``180 - largest angle``."""
+        return self.min_dihedral / (180.0 - self.max_dihedral)
+
+    @property
+    def ratio_weight(self) -> float:
+        """Degrees of score per unit of radius ratio."""
+        return self.min_dihedral / self.min_radius_ratio
+
+    def score_of(self, smallest: np.ndarray, largest: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+        """The score from the three measures (``-1`` where ``smallest`` is ``-1``)."""
+        score = np.minimum(smallest, self.max_weight * (180.0 - largest))
+        score = np.minimum(score, self.ratio_weight * ratio)
+        return np.where(smallest < 0, -1.0, score)
+
+    def score(self, corners: np.ndarray) -> np.ndarray:
+        """Score (degrees) of tetrahedra given as (..., 4, 3) corners."""
+        return self.score_and_ratio(corners)[0]
+
+    def score_and_ratio(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Score (degrees) and radius ratio of tetrahedra given as (..., 4, 3) corners."""
+        smallest, largest, ratio = dihedral_extremes(corners)
+        return self.score_of(smallest, largest, ratio), ratio
 
 
 def radius_ratio(corners: np.ndarray) -> np.ndarray:

@@ -13,6 +13,8 @@ __all__ = [
     "FACE_OF_TET",
     "EDGE_OF_TET",
     "face_keys",
+    "in_sorted",
+    "MAX_PACKED_POINTS",
     "edge_keys",
     "face_neighbours",
     "vertex_stars",
@@ -23,15 +25,57 @@ __all__ = [
 #: Local vertex indices of the face opposite vertex i, ordered so that the face's right-hand
 #: normal points out of a positively oriented tetrahedron.
 FACE_OF_TET = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+#: Most points for which a face key packs into one int64 (``n**3 < 2**63``).
+MAX_PACKED_POINTS = 2_097_151
 #: Local vertex indices of the six edges.
 EDGE_OF_TET = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 def face_keys(triples: np.ndarray, n_points: int) -> np.ndarray:
-    """One int64 per (K, 3) vertex triple, independent of the order of the three vertices."""
+    """One key per (K, 3) vertex triple, independent of the order of the three vertices.
+
+    An int64 ``(s0 n + s1) n + s2`` of the sorted triple while ``n_points**3`` fits in one
+    (up to ``MAX_PACKED_POINTS``); above that, where it would wrap and two faces could share a
+    key, a 16-byte void key holding the big-endian pair ``(s0 n + s1, s2)``, which sorts in the
+    same order. Both kinds work with ``np.sort``, ``np.unique``, ``np.isin``, ``np.union1d``,
+    ``np.setdiff1d``, ``np.searchsorted`` and ``==``; keys made with the same ``n_points``
+    are of the same kind.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> face_keys(np.array([[2, 0, 1], [1, 2, 0]]), 3).tolist()
+    [5, 5]
+    >>> big = face_keys(np.array([[3_000_000, 1, 2], [2, 1, 3_000_000]]), 4_000_000)
+    >>> big.dtype.itemsize, bool(big[0] == big[1])
+    (16, True)
+    """
     s = np.sort(triples, axis=1).astype(np.int64)
     n = np.int64(n_points)
-    return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+    if n_points <= MAX_PACKED_POINTS:
+        return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+    pair = np.empty((s.shape[0], 2), dtype=">i8")
+    pair[:, 0] = s[:, 0] * n + s[:, 1]
+    pair[:, 1] = s[:, 2]
+    return pair.view("V16").ravel()
+
+
+def in_sorted(values: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """Mask of the ``values`` found in ``sorted_keys`` (sorted, as from ``np.unique``).
+
+    ``np.isin`` without sorting the keys again on every call: the quality stage asks about a
+    few faces or edges against the whole boundary many times a round.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> in_sorted(np.array([[3, 4], [9, 0]]), np.array([0, 3, 7])).tolist()
+    [[True, False], [False, True]]
+    """
+    if sorted_keys.size == 0:
+        return np.zeros(np.shape(values), dtype=bool)
+    index = np.minimum(np.searchsorted(sorted_keys, values), sorted_keys.size - 1)
+    return sorted_keys[index] == values
 
 
 def edge_keys(pairs: np.ndarray, n_points: int) -> np.ndarray:

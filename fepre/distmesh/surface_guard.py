@@ -1,0 +1,141 @@
+"""What the quality stage may do to the boundary: keep every boundary vertex on its own surface.
+
+Smoothing slides boundary vertices along the model's zero set (a candidate position is projected
+onto it). Projection goes to the *nearest* surface, which across a narrow gap or a thin void is
+another body's, and a vertex sliding far along a curved sheet can leave faces that cut through
+the void. A :class:`SurfaceGuard` records, when the stage starts, each boundary vertex's patch
+(:meth:`fepre.sdf.SDF.patch_labels`: the smooth piece of the surface it lies on) and normal, and
+accepts a boundary move only when
+
+* the new position lies on the same patch, or on one that continues it smoothly (normal within
+  ``CREASE_ANGLE`` of the vertex's original normal);
+* the straight path from the old to the new position stays near the surface (its midpoint
+  within ``PATH_DEPTH * h`` of the zero set), so it never crosses a gap or a void;
+* every boundary face around the vertex stays on the surface: its centroid no deeper than
+  ``FACE_DEPTH * h`` (or than it was) and its normal no further from the model's normal than
+  ``FACE_ANGLE`` (or than it was), so faces neither span a gap nor fold over their neighbours.
+
+The checks are local: they keep each move small and on its own piece of surface, which is
+what lets a vertex cross a gap or a void in the first place (BACKGROUND.md section 10, root
+cause 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tet_topology import FACE_OF_TET, face_keys, in_sorted
+
+__all__ = ["SurfaceGuard", "boundary_faces_of_cells", "CREASE_ANGLE", "PATH_DEPTH", "FACE_DEPTH", "FACE_ANGLE"]
+
+#: A vertex may move onto another patch whose normal is within this many degrees of its own
+#: (the crease angle of :func:`fepre.distmesh.finalize.crease_nodes`): a smooth continuation.
+CREASE_ANGLE = 30.0
+#: Largest distance (times h) of a move's midpoint from the zero set.
+PATH_DEPTH = 0.1
+#: Largest distance (times h) of a moved boundary face's centroid from the zero set, unless it
+#: was farther before the move.
+FACE_DEPTH = 0.1
+#: Largest angle (degrees) between a moved boundary face's normal and the model's normal at its
+#: centroid, unless it was larger before the move.
+FACE_ANGLE = 45.0
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-300)
+
+
+def boundary_faces_of_cells(
+    tets: np.ndarray, cells: np.ndarray, boundary_face_keys: np.ndarray, n_points: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary faces among the faces of ``cells`` (indices into ``tets``).
+
+    Returns ``(faces (F, 3), owner (F,))``: the faces oriented outwards (as in
+    :data:`~fepre.distmesh.tet_topology.FACE_OF_TET`) and the index of each one's cell.
+    """
+    corners = tets[cells][:, FACE_OF_TET]  # (K, 4, 3)
+    keys = face_keys(corners.reshape(-1, 3), n_points)
+    on_surface = in_sorted(keys, boundary_face_keys).reshape(-1, 4)
+    row, local = np.nonzero(on_surface)
+    return corners[row, local], cells[row]
+
+
+class SurfaceGuard:
+    """The patches and normals of the boundary vertices when the quality stage started.
+
+    Parameters
+    ----------
+    model : fepre.sdf.SDF
+    h : float
+        Edge length; sets the depth tolerances.
+    points : (N, 3) float array
+    boundary : (N,) bool
+        The boundary vertices (on the zero set).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> part = sdf.box((4, 4, 1), center=(0, 0, 0)) | sdf.box((4, 4, 1), center=(0, 0, 1.6))
+    >>> points = np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 1.1]])   # top of one box, bottom of the other
+    >>> guard = SurfaceGuard(part, 1.0, points, np.array([True, True]))
+    >>> guard.moves_allowed(np.array([0, 0]), points[[0, 0]], np.array([[0.3, 0.0, 0.5], [0.0, 0.0, 1.1]])).tolist()
+    [True, False]
+    """
+
+    def __init__(self, model, h: float, points: np.ndarray, boundary: np.ndarray):
+        self.model = model
+        self.h = float(h)
+        n = points.shape[0]
+        self.labels = np.full(n, -1, dtype=np.int64)
+        self.normals = np.zeros((n, 3))
+        self.add(np.flatnonzero(boundary), points)
+
+    def add(self, vertices: np.ndarray, points: np.ndarray) -> None:
+        """Record ``vertices`` (which just became boundary vertices) at ``points[vertices]``."""
+        if vertices.size == 0:
+            return
+        _, labels = self.model.patch_labels(points[vertices])
+        _, gradient = self.model.value_and_gradient(points[vertices])
+        self.labels[vertices] = labels
+        self.normals[vertices] = _unit(gradient)
+
+    def moves_allowed(self, vertices: np.ndarray, old: np.ndarray, new: np.ndarray) -> np.ndarray:
+        """Mask (K,) of the moves of boundary ``vertices`` from ``old`` to ``new`` (K, 3)
+        positions (on the zero set) that stay on the vertex's own patch or a smooth
+        continuation of it, along a path near the surface."""
+        if vertices.size == 0:
+            return np.zeros(0, dtype=bool)
+        _, labels = self.model.patch_labels(new)
+        allowed = labels == self.labels[vertices]
+        other = np.flatnonzero(~allowed)
+        if other.size:
+            _, gradient = self.model.value_and_gradient(new[other])
+            cosine = np.einsum("ij,ij->i", _unit(gradient), self.normals[vertices[other]])
+            allowed[other] = cosine >= np.cos(np.radians(CREASE_ANGLE))
+        check = np.flatnonzero(allowed)
+        if check.size:
+            middle = 0.5 * (old[check] + new[check])
+            allowed[check] = np.abs(self.model(middle)) <= PATH_DEPTH * self.h
+        return allowed
+
+    def faces_allowed(self, old: np.ndarray | None, new: np.ndarray) -> np.ndarray:
+        """Mask (K,) of boundary faces, given by their corners before ``old`` and after ``new``
+        a change (K, 3, 3, outward), that stay on the surface: centroid within
+        ``FACE_DEPTH * h`` of the zero set and normal within ``FACE_ANGLE`` of the model's, or
+        no worse than before on either count (``old=None``: new faces, no exemption)."""
+        if new.shape[0] == 0:
+            return np.zeros(0, dtype=bool)
+        both = new if old is None else np.concatenate([old, new])
+        values, gradient = self.model.value_and_gradient(both.mean(axis=1))
+        normals = _unit(np.cross(both[:, 1] - both[:, 0], both[:, 2] - both[:, 0]))
+        cosine = np.einsum("ij,ij->i", normals, _unit(gradient))
+        depth = np.abs(values)
+        depth_limit = np.full(new.shape[0], FACE_DEPTH * self.h)
+        cosine_limit = np.full(new.shape[0], np.cos(np.radians(FACE_ANGLE)))
+        if old is not None:
+            k = old.shape[0]
+            depth_limit = np.maximum(depth[:k], depth_limit)
+            cosine_limit = np.minimum(cosine[:k], cosine_limit)
+            depth, cosine = depth[k:], cosine[k:]
+        return (depth <= depth_limit) & (cosine >= cosine_limit)
