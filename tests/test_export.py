@@ -504,3 +504,26 @@ def test_round_trip_distmesh_bracket(tmp_path, bracket_mesh, name):
     if name in ("nastran", "medit"):
         expected = {"id1", "id2", "id3"}  # volume 1 on tetrahedra; hole, fixed, boundary 1..3
     assert names_read_back(name, path) == expected
+
+
+def test_midside_nodes_of_feature_curve_edges_lie_on_both_surfaces(tmp_path):
+    # A washer's rims are circles where a flat face meets a cylinder. Projected onto the model
+    # alone, a rim edge's midside node stayed on the chord (the flat face is nearer than the
+    # cylinder), a sagitta of about 0.08 inside the radius 25 at h = 4; now every rim midside node is on the circle.
+    part = sdf.cylinder(radius=25.0, height=10.0) - sdf.cylinder(radius=10.0, height=30.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        mesh = fepre.distmesh(part, h=4.0)
+    grid = fepre.export(mesh, tmp_path / "washer.vtu", order=2, model=part)
+    points = np.asarray(grid.points)
+    cells = grid.cells_dict[pv.CellType.QUADRATIC_TETRA]
+    radius = np.hypot(points[:, 0], points[:, 1])
+    ends = cells[:, [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]]]
+    mids = cells[:, 4:]
+    for rim, z in [(25.0, 5.0), (25.0, -5.0), (10.0, 5.0), (10.0, -5.0)]:
+        on_rim = (np.abs(radius - rim) < 1e-9) & (np.abs(points[:, 2] - z) < 1e-9)
+        rim_edges = on_rim[ends].all(axis=2) & (np.linalg.norm(np.diff(points[ends], axis=2)[..., 0, :], axis=2) < 8.0)
+        rim_mids = np.unique(mids[rim_edges])
+        assert rim_mids.size >= 2 * np.pi * rim / 4.0 * 0.8  # about one edge per h along the circle
+        assert np.abs(radius[rim_mids] - rim).max() < 1e-8
+        assert np.abs(points[rim_mids, 2] - z).max() < 1e-8
