@@ -208,18 +208,24 @@ def test_round_trip_through_meshio(tmp_path, block, name, order):
         assert np.array_equal(counts_by_id(back.cell_data["region_id"][0], 2), region_counts)
         assert np.array_equal(counts_by_id(facets.cell_data["boundary_id"][0], 6), face_counts)
         return
+    if name == "vtu":  # the tagged grid: tetrahedra only, boundary faces as field data
+        assert list(blocks) == [volume_type]
+        assert {k: v.tolist() for k, v in back.field_data.items() if k != "boundary_faces"} == {
+            **{n: [i, 3] for i, n in enumerate(names[0])},
+            **{n: [i, 2] for i, n in enumerate(names[1])},
+        }
+        assert np.array_equal(counts_by_id(back.cell_data["region_id"][0] + 1, 2), region_counts)
+        assert np.array_equal(counts_by_id(back.field_data["boundary_faces"][:, 2] + 1, 6), face_counts)
+        return
     assert len(back.cells[blocks[surface_type]].data) == faces.n_cells
-    if name in ("gmsh22", "vtu"):
+    if name == "gmsh22":
         assert {k: v.tolist() for k, v in back.field_data.items()} == {
             **{n: [i + 1, 3] for i, n in enumerate(names[0])},
             **{n: [i + 1, 2] for i, n in enumerate(names[1])},
         }
-    key = {"gmsh22": "gmsh:physical", "vtu": None, "nastran": "nastran:ref", "medit": "medit:ref",
+    key = {"gmsh22": "gmsh:physical", "nastran": "nastran:ref", "medit": "medit:ref",
            "med": "cell_tags"}[name]
-    if name == "vtu":
-        volume_ids = back.cell_data["region_id"][blocks[volume_type]]
-        surface_ids = back.cell_data["boundary_id"][blocks[surface_type]]
-    elif name == "med":
+    if name == "med":
         tags = {int(k): v for k, v in back.cell_tags.items()}
         assert tags == {-1: ["core"], -2: ["volume"], **{-(3 + i): [n] for i, n in enumerate(names[1])}}
         volume_ids = -back.cell_data[key][blocks[volume_type]]
@@ -485,7 +491,7 @@ def names_read_back(name: str, path: Path) -> set[str]:
     if name in ("nastran", "medit"):  # integer ids only
         key = f"{name}:ref"
         return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
-    return set(back.field_data)
+    return set(back.field_data) - {"boundary_faces"}
 
 
 @pytest.mark.parametrize("name", [n for n in FORMATS if n != "exodus"])
@@ -500,6 +506,8 @@ def test_round_trip_distmesh_bracket(tmp_path, bracket_mesh, name):
     counts = {block.type: len(block.data) for block in back.cells}
     assert counts["tetra"] == bracket_mesh.n_cells
     assert counts.get("triangle", faces.n_cells) == faces.n_cells
+    if name == "vtu":
+        assert len(back.field_data["boundary_faces"]) == faces.n_cells
     expected = {"volume", "hole", "fixed", "boundary"}
     if name in ("nastran", "medit"):
         expected = {"id1", "id2", "id3"}  # volume 1 on tetrahedra; hole, fixed, boundary 1..3
