@@ -120,8 +120,15 @@ def write_inp(dataset: Any, path: str, /, **options: Any) -> None:
     export(dataset, path, format=options.pop("format", "abaqus"), **options)
 
 
+def read_inp(path: str, /, **options: Any) -> pv.UnstructuredGrid:
+    """PyVista reader for ``.inp``: Abaqus/CalculiX tetrahedra through :func:`fepre.export.inp_reader.read_inp`."""
+    from .export.inp_reader import read_inp as read
+
+    return read(path, **options)
+
+
 def register() -> None:
-    """Register the ``fepre`` accessors and the ``.inp`` writer with PyVista (idempotent)."""
+    """Register the ``fepre`` accessors and the ``.inp`` reader and writer with PyVista (idempotent)."""
     import pyvista as pv
 
     accessors = ((pv.UnstructuredGrid, UnstructuredGridAccessor), (pv.ImageData, ImageDataAccessor),
@@ -129,6 +136,7 @@ def register() -> None:
     for target, accessor in accessors:
         pv.register_dataset_accessor("fepre", target)(accessor)
     pv.register_writer(".inp", write_inp, override=True)
+    pv.register_reader(".inp", read_inp, override=True)
 
 
 class _RegisterAfter(importlib.abc.Loader):

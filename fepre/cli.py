@@ -259,20 +259,27 @@ def _read_mesh(name: str):
     if path.is_dir():
         raise ValueError(f"{path} is a directory; give a mesh file")
     sets: dict[str, dict[str, int]] = {}
-    if path.suffix.lower() in _VTK_SUFFIXES:
+    if path.suffix.lower() in _VTK_SUFFIXES + (".inp",):
         import warnings
+
+        from .export.grid import FACE_FIELD, set_names
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             mesh = pv.read(str(path))
         if mesh.n_points == 0 and caught:
             raise ValueError(f"{path} holds no points: {str(caught[0].message).splitlines()[0]}")
-        names = {key: [str(v) for v in mesh.field_data[key]] for key in ("region_names", "boundary_names") if key in mesh.field_data}
-        for key, array, kind in (("region_names", "region_id", "cell"), ("boundary_names", "boundary_id", "point")):
-            data = mesh.cell_data if kind == "cell" else mesh.point_data
-            if key in names and array in data:
-                values = np.asarray(data[array])
-                sets[f"{kind} sets"] = {n: int(np.count_nonzero(values == i)) for i, n in enumerate(names[key])}
+        regions, boundaries = set_names(mesh)
+        if regions and "region_id" in mesh.cell_data:
+            counts = np.bincount(np.asarray(mesh.cell_data["region_id"]), minlength=len(regions))
+            sets["regions (cells)"] = {n: int(counts[i]) for i, n in enumerate(regions)}
+        if boundaries and FACE_FIELD in mesh.field_data:
+            table = np.asarray(mesh.field_data[FACE_FIELD]).reshape(-1, 3)
+            counts = np.bincount(table[:, 2], minlength=len(boundaries))
+            sets["boundaries (faces)"] = {n: int(counts[i]) for i, n in enumerate(boundaries)}
+        elif boundaries and "boundary_id" in mesh.point_data:
+            values = np.asarray(mesh.point_data["boundary_id"])
+            sets["boundaries (nodes)"] = {n: int(np.count_nonzero(values == i)) for i, n in enumerate(boundaries)}
     else:
         import meshio
 

@@ -40,6 +40,7 @@ class MeshResult:
     metrics: dict[str, float]
     error: str | None = None  #: why a reference mesher failed (then ``mesh`` is None)
     note: str | None = None  #: how a reference deviated from its usual method
+    settings: str | None = None  #: how the mesher was run
 
 
 # (row label, metric key, format) of the text and HTML tables
@@ -47,6 +48,8 @@ TABLE_ROWS: list[tuple[str, str, str]] = [
     ("tetrahedra", "elements", "{:d}"),
     ("nodes", "nodes", "{:d}"),
     ("time [s]", "seconds", "{:.2f}"),
+    ("time per 1000 cells [ms]", "ms_per_1000_cells", "{:.1f}"),
+    ("mean edge length", "mean_edge_length", "{:.4g}"),
     ("volume", "volume", "{:.5g}"),
     ("volume error", "volume_error", "{:+.3%}"),
     ("inverted cells", "inverted", "{:d}"),
@@ -137,12 +140,15 @@ class Comparison:
             if index == 0:
                 lines.append("  ".join("-" * width for width in widths))
         for result in self.results:
+            if result.settings:
+                lines.append(f"{result.name}: {result.settings}")
+        for result in self.results:
             if result.error:
                 lines.append(f"{result.name} failed: {result.error}")
             if result.note:
                 lines.append(f"{result.name}: {result.note}")
         lines.append(
-            f"h = {self.h:g}; volume reference {self.volume_reference:.6g} ({self.volume_source}); "
+            f"h = {self.h:g} (each mesher's mean edge length is in the table); volume reference {self.volume_reference:.6g} ({self.volume_source}); "
             f"Hausdorff against the {self.settings.get('surface_method', 'flying_edges').replace('_', '-')} surface at spacing "
             f"{self.settings.get('surface_spacing', float('nan')):g}"
         )
@@ -164,6 +170,7 @@ class Comparison:
             "meshes": {r.name: dict(r.metrics) for r in self.results},
             "failed": {r.name: r.error for r in self.results if r.error},
             "notes": {r.name: r.note for r in self.results if r.note},
+            "mesher_settings": {r.name: r.settings for r in self.results if r.settings},
         }
 
     def to_html(self, path: Any, *, title: str | None = None) -> Any:
@@ -285,6 +292,7 @@ def compare(
         volume, source = float(abs(surface.volume)), f"enclosed by the {_method_of(surface).replace('_', '-')} surface at spacing {spacing:g}"
 
     results = []
+    given = mesh
     if mesh is None:
         import fepre
 
@@ -297,8 +305,14 @@ def compare(
         seconds = float(np.asarray(stored).ravel()[-1]) if stored is not None and np.size(stored) else None
     else:
         seconds = positive_float(seconds, "seconds")
+    if given is None:
+        options = ", ".join(f"{k}={v!r}" for k, v in distmesh_options.items())
+        how = f"fepre.distmesh at h = {h:g} with its quality stage" + (f" ({options})" if options else "")
+    else:
+        how = "the mesh passed to compare (mesh=)"
     report(f"compare: measuring fepre ({mesh.n_cells} cells) ...")
-    results.append(MeshResult("fepre", mesh, seconds, mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)))
+    metrics = mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)
+    results.append(MeshResult("fepre", mesh, seconds, metrics, settings=how))
 
     for name in references:
         report(f"compare: {name} h={h:g} ...")
@@ -311,7 +325,10 @@ def compare(
         report(f"compare: measuring {name} ({reference_mesh.n_cells} cells, {seconds:.1f} s) ...")
         metrics = mesh_metrics(reference_mesh, model, reference=surface, volume=volume, seconds=seconds)
         note = reference_mesh.field_data.get("reference_note")
-        results.append(MeshResult(name, reference_mesh, seconds, metrics, note=str(note[0]) if note is not None else None))
+        how = str(reference_mesh.field_data["reference_settings"][0])
+        results.append(
+            MeshResult(name, reference_mesh, seconds, metrics, note=str(note[0]) if note is not None else None, settings=how)
+        )
 
     settings = {
         "h": h,

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["tetra_cells", "boundary_faces", "boundary_surface", "hausdorff", "model_hausdorff", "mesh_metrics"]
+__all__ = ["tetra_cells", "boundary_faces", "boundary_surface", "hausdorff", "model_hausdorff", "mesh_metrics",
+           "mean_edge_length"]
 
 # face opposite each vertex, outward for a positive (VTK) tetrahedron
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -165,6 +166,22 @@ def model_hausdorff(
     return float(to_surface.max()), float(from_surface.max())
 
 
+def mean_edge_length(points: np.ndarray, tets: np.ndarray) -> float:
+    """Mean length of the mesh's edges, each counted once.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> round(mean_edge_length(corners, np.array([[0, 1, 2, 3]])), 6)   # 3 edges of 1, 3 of sqrt 2
+    1.207107
+    """
+    pairs = np.sort(tets[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2), axis=1)
+    edges = np.unique(pairs[:, 0].astype(np.int64) * points.shape[0] + pairs[:, 1])
+    a, b = edges // points.shape[0], edges % points.shape[0]
+    return float(np.linalg.norm(points[a] - points[b], axis=1).mean()) if edges.size else float("nan")
+
+
 def mesh_metrics(
     mesh: Any,
     model: Any,
@@ -194,7 +211,9 @@ def mesh_metrics(
         Keys ``elements``, ``nodes``, ``volume``, ``volume_error`` (relative), ``inverted``,
         ``boundary_sdf_max``, ``boundary_sdf_mean``, ``hausdorff`` (and its two directions),
         ``<metric>_<stat>`` for every quality metric, ``below_10``/``below_15`` (cells with a
-        dihedral angle under 10/15 degrees) and ``seconds``.
+        dihedral angle under 10/15 degrees), ``seconds``, ``ms_per_1000_cells`` and
+        ``mean_edge_length`` (to set beside ``h``: meshers differ in how long their edges come
+        out for the same ``h``).
 
     Examples
     --------
@@ -241,4 +260,6 @@ def mesh_metrics(
     metrics["below_10"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 10.0))
     metrics["below_15"] = int(np.count_nonzero(quality["min_dihedral_angle"] < 15.0))
     metrics["seconds"] = float("nan") if seconds is None else float(seconds)
+    metrics["ms_per_1000_cells"] = 1e6 * metrics["seconds"] / max(len(tets), 1)
+    metrics["mean_edge_length"] = mean_edge_length(points, tets)
     return metrics

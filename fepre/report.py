@@ -200,7 +200,11 @@ def _section(name: str, comparison: Any, progress: Any) -> str:
     spacing = comparison.settings.get("surface_spacing")
     failures = "".join(
         f'<p class="bad">{html.escape(r.name)} failed: {html.escape(r.error)}</p>' for r in comparison.results if r.error
-    ) + "".join(f'<p class="note">{html.escape(r.name)}: {html.escape(r.note)}</p>' for r in comparison.results if r.note)
+    ) + "".join(f'<p class="note">{html.escape(r.name)}: {html.escape(r.note)}</p>' for r in comparison.results if r.note) + (
+        "<p>How each mesher ran:</p><ul>"
+        + "".join(f"<li>{html.escape(r.name)}: {html.escape(r.settings)}</li>" for r in comparison.results if r.settings)
+        + "</ul>"
+    )
     return f"""
 <h2 id="{html.escape(name)}">{html.escape(name)}</h2>
 <p>Target edge length h = {comparison.h:g}. {volume_note} Boundary fidelity: |model| at the boundary

@@ -208,18 +208,24 @@ def test_round_trip_through_meshio(tmp_path, block, name, order):
         assert np.array_equal(counts_by_id(back.cell_data["region_id"][0], 2), region_counts)
         assert np.array_equal(counts_by_id(facets.cell_data["boundary_id"][0], 6), face_counts)
         return
+    if name == "vtu":  # the tagged grid: tetrahedra only, boundary faces as field data
+        assert list(blocks) == [volume_type]
+        assert {k: v.tolist() for k, v in back.field_data.items() if k != "boundary_faces"} == {
+            **{n: [i, 3] for i, n in enumerate(names[0])},
+            **{n: [i, 2] for i, n in enumerate(names[1])},
+        }
+        assert np.array_equal(counts_by_id(back.cell_data["region_id"][0] + 1, 2), region_counts)
+        assert np.array_equal(counts_by_id(back.field_data["boundary_faces"][:, 2] + 1, 6), face_counts)
+        return
     assert len(back.cells[blocks[surface_type]].data) == faces.n_cells
-    if name in ("gmsh22", "vtu"):
+    if name == "gmsh22":
         assert {k: v.tolist() for k, v in back.field_data.items()} == {
             **{n: [i + 1, 3] for i, n in enumerate(names[0])},
             **{n: [i + 1, 2] for i, n in enumerate(names[1])},
         }
-    key = {"gmsh22": "gmsh:physical", "vtu": None, "nastran": "nastran:ref", "medit": "medit:ref",
+    key = {"gmsh22": "gmsh:physical", "nastran": "nastran:ref", "medit": "medit:ref",
            "med": "cell_tags"}[name]
-    if name == "vtu":
-        volume_ids = back.cell_data["region_id"][blocks[volume_type]]
-        surface_ids = back.cell_data["boundary_id"][blocks[surface_type]]
-    elif name == "med":
+    if name == "med":
         tags = {int(k): v for k, v in back.cell_tags.items()}
         assert tags == {-1: ["core"], -2: ["volume"], **{-(3 + i): [n] for i, n in enumerate(names[1])}}
         volume_ids = -back.cell_data[key][blocks[volume_type]]
@@ -485,7 +491,7 @@ def names_read_back(name: str, path: Path) -> set[str]:
     if name in ("nastran", "medit"):  # integer ids only
         key = f"{name}:ref"
         return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
-    return set(back.field_data)
+    return set(back.field_data) - {"boundary_faces"}
 
 
 @pytest.mark.parametrize("name", [n for n in FORMATS if n != "exodus"])
@@ -500,7 +506,32 @@ def test_round_trip_distmesh_bracket(tmp_path, bracket_mesh, name):
     counts = {block.type: len(block.data) for block in back.cells}
     assert counts["tetra"] == bracket_mesh.n_cells
     assert counts.get("triangle", faces.n_cells) == faces.n_cells
+    if name == "vtu":
+        assert len(back.field_data["boundary_faces"]) == faces.n_cells
     expected = {"volume", "hole", "fixed", "boundary"}
     if name in ("nastran", "medit"):
         expected = {"id1", "id2", "id3"}  # volume 1 on tetrahedra; hole, fixed, boundary 1..3
     assert names_read_back(name, path) == expected
+
+
+def test_midside_nodes_of_feature_curve_edges_lie_on_both_surfaces(tmp_path):
+    # A washer's rims are circles where a flat face meets a cylinder. Projected onto the model
+    # alone, a rim edge's midside node stayed on the chord (the flat face is nearer than the
+    # cylinder), a sagitta of about 0.08 inside the radius 25 at h = 4; now every rim midside node is on the circle.
+    part = sdf.cylinder(radius=25.0, height=10.0) - sdf.cylinder(radius=10.0, height=30.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        mesh = fepre.distmesh(part, h=4.0)
+    grid = fepre.export(mesh, tmp_path / "washer.vtu", order=2, model=part)
+    points = np.asarray(grid.points)
+    cells = grid.cells_dict[pv.CellType.QUADRATIC_TETRA]
+    radius = np.hypot(points[:, 0], points[:, 1])
+    ends = cells[:, [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]]]
+    mids = cells[:, 4:]
+    for rim, z in [(25.0, 5.0), (25.0, -5.0), (10.0, 5.0), (10.0, -5.0)]:
+        on_rim = (np.abs(radius - rim) < 1e-9) & (np.abs(points[:, 2] - z) < 1e-9)
+        rim_edges = on_rim[ends].all(axis=2) & (np.linalg.norm(np.diff(points[ends], axis=2)[..., 0, :], axis=2) < 8.0)
+        rim_mids = np.unique(mids[rim_edges])
+        assert rim_mids.size >= 2 * np.pi * rim / 4.0 * 0.8  # about one edge per h along the circle
+        assert np.abs(radius[rim_mids] - rim).max() < 1e-8
+        assert np.abs(points[rim_mids, 2] - z).max() < 1e-8

@@ -100,3 +100,39 @@ def test_bad_lattice_input():
         sdf.infill(sdf.sphere(1), "gyroid", 0.1)
     with pytest.raises(ValueError, match="wall must be > 0"):
         sdf.infill(sdf.sphere(1), sdf.gyroid(), 0)
+
+
+@pytest.mark.parametrize(
+    "name, mean, thickest, thinnest",
+    [("gyroid", 1.13, 1.22, 1.0), ("schwarz_p", 1.32, 1.73, 1.0), ("schwarz_d", 1.16, 1.22, 1.0),
+     ("neovius", 2.75, 7.1, 1.36)],
+)
+def test_sheet_walls_are_at_least_thickness_and_as_documented(name, mean, thickest, thinnest):
+    # A user asked for 1.2 and measured 1.27: the documented figures are the wall measured along
+    # the surface normal (bisection on the sheet's value) over one cell, area-weighted.
+    import pyvista as pv
+
+    period, thickness = 1.0, 0.01
+    sheet = getattr(sdf, name)(period=period, thickness=thickness)
+    network = getattr(sdf, name)(period=period, thickness=1e-9, form="network")  # g / G
+    n = 60
+    grid = pv.ImageData(dimensions=(n + 1,) * 3, spacing=(period / n,) * 3)
+    grid.point_data["g"] = network(np.asarray(grid.points))
+    surface = grid.contour([0.0], scalars="g").compute_cell_sizes()
+    start = np.asarray(surface.cell_centers().points)
+    start = network.project(start)
+    normal = network.gradient(start)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    sides = []
+    for sign in (1.0, -1.0):
+        lo, hi = np.zeros(len(start)), np.full(len(start), 10 * thickness)
+        for _ in range(50):
+            middle = 0.5 * (lo + hi)
+            inside = sheet(start + sign * middle[:, None] * normal) < 0
+            lo, hi = np.where(inside, middle, lo), np.where(inside, hi, middle)
+        sides.append(lo)
+    wall = (sides[0] + sides[1]) / thickness
+    area = np.asarray(surface["Area"])
+    assert wall.min() >= thinnest * 0.995
+    assert (wall * area).sum() / area.sum() == pytest.approx(mean, abs=0.03)
+    assert np.percentile(wall, 99.9) <= thickest * 1.02

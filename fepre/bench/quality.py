@@ -144,7 +144,7 @@ def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
     """Measure every target model; returns the printed lines."""
     lines = [
         f"{'model':28} {'mesher':10} {'seconds':>8} {'loop':>7} {'stage':>7} {'stage%':>6} {'points':>7} "
-        f"{'cells':>8} {'worst':>6} {'max':>6} {'min rr':>6} {'p1':>6} {'mean rr':>7}  ratios fepre/peer (worst, mean rr, time)"
+        f"{'cells':>8} {'worst':>6} {'max':>6} {'min rr':>6} {'p1':>6} {'mean rr':>7}  ratios fepre/peer (worst, mean rr, time per cell)"
     ]
     print(lines[0], flush=True)
     for name, model, h, size in target_models(quick):
@@ -178,7 +178,7 @@ def run(quick: bool, out: str | None, peers: list[str]) -> list[str]:
                 if mesher != "fepre":
                     line += (
                         f"  {mine['worst'] / f['worst']:.2f}x, {mine['mean_rr'] / f['mean_rr']:.3f}x, "
-                        f"{results['fepre']['seconds'] / result['seconds']:.2f}x"
+                        f"{(results['fepre']['seconds'] / mine['cells']) / (result['seconds'] / f['cells']):.2f}x"
                     )
                 if f["inverted"]:
                     line += f"  ({f['inverted']} inverted cells)"
@@ -214,5 +214,10 @@ def main(argv: list[str]) -> int:
             parser.error(f"--peers must name installed peers ({', '.join(installed)}); got {', '.join(unknown)}")
     start = time.perf_counter()
     run(args.quick, args.out, peers)
+    from ..references import REFERENCE_SETTINGS
+
+    for peer in peers:
+        print(f"{peer}: {REFERENCE_SETTINGS[peer]}")
+    print("time ratio: fepre's time per cell / the peer's (< 1: fepre faster per cell)")
     print(f"total {time.perf_counter() - start:.1f} s")
     return 0

@@ -42,11 +42,12 @@ from .boundaries import (
 )
 from .data import ExportData
 from .formats import FORMATS, Format, resolve_format
+from .grid import RESERVED_FIELD_NAMES, boundary_faces, tagged_grid
 from .meshio_formats import require_module
 from .quadratic import quadratic_tetrahedra
 from .tetmesh import tetra_arrays
 
-__all__ = ["export", "tag_boundaries", "tag_regions", "BoundaryWarning", "FORMATS", "Format"]
+__all__ = ["export", "tag_boundaries", "tag_regions", "boundary_faces", "BoundaryWarning", "FORMATS", "Format"]
 
 _ASCII_TREE = str.maketrans({"└": "`", "├": "|", "│": "|", "─": "-"})
 
@@ -60,6 +61,8 @@ def _check_name_clashes(region_names: list[str], boundary_names: list[str]) -> N
                 f"formats such as Gmsh and MED keep one namespace, so use distinct names"
             )
     for name in region_names + boundary_names:
+        if name.lower() in RESERVED_FIELD_NAMES:
+            raise ValueError(f"set name {name!r} is reserved (fepre stores {', '.join(RESERVED_FIELD_NAMES)} in VTU files)")
         if name.upper() in RESERVED_NAMES:
             raise ValueError(f"set name {name!r} is reserved (fepre writes {', '.join(RESERVED_NAMES)})")
 
@@ -74,25 +77,6 @@ def _title(model: Any) -> tuple[str, str]:
     tree = repr(model).translate(_ASCII_TREE).encode("ascii", "replace").decode("ascii")
     label = label.encode("ascii", "replace").decode("ascii")
     return f"fepre {__version__} export of model {label}", "model:\n" + tree
-
-
-def _tagged_grid(data: ExportData, mesh: Any) -> Any:
-    import pyvista as pv
-
-    if data.order == 1:
-        grid = mesh.copy()
-    else:
-        grid = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: data.cells}, data.points)
-    grid.cell_data["region_id"] = data.region_ids
-    boundary_id = np.full(data.points.shape[0], -1, dtype=np.int64)
-    face_nodes = data.face_nodes
-    ids = np.repeat(data.faces.set_ids, face_nodes.shape[1])
-    order = np.argsort(-ids, kind="stable")  # smaller set index written last wins
-    boundary_id[face_nodes.ravel()[order]] = ids[order]
-    grid.point_data["boundary_id"] = boundary_id
-    grid.field_data["region_names"] = np.array(data.region_names)
-    grid.field_data["boundary_names"] = np.array(data.boundary_names)
-    return grid
 
 
 def export(
@@ -148,9 +132,11 @@ def export(
     Returns
     -------
     pyvista.UnstructuredGrid
-        The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with cell data ``"region_id"``, point
-        data ``"boundary_id"`` (-1 inside) and field data ``"region_names"``/``"boundary_names"``;
-        for order 2 also ``"curved_midside_nodes"`` (on the model surface) and
+        The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with the input mesh's arrays, cell
+        data ``"region_id"``, point data ``"boundary_id"`` (-1 inside), field data
+        ``"region_names"``/``"boundary_names"`` and ``"boundary_faces"`` (element, face 1..4, set
+        of each boundary face; :func:`boundary_faces` gives them as triangles). A VTU file holds
+        exactly this grid (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
         ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid).
         :func:`tag_boundaries` gives the tagged boundary faces for viewing.
 
@@ -190,10 +176,14 @@ def export(
         points, cells = quadratic.points, quadratic.cells
         midside = (quadratic.curved, quadratic.straightened)
     title, model_text = _title(model)
-    data = ExportData(points, cells, region_ids, region_names, faces, title, model_text)
+    data = ExportData(
+        points, cells, region_ids, region_names, faces, title, model_text,
+        point_arrays={name: np.asarray(mesh.point_data[name]) for name in mesh.point_data.keys()},
+        cell_arrays={name: np.asarray(mesh.cell_data[name]) for name in mesh.cell_data.keys()},
+    )
     with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
         fmt.writer(stage, path.name, data)
-    grid = _tagged_grid(data, mesh)
+    grid = tagged_grid(data, data.point_arrays, data.cell_arrays)
     if midside is not None:
         grid.field_data["curved_midside_nodes"] = np.array([midside[0]])
         grid.field_data["straightened_midside_nodes"] = np.array([midside[1]])

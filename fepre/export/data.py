@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -38,6 +38,9 @@ class ExportData:
         One line naming fepre and the model, for headers.
     model_text : str
         The model tree (``repr``), possibly several lines, or "".
+    point_arrays, cell_arrays : dict name -> array
+        The input mesh's own arrays (one value per corner node, per cell), for formats that carry
+        them (VTU).
     """
 
     points: np.ndarray
@@ -47,6 +50,8 @@ class ExportData:
     faces: FaceSets
     title: str
     model_text: str = ""
+    point_arrays: dict = field(default_factory=dict)
+    cell_arrays: dict = field(default_factory=dict)
 
     @property
     def order(self) -> int:

@@ -5,8 +5,8 @@ Named sets travel as each format allows:
 
 * Gmsh 2.2: physical groups (``gmsh:physical``; regions dim 3, boundaries dim 2, ids from 1)
   and their names in ``$PhysicalNames`` (meshio ``field_data`` name -> [id, dim]);
-* VTU: the boundary triangles are extra cells; cell data ``"region_id"`` / ``"boundary_id"``
-  (0 where not applicable) and the same ``field_data`` names as Gmsh;
+* VTU: the tagged grid of :mod:`fepre.export.grid` (tetrahedra only, the mesh's arrays, set
+  names and boundary faces in field data), written by VTK;
 * MED: element families (negative numbers) with group names (``cell_tags``); tetrahedra are
   written in MED's orientation, which is the opposite of VTK's;
 * Nastran and Medit: integer property/reference ids only (regions 1..R on the tetrahedra,
@@ -77,31 +77,11 @@ def write_gmsh22(directory: Path, filename: str, data: ExportData) -> None:
 
 
 def write_vtu(directory: Path, filename: str, data: ExportData) -> None:
-    # VTK's own writer: meshio's VTU writer drops field data (the set names).
-    import pyvista as pv
+    # VTK's own writer, of the grid fepre.export returns: the tetrahedra only, the mesh's arrays,
+    # the set names and the boundary faces as field data (meshio's VTU writer drops field data).
+    from .grid import file_grid, tagged_grid
 
-    volume_type, surface_type = (
-        (pv.CellType.QUADRATIC_TETRA, pv.CellType.QUADRATIC_TRIANGLE)
-        if data.order == 2
-        else (pv.CellType.TETRA, pv.CellType.TRIANGLE)
-    )
-    cells, faces = data.cells, data.face_nodes
-    connectivity = np.concatenate(
-        [
-            np.hstack([np.full((cells.shape[0], 1), cells.shape[1]), cells]).ravel(),
-            np.hstack([np.full((faces.shape[0], 1), faces.shape[1]), faces]).ravel(),
-        ]
-    )
-    types = np.concatenate(
-        [np.full(cells.shape[0], volume_type, np.uint8), np.full(faces.shape[0], surface_type, np.uint8)]
-    )
-    grid = pv.UnstructuredGrid(connectivity, types, data.points)
-    n_cells, n_faces = cells.shape[0], faces.shape[0]
-    grid.cell_data["region_id"] = np.concatenate([data.region_ids + 1, np.zeros(n_faces, np.int64)])
-    grid.cell_data["boundary_id"] = np.concatenate([np.zeros(n_cells, np.int64), data.faces.set_ids + 1])
-    for name, value in named_field_data(data).items():
-        grid.field_data[name] = value
-    grid.save(directory / filename, binary=True)
+    file_grid(tagged_grid(data, data.point_arrays, data.cell_arrays)).save(directory / filename, binary=True)
 
 
 def write_nastran(directory: Path, filename: str, data: ExportData) -> None:

@@ -2,7 +2,10 @@
 
 Each edge gets a midside node. A boundary edge's midside node is projected onto the model's zero
 set (Newton steps of :meth:`fepre.sdf.SDF.project`), so the element faces follow curved surfaces;
-interior midside nodes stay at edge midpoints. The Jacobian determinant of every element with a
+a boundary edge along a feature curve (its two boundary faces on different patches of the model,
+both its ends on both patches) gets its midside node on that curve, where the two patches meet,
+so a flat face bounded by a circle keeps the circle's area. Interior midside nodes stay at edge
+midpoints. The Jacobian determinant of every element with a
 moved node is then checked: at the four Gauss points of C3D10 (where solvers integrate) it must be
 at least ``MIN_JACOBIAN_RATIO`` times that of the straight-sided element, and at the four corners
 it must stay positive (no inversion anywhere at the nodes). A bad element's moved nodes go back to
@@ -19,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..features.newton import solve_on_patches
 from ..quality import signed_volumes
 
 __all__ = ["QuadraticMesh", "quadratic_tetrahedra", "jacobian_ratios", "TET10_EDGES", "MIN_JACOBIAN_RATIO",
@@ -83,6 +87,80 @@ def jacobian_ratios(points: np.ndarray, cells10: np.ndarray) -> tuple[np.ndarray
     return ratio[:, :4].min(axis=1), ratio[:, 4:].min(axis=1)
 
 
+# An edge end counts as on a patch within this fraction of the edge's length.
+ON_PATCH_FRACTION = 1e-3
+
+
+def crease_midpoints(
+    model: Any, points: np.ndarray, triangles: np.ndarray, first: np.ndarray, second: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Midside nodes on feature curves for the boundary edges ``first[i]``-``second[i]``.
+
+    An edge lies along a feature curve when its two boundary triangles decide the model's value on
+    two different patches (:meth:`fepre.sdf.SDF.patch_labels` at their centroids) and both its
+    ends lie on both patches. Its midside node is the point where the two patches meet nearest
+    the chord's midpoint (:func:`fepre.features.newton.solve_on_patches`).
+
+    Returns
+    -------
+    on_crease : (E,) bool
+        Edges whose midside node was placed on a feature curve.
+    crease_points : (on_crease.sum(), 3) float array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> cube = sdf.box(2.0)
+    >>> points = np.array([[1.0, 1.0, -0.5], [1.0, 1.0, 0.5], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+    >>> ok, where = crease_midpoints(cube, points, np.array([[0, 1, 2], [1, 0, 3]]), np.array([0]), np.array([1]))
+    >>> ok.tolist(), where.tolist()
+    ([True], [[1.0, 1.0, 0.0]])
+    """
+    on_crease = np.zeros(first.size, dtype=bool)
+    if getattr(model, "patch_count", 1) < 2 or first.size == 0 or triangles.size == 0:
+        return on_crease, np.zeros((0, 3))
+    n_points = points.shape[0]
+    _, triangle_patch = model.patch_labels(points[triangles].mean(axis=1))
+    pairs = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]], axis=2).reshape(-1, 2)
+    keys = pairs[:, 0] * n_points + pairs[:, 1]
+    order = np.argsort(keys, kind="stable")
+    keys, owner = keys[order], np.repeat(np.arange(triangles.shape[0]), 3)[order]
+    wanted = np.minimum(first, second) * n_points + np.maximum(first, second)
+    start = np.searchsorted(keys, wanted)
+    two_sided = (start + 1 < keys.size) & (keys[np.minimum(start + 1, keys.size - 1)] == wanted)
+    two_sided &= keys[np.minimum(start, keys.size - 1)] == wanted
+    candidates = np.flatnonzero(two_sided)
+    patch_a = triangle_patch[owner[start[candidates]]]
+    patch_b = triangle_patch[owner[start[candidates] + 1]]
+    different = patch_a != patch_b
+    candidates, patch_a, patch_b = candidates[different], patch_a[different], patch_b[different]
+    if candidates.size == 0:
+        return on_crease, np.zeros((0, 3))
+    ends_a, ends_b = points[first[candidates]], points[second[candidates]]
+    length = np.linalg.norm(ends_b - ends_a, axis=1)
+    tolerance = ON_PATCH_FRACTION * length
+    on_both = np.ones(candidates.size, dtype=bool)
+    for end in (ends_a, ends_b):
+        for patch in (patch_a, patch_b):
+            on_both &= np.abs(model.patch_values(patch, end)) <= tolerance
+    candidates, patch_a, patch_b = candidates[on_both], patch_a[on_both], patch_b[on_both]
+    if candidates.size == 0:
+        return on_crease, np.zeros((0, 3))
+    length = length[on_both]
+    chord_middle = 0.5 * (points[first[candidates]] + points[second[candidates]])
+    solved, converged = solve_on_patches(
+        model,
+        np.column_stack([patch_a, patch_b]),
+        chord_middle,
+        tol=1e-10 * float(length.max()),
+        step=1e-6 * float(length.max()),
+        reach=MAX_MOVE_FRACTION * float(length.max()),  # per edge: quadratic_tetrahedra's check
+    )
+    on_crease[candidates[converged]] = True
+    return on_crease, solved[converged]
+
+
 def quadratic_tetrahedra(
     points: np.ndarray, cells: np.ndarray, boundary_triangles: np.ndarray, model: Any = None
 ) -> QuadraticMesh:
@@ -102,6 +180,8 @@ def quadratic_tetrahedra(
             np.searchsorted(unique_keys, tri_pairs[:, 0] * n_points + tri_pairs[:, 1])
         )
         projected = np.asarray(model.project(midpoints[boundary_edges]), dtype=np.float64)
+        on_crease, crease_points = crease_midpoints(model, points, boundary_triangles, a[boundary_edges], b[boundary_edges])
+        projected[on_crease] = crease_points
         move = np.linalg.norm(projected - midpoints[boundary_edges], axis=1)
         length = np.linalg.norm(points[a[boundary_edges]] - points[b[boundary_edges]], axis=1)
         accept = np.isfinite(move) & (move <= MAX_MOVE_FRACTION * length) & (move > 0)

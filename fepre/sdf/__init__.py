@@ -19,7 +19,8 @@ from .booleans import *  # noqa: F401,F403
 from .transforms import *  # noqa: F401,F403
 from .deform import *  # noqa: F401,F403
 from .lattices import *  # noqa: F401,F403
-from . import booleans, deform, extrusions, lattices, shapes2d, solids, transforms
+from .patterns import *  # noqa: F401,F403
+from . import booleans, deform, extrusions, lattices, patterns, shapes2d, solids, transforms
 
 __all__ = (
     ["SDF"]
@@ -30,4 +31,5 @@ __all__ = (
     + transforms.__all__
     + deform.__all__
     + lattices.__all__
+    + patterns.__all__
 )

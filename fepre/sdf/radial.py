@@ -1,7 +1,8 @@
-"""Solids with the z axis as axis of symmetry: cylinder, cone and torus.
+"""Solids with an axis of symmetry: cylinder, cone and torus.
 
 Their values depend on the distance ``rho`` from the axis and on z; on a grid ``rho`` is computed
-on the (y, x) plane of a block and only the combination with z runs at full size.
+on the (y, x) plane of a block and only the combination with z runs at full size. Another
+``axis=`` rotates the z-axis solid onto it (an exact rotation, collapsed with later transforms).
 """
 
 from __future__ import annotations
@@ -16,6 +17,47 @@ from .orthant import axis_sign, orthant_distance, orthant_gradient
 from .parameters import floats
 
 __all__ = ["cylinder", "cone", "torus"]
+
+_NAMED_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def unit_axis(axis: Any) -> np.ndarray:
+    """The unit vector of ``axis``: ``"x"``, ``"y"``, ``"z"`` or a non-zero 3-vector."""
+    if isinstance(axis, str):
+        if axis.lower() not in _NAMED_AXES:
+            raise ValueError(f"axis must be 'x', 'y', 'z' or a 3-vector; got {axis!r}")
+        return np.array(_NAMED_AXES[axis.lower()])
+    vector = as_vector(axis, 3, "axis")
+    length = float(np.linalg.norm(vector))
+    if length == 0.0:
+        raise ValueError(f"axis must be a non-zero vector; got {vector.tolist()}")
+    return vector / length
+
+
+def z_to(axis: np.ndarray) -> np.ndarray:
+    """A rotation matrix taking the z axis onto the unit vector ``axis`` (the shortest turn)."""
+    z = np.array([0.0, 0.0, 1.0])
+    cosine = float(axis @ z)
+    if cosine > 1.0 - 1e-15:
+        return np.eye(3)
+    if cosine < -1.0 + 1e-15:
+        return np.diag([1.0, -1.0, -1.0])  # half a turn about x
+    turn = np.cross(z, axis)
+    sine = float(np.linalg.norm(turn))
+    u = turn / sine
+    cross = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return cosine * np.eye(3) + sine * cross + (1 - cosine) * np.outer(u, u)
+
+
+def _placed(make: Any, center: Any, axis: Any) -> SDF:
+    """``make(center)`` for the z axis; otherwise made at the origin and turned onto ``axis``."""
+    center = as_vector(center, 3, "center")
+    direction = unit_axis(axis)
+    if np.array_equal(direction, [0.0, 0.0, 1.0]):
+        return make(center)
+    from .transforms import _apply, _fmt, _homogeneous
+
+    return _apply(make(np.zeros(3)), _homogeneous(z_to(direction), center), f"axis{_fmt(direction)}, center{_fmt(center)}")
 
 
 def radial(x, y, cx: float, cy: float):
@@ -85,10 +127,12 @@ class Cylinder(SDF):
         return orthant_gradient(parts, [(ux, uy, 0.0), (0.0, 0.0, axis_sign(z - cz))])
 
 
-def cylinder(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Capped cylinder with axis z: ``radius`` around (cx, cy), z from cz - height/2 to cz + height/2.
+def cylinder(
+    radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0), axis: Any = "z"
+) -> SDF:
+    """Capped cylinder of ``radius`` and ``height`` centred at ``center``, along ``axis``.
 
-    Exact, including the rims.
+    ``axis`` is ``"x"``, ``"y"``, ``"z"`` (default) or any 3-vector. Exact, including the rims.
 
     Examples
     --------
@@ -96,10 +140,12 @@ def cylinder(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 
     >>> rod = sdf.cylinder(radius=1.0, height=2.0)
     >>> float(rod([0.0, 0.0, 3.0])), float(rod([4.0, 0.0, 0.0]))
     (2.0, 3.0)
+    >>> pin = sdf.cylinder(radius=1.0, height=2.0, axis="x")
+    >>> float(pin([3.0, 0.0, 0.0])), float(pin([0.0, 0.0, 4.0]))
+    (2.0, 3.0)
     """
-    return Cylinder(
-        positive_float(radius, "radius"), positive_float(height, "height"), as_vector(center, 3, "center")
-    )
+    radius, height = positive_float(radius, "radius"), positive_float(height, "height")
+    return _placed(lambda c: Cylinder(radius, height, c), center, axis)
 
 
 class Cone(SDF):
@@ -190,8 +236,10 @@ class Cone(SDF):
         return values.astype(dtype), ((gr * ux).astype(dtype), (gr * uy).astype(dtype), gh.astype(dtype))
 
 
-def cone(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Solid cone with axis z: base disk of ``radius`` at z = cz, apex at z = cz + height (exact).
+def cone(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0), axis: Any = "z") -> SDF:
+    """Solid cone: base disk of ``radius`` centred at ``center``, apex at ``center + height * axis``.
+
+    ``axis`` is ``"x"``, ``"y"``, ``"z"`` (default) or any 3-vector (exact).
 
     Examples
     --------
@@ -199,10 +247,11 @@ def cone(radius: float = 1.0, height: float = 1.0, center: Any = (0.0, 0.0, 0.0)
     >>> tip = sdf.cone(radius=1.0, height=2.0)
     >>> float(tip([0.0, 0.0, 3.0])), float(tip([0.0, 0.0, -1.0]))
     (1.0, 1.0)
+    >>> float(sdf.cone(radius=1.0, height=2.0, axis=(0, -1, 0))([0.0, -3.0, 0.0]))
+    1.0
     """
-    return Cone(
-        positive_float(radius, "radius"), positive_float(height, "height"), as_vector(center, 3, "center")
-    )
+    radius, height = positive_float(radius, "radius"), positive_float(height, "height")
+    return _placed(lambda c: Cone(radius, height, c), center, axis)
 
 
 class Torus(SDF):
@@ -255,10 +304,13 @@ class Torus(SDF):
         return length - self.minor_radius, (gr * ux, gr * uy, gz)
 
 
-def torus(major_radius: float = 1.0, minor_radius: float = 0.25, center: Any = (0.0, 0.0, 0.0)) -> SDF:
-    """Torus in the xy-plane: a tube of ``minor_radius`` around a circle of ``major_radius`` (exact).
+def torus(
+    major_radius: float = 1.0, minor_radius: float = 0.25, center: Any = (0.0, 0.0, 0.0), axis: Any = "z"
+) -> SDF:
+    """Torus: a tube of ``minor_radius`` around a circle of ``major_radius`` about ``axis`` (exact).
 
-    ``minor_radius`` must be smaller than ``major_radius`` (a ring torus).
+    ``minor_radius`` must be smaller than ``major_radius`` (a ring torus). ``axis`` (``"x"``,
+    ``"y"``, ``"z"`` by default, or a 3-vector) is normal to the circle's plane.
 
     Examples
     --------
@@ -271,4 +323,4 @@ def torus(major_radius: float = 1.0, minor_radius: float = 0.25, center: Any = (
     minor = positive_float(minor_radius, "minor_radius")
     if minor >= major:
         raise ValueError(f"minor_radius must be < major_radius ({major:g}) for a ring torus; got {minor:g}")
-    return Torus(major, minor, as_vector(center, 3, "center"))
+    return _placed(lambda c: Torus(major, minor, c), center, axis)
