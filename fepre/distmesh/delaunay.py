@@ -59,12 +59,16 @@ def _gmsh(points: np.ndarray) -> np.ndarray:
     return order[tets.reshape(-1, 4) - 1]
 
 
-def tetrahedralize(points: np.ndarray, backend: str = "scipy", scale: float = 1.0) -> np.ndarray:
+def tetrahedralize(
+    points: np.ndarray, backend: str = "scipy", scale: float = 1.0, keep_flat: bool = False
+) -> np.ndarray:
     """Delaunay tetrahedra (M, 4) of ``points``, positively oriented, none of (near) zero volume.
 
     Co-spherical input (lattices) makes Qhull return flat tetrahedra; they are removed here
     (``|V| <= 1e-10 scale^3``), which is harmless inside the DistMesh loop where only the edges
-    matter. The final mesh is checked separately.
+    matter. The final mesh is checked separately. ``keep_flat=True`` keeps them (in the
+    backend's vertex order, so their orientation is undetermined), for the final mesh to flip
+    them away (:func:`fepre.distmesh.finalize.final_mesh`).
 
     Examples
     --------
@@ -84,7 +88,8 @@ def tetrahedralize(points: np.ndarray, backend: str = "scipy", scale: float = 1.
     volumes = signed_volumes(points, tets)
     negative = volumes < 0
     tets[negative] = tets[negative][:, [0, 1, 3, 2]]
-    tets = tets[np.abs(volumes) > 1e-10 * scale**3]
+    if not keep_flat:
+        tets = tets[np.abs(volumes) > 1e-10 * scale**3]
     n = np.int64(len(points))
     # (a, b) are the two smallest corners, {c, d} the others: two int64 keys identify a cell
     return tets[np.lexsort((tets[:, 2] * n + tets[:, 3], tets[:, 0] * n + tets[:, 1]))]

@@ -15,6 +15,12 @@ its cells is chosen:
 - the choice is then repaired until its boundary is a closed 2-manifold
   (:func:`fepre.distmesh.topology.repair_selection`).
 
+Co-planar points inside the point set (a box corner's prism, h thick walls) can give the
+triangulation a flat cell; dropping it would leave a crack that the repair closes by cutting
+cells away. When the triangulation has such a crack, its flat cells are kept, ordered like
+their neighbours, and flipped away (edge removal and 2-3 flips fill the same region with
+positive cells) before anything is chosen.
+
 Nothing moves after the triangulation, so every cell keeps its positive Delaunay volume, and
 the boundary nodes are on the zero set by construction.
 """
@@ -40,6 +46,8 @@ _STAR_ROUNDS = 4
 _MERGE = 0.2
 #: interior nodes at most this deep (times h) are moved onto the zero set, deeper ones dropped
 _PROJECT_DEPTH = 0.5
+#: rounds of flips that remove flat cells from inside the final triangulation
+_FLAT_FLIP_ROUNDS = 6
 #: cells on the zero set whose nodes' normals are all within about 60 degrees of each other
 #: (cosine above this) lie on one side of the surface: caps, left out when shallow
 _CAP_COSINE = 0.5
@@ -118,6 +126,63 @@ def _manifold(tets: np.ndarray, n_points: int) -> bool:
     return True
 
 
+def _cracked(tets: np.ndarray, n_points: int) -> bool:
+    """True when the cells' boundary is not a closed 2-manifold: dropping a flat cell inside the
+    point set (four co-planar points, e.g. the diagonal plane of a box corner's prism) leaves a
+    crack whose faces meet four at an edge."""
+    report = check_topology(tets, n_points)
+    return bool(report.overused_faces or report.nonmanifold_edges or report.pinched_vertices)
+
+
+def _orient_like_neighbours(tets: np.ndarray, flat: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
+    """Flat cells ordered so that each shares a face with a positive neighbour the opposite way
+    round (as cells of one triangulation do); their volume cannot tell their orientation."""
+    from .tet_topology import FACE_OF_TET
+
+    tets = tets.copy()
+    cells = np.flatnonzero(flat)
+    across = neighbours[cells]  # (F, 4)
+    usable = (across >= 0) & ~flat[np.maximum(across, 0)]
+    has = usable.any(axis=1)
+    cells, across, usable = cells[has], across[has], usable[has]
+    local = np.argmax(usable, axis=1)
+    other = across[np.arange(cells.size), local]
+    mine = tets[cells[:, None], FACE_OF_TET[local]]  # (F, 3) as this cell sees its face
+    theirs = tets[other][:, FACE_OF_TET]  # (F, 4, 3) the neighbour's four faces
+    same_set = np.sort(theirs, axis=2) == np.sort(mine, axis=1)[:, None, :]
+    face = theirs[np.arange(cells.size), np.argmax(same_set.all(axis=2), axis=1)]
+    start = np.argmax(face == mine[:, :1], axis=1)
+    following = face[np.arange(cells.size), (start + 1) % 3]
+    same_way = following == mine[:, 1]  # both see the face turning the same way: one is reversed
+    swap = cells[same_way]
+    tets[swap] = tets[swap][:, [0, 2, 1, 3]]
+    return tets
+
+
+def _flip_flat_cells(points: np.ndarray, tets: np.ndarray, h: float) -> np.ndarray:
+    """Replace the flat cells inside the point set by positive ones (edge removal, 2-3 flips, the
+    quality stage's own), then drop the flat cells left, which lie on the hull."""
+    from .flips import flip_round
+    from .tet_shape import ShapeTargets
+    from .tet_topology import edge_keys, face_neighbours, faces_on_boundary
+
+    tiny = 1e-10 * h**3
+    flat = np.abs(signed_volumes(points, tets)) <= tiny
+    if not flat.any():
+        return tets
+    neighbours = face_neighbours(tets, len(points))
+    tets = _orient_like_neighbours(tets, flat, neighbours)
+    hull = faces_on_boundary(tets, neighbours)
+    boundary_edges = np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), len(points)))
+    targets = ShapeTargets()
+    quality = targets.score(points[tets])
+    for _ in range(_FLAT_FLIP_ROUNDS):
+        tets, quality, applied, _ = flip_round(points, tets, quality, 0.0, boundary_edges, targets=targets)
+        if applied == 0:
+            break
+    return tets[signed_volumes(points, tets) > tiny]
+
+
 def _star_conflicts(points: _PointSet, tets: np.ndarray, centroid_values: np.ndarray) -> np.ndarray:
     """Interior nodes that must leave the interior: their star has a cell with its centroid
     outside, or they lie on the boundary of the kept cells (the convex hull)."""
@@ -181,6 +246,14 @@ def final_mesh(
             tets = tetrahedralize(state.points, backend, h)
             if not _manifold(tets, len(state.points)):
                 tets = tetrahedralize(state.points, FALLBACK_BACKEND, h)
+            if _cracked(tets, len(state.points)):
+                for candidate in {backend, FALLBACK_BACKEND}:
+                    whole = tetrahedralize(state.points, candidate, h, keep_flat=True)
+                    if _manifold(whole, len(state.points)):
+                        whole = _flip_flat_cells(state.points, whole, h)
+                        if not _cracked(whole, len(state.points)):
+                            tets = whole
+                            break
         centroid_values = model(state.points[tets].mean(axis=1))
         conflicts = _star_conflicts(state, tets, centroid_values)
         if len(conflicts) == 0 or round_ == _STAR_ROUNDS:
