@@ -205,9 +205,12 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
         z = padded[2][bz * wz + local[2]][:, None, None]
         values = take_scratch((wz, wy, count * wx), dtype)
         model._values_into(values, x, y, z)
+        settle_grid_block(model, values, (x, y, z))
         for y0, y1, x0, x1, column in runs[slab_runs[bz] : slab_runs[bz + 1]]:
             out[z0:z1, y0:y1, x0:x1] = values[:depth, : y1 - y0, column : column + x1 - x0]
         give_scratch(values)
+
+    from .sdf.touching import settle_grid_block
 
     arenas = ScratchArenas()
     if workers > 1:

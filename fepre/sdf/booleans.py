@@ -19,6 +19,7 @@ import numpy as np
 
 from ..arguments import nonnegative_float
 from .core import SDF, Bounds, Coords, give_scratch, take_scratch
+from . import touching
 
 __all__ = ["union", "intersection", "difference", "complement"]
 
@@ -264,6 +265,7 @@ class Union(_PatchedBoolean, SDF):
     """Union of children: ``min`` (sharp) or the chained smooth minimum of radius ``k``."""
 
     analytic_gradient = True
+    settles_shared_faces = True  # sharp: see fepre.sdf.touching
 
     def __init__(self, children: Sequence[SDF], k: float = 0.0) -> None:
         self.dim = children[0].dim
@@ -332,6 +334,8 @@ class Union(_PatchedBoolean, SDF):
                 out, _ = smooth_min(out, values, self.k)
         if self._guard is not None:
             out = np.maximum(out, _box_distance(coords, self._guard))
+        if self.k == 0 and touching.active():
+            touching.settle_shared_faces(out, coords, self.children, self._signs, True, self.length_scale)
         return out
 
     def _values_and_gradient(self, *coords):
@@ -359,6 +363,7 @@ class Intersection(_PatchedBoolean, SDF):
     """Intersection: ``max`` (sharp) or the chained smooth maximum of radius ``k``."""
 
     analytic_gradient = True
+    settles_shared_faces = True  # sharp: see fepre.sdf.touching
 
     def __init__(self, children: Sequence[SDF], k: float = 0.0) -> None:
         self.dim = children[0].dim
@@ -387,6 +392,8 @@ class Intersection(_PatchedBoolean, SDF):
             else:
                 out, _ = smooth_min(-out, -child._values(*coords), self.k)
                 np.negative(out, out=out)
+        if self.k == 0 and touching.active():
+            touching.settle_shared_faces(out, coords, self.children, self._signs, False, self.length_scale)
         return out
 
     def _values_into(self, target: np.ndarray, *coords) -> None:
@@ -396,6 +403,8 @@ class Intersection(_PatchedBoolean, SDF):
         self.children[0]._values_into(target, *coords)
         for child in self.children[1:]:
             _reduce_into(np.maximum, target, child, coords)
+        if touching.active():
+            touching.settle_shared_faces(target, coords, self.children, self._signs, False, self.length_scale)
 
     def _values_and_gradient(self, *coords):
         value, gradient = self.children[0]._values_and_gradient(*coords)
@@ -414,6 +423,7 @@ class Difference(_PatchedBoolean, SDF):
     """``base`` minus the union of ``others``: ``max(base, -min(others))``, sharp or smooth."""
 
     analytic_gradient = True
+    settles_shared_faces = True  # sharp: see fepre.sdf.touching
 
     def __init__(self, base: SDF, others: Sequence[SDF], k: float = 0.0) -> None:
         self.dim = base.dim
@@ -475,6 +485,8 @@ class Difference(_PatchedBoolean, SDF):
             np.maximum(target, values, out=target)
             give_scratch(values)
             smallest = None
+        if touching.active():
+            touching.settle_shared_faces(target, coords, self.children, self._signs, False, self.length_scale)
         return target
 
     def _values_and_gradient(self, *coords):

@@ -404,6 +404,7 @@ class SDF:
                 y = vectors[1][None, y0:y1, None]
                 z = vectors[2][z0:z1, None, None]
                 self._values_into(out[z0:z1, y0:y1, x0:x1], x, y, z)
+                settle_grid_block(self, out[z0:z1, y0:y1, x0:x1], (x, y, z))
 
         else:
             ny = shape[0]
@@ -414,6 +415,9 @@ class SDF:
             def evaluate(block: tuple[int, int]) -> None:
                 y0, y1 = block
                 self._values_into(out[y0:y1, :], x, vectors[1][y0:y1, None])
+                settle_grid_block(self, out[y0:y1, :], (x, vectors[1][y0:y1, None]))
+
+        from .touching import settle_grid_block
 
         arenas = ScratchArenas()
 

@@ -1,0 +1,78 @@
+"""Solids that touch: shared faces are not part of the surface, on grids whose nodes lie on them.
+
+A flange modelled as ``disk | hub`` with the hub standing on the disk gave, at spacing 1.0, a
+surface with an internal double wall: 2 components and genus 8 for 1 and 7 (issue 12)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.sdf.touching import TOUCH_TOLERANCE
+
+METHODS = ["flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets", "dual_contouring"]
+
+
+def flange():
+    disk = sdf.cylinder(radius=5.0, height=1.0, center=(0, 0, 0.5))
+    hub = sdf.cylinder(radius=2.5, height=3.0, center=(0, 0, 2.5))  # stands on the disk at z = 1
+    bolts = sdf.polar_pattern(sdf.cylinder(radius=0.4, height=3.0, center=(3.8, 0, 0.5)), 4)
+    part = (disk | hub) - sdf.cylinder(radius=1.2, height=10.0) - bolts
+    volume = math.pi * (25 * 1 + 6.25 * 3 - 1.44 * 4) - 4 * math.pi * 0.16
+    return part, volume, 1 + 4  # genus: the bore and four bolt holes
+
+
+def t_section():
+    flange_part = sdf.extrude(sdf.polygon([(-3, 2), (3, 2), (3, 3), (-3, 3)]), height=4.0)
+    web = sdf.extrude(sdf.polygon([(-0.5, -2), (0.5, -2), (0.5, 2), (-0.5, 2)]), height=4.0)  # touches at y = 2
+    return flange_part | web, (6 * 1 + 1 * 4) * 4.0, 0
+
+
+def pocket():
+    body = sdf.box((4.0, 4.0, 2.0), center=(0, 0, 1.0))
+    tool = sdf.box((2.0, 2.0, 1.0), center=(0, 0, 1.5))  # its top is flush with the body's top, z = 2
+    return body - tool, 32.0 - 4.0, 0
+
+
+PARTS = {"flange": (flange, 0.1), "t_section": (t_section, 0.25), "pocket": (pocket, 0.25)}
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", sorted(PARTS))
+def test_touching_solids_give_one_closed_surface_on_aligned_grids(name, method):
+    make, spacing = PARTS[name]
+    part, volume, genus = make()
+    surface = fepre.isosurface(fepre.sample(part, spacing=spacing), method=method)
+    check = fepre.check_surface(surface, part)
+    assert (check.components, check.genus) == (1, genus)
+    assert check.watertight and check.manifold
+    assert abs(check.volume - volume) <= 0.5 * spacing * check.area  # edges chamfered by up to half a cell
+
+
+def test_shared_faces_are_inside_a_union_and_outside_a_difference_on_the_grid():
+    spacing = 0.25
+    t_part, _, _ = t_section()
+    image = fepre.sample(t_part, spacing=spacing)
+    points, values = np.asarray(image.points), np.asarray(image["sdf"])
+    tolerance = TOUCH_TOLERANCE * t_part.length_scale
+    shared = (np.abs(points[:, 1] - 2.0) < 1e-9) & (np.abs(points[:, 0]) < 0.5 - 1e-9) & (np.abs(points[:, 2]) < 2 - 1e-9)
+    assert shared.sum() > 20 and np.all(values[shared] == np.float32(-tolerance))
+    outer = (np.abs(points[:, 1] - 2.0) < 1e-9) & (np.abs(points[:, 0]) > 0.5 + 1e-9) & (np.abs(points[:, 0]) < 3 - 1e-9)
+    outer &= np.abs(points[:, 2]) < 2 - 1e-9  # the flange's underside: real boundary, left at 0
+    assert outer.sum() > 20 and np.abs(values[outer]).max() < 1e-6  # float32 rounding of the polygon
+    assert np.all(values[outer] != np.float32(-tolerance))
+    p_part, _, _ = pocket()
+    image = fepre.sample(p_part, spacing=spacing)
+    points, values = np.asarray(image.points), np.asarray(image["sdf"])
+    opening = (np.abs(points[:, 2] - 2.0) < 1e-9) & (np.abs(points[:, :2]) < 1 - 1e-9).all(axis=1)
+    assert opening.sum() > 10 and np.all(values[opening] > 0)
+
+
+def test_point_evaluation_is_unchanged():
+    # Only grid sampling settles shared faces (a point list pays nothing for it).
+    part, _, _ = t_section()
+    assert float(part([0.0, 2.0, 0.0])) == 0.0
