@@ -76,3 +76,41 @@ def test_point_evaluation_is_unchanged():
     # Only grid sampling settles shared faces (a point list pays nothing for it).
     part, _, _ = t_section()
     assert float(part([0.0, 2.0, 0.0])) == 0.0
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_surfaces_on_aligned_grids_have_no_coincident_vertices_or_degenerate_triangles(method):
+    # Grid nodes on the faces gave coincident vertices and zero-area triangles (2,568 on the
+    # flange STL, min angle 0); the surface is now welded where nodes lie on the level.
+    part, _, genus = flange()
+    surface = fepre.isosurface(fepre.sample(part, spacing=0.1), method=method)
+    points = np.asarray(surface.points)
+    assert len(np.unique(points, axis=0)) == len(points)
+    check = fepre.check_surface(surface, part)
+    assert check.degenerate_triangles == 0 and check.min_angle > 0.0
+    assert (check.components, check.genus, check.watertight, check.manifold) == (1, genus, True, True)
+
+
+def test_check_surface_counts_topology_as_a_reader_of_the_file_does(tmp_path):
+    # Raw marching cubes output on an aligned grid keeps coincident vertices apart by their ids;
+    # an STL reader merges them. check_surface now counts as the reader does.
+    import pyvista as pv
+
+    from fepre.surface.marching_cubes import marching_cubes
+    from fepre.surface.extract import triangle_polydata
+
+    part, _, _ = flange()
+    grid = fepre.sample(part, spacing=0.1)
+    values = np.asarray(grid["sdf"]).reshape(tuple(reversed(grid.dimensions)))
+    points, triangles = marching_cubes(values, 0.0, np.asarray(grid.origin), np.asarray(grid.spacing), 1)
+    raw = triangle_polydata(points, triangles)
+    assert len(np.unique(np.asarray(raw.points), axis=0)) < raw.n_points  # coincident vertices
+    raw.save(tmp_path / "raw.stl")
+    read = pv.read(tmp_path / "raw.stl")
+    as_read = fepre.check_surface(read, merge_coincident=False)
+    merged = fepre.check_surface(raw)
+    # (point counts differ by the STL's float32 rounding, which merges a few more)
+    topology = lambda c: (c.components, c.genus, c.watertight, c.manifold)  # noqa: E731
+    assert topology(merged) == topology(as_read) == (1, 5.0, True, True)
+    assert abs(merged.points - as_read.points) <= 1e-3 * as_read.points
+    assert fepre.check_surface(raw, merge_coincident=False).points == raw.n_points

@@ -14,6 +14,11 @@ __all__ = ["SurfaceCheck", "check_surface"]
 class SurfaceCheck:
     """Topology, geometry and accuracy figures of a triangle surface.
 
+    Topology (``points``, ``watertight``, ``manifold``, ``oriented``, ``components``, ``genus``) is
+    counted with exactly coincident vertices merged and the triangles that collapse left out, as a
+    reader of an STL sees it; ``triangles``, ``area``, ``volume``, ``min_angle`` and
+    ``degenerate_triangles`` are of the triangles as given.
+
     ``max_sdf_error``/``mean_sdf_error`` are ``|model(vertex)|`` divided by ``error_unit`` (the grid
     spacing the surface was extracted at); ``hausdorff`` is the two-sided vertex-to-surface
     distance to the reference, in world units. Figures that need a model or reference are None
@@ -115,7 +120,9 @@ def _flying_edges_reference(surface, model):
     return isosurface(grid, method="flying_edges", level=level)
 
 
-def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -> SurfaceCheck:
+def check_surface(
+    surface, model=None, reference=None, *, spacing: Any = None, merge_coincident: bool = True
+) -> SurfaceCheck:
     """Check a triangle surface; compare it with a model and a reference surface.
 
     Parameters
@@ -131,6 +138,9 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
         Surface to measure the two-sided Hausdorff distance to.
     spacing : float, optional
         Unit of the sdf errors (default: the grid spacing stored on the surface).
+    merge_coincident : bool
+        Count the topology with exactly coincident vertices as one vertex, as a reader of the
+        written file (STL) sees it (default); False counts the vertex ids as given.
 
     Examples
     --------
@@ -144,7 +154,13 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    points, faces = _triangles(surface)
+    from .weld import weld
+
+    original_points, original_faces = _triangles(surface)
+    # topology as a reader of the written file sees it: coincident vertices are one vertex
+    if not isinstance(merge_coincident, bool):
+        raise TypeError(f"merge_coincident must be True or False; got {merge_coincident!r}")
+    points, faces = weld(original_points, original_faces) if merge_coincident else (original_points, original_faces)
     used = _distinct(faces.reshape(-1))
     n_vertices = points.shape[0]
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
@@ -165,6 +181,7 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
     euler = int(used.size - edges + faces.shape[0])
     genus = components - euler / 2 if watertight and oriented and manifold else None
 
+    points, faces = original_points, original_faces
     p = points[faces]
     cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     double_area = np.linalg.norm(cross, axis=1)
@@ -191,7 +208,7 @@ def check_surface(surface, model=None, reference=None, *, spacing: Any = None) -
         unit = float(np.max(surface.field_data["surface_spacing"]))
     max_error = mean_error = None
     if model is not None and used.size:
-        error = np.abs(model(points[used])) / (unit if unit else 1.0)
+        error = np.abs(model(points[_distinct(faces.reshape(-1))])) / (unit if unit else 1.0)
         max_error, mean_error = float(error.max()), float(error.mean())
     if reference is None and model is not None and "surface_grid_dimensions" in surface.field_data:
         reference = _flying_edges_reference(surface, model)

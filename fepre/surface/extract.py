@@ -13,6 +13,7 @@ from ..sdf.core import SDF
 from .dual_contouring import dual_contouring
 from .flying_edges import flying_edges
 from .marching_cubes import marching_cubes
+from .weld import weld
 from .marching_tetrahedra import marching_tetrahedra
 from .surface_nets import surface_nets
 
@@ -116,7 +117,9 @@ def isosurface(
     Returns
     -------
     pyvista.PolyData
-        Triangles with normals pointing to positive values, in world coordinates; field data
+        Triangles with normals pointing to positive values, in world coordinates, without
+        coincident vertices or the zero-area triangles between them (grid nodes on the level,
+        :mod:`fepre.surface.weld`); field data
         ``"surface_method"``, ``"surface_level"``, ``"surface_spacing"`` and the grid's
         ``"surface_grid_origin"``/``"surface_grid_dimensions"``. Empty (with a warning) when the
         level is not crossed.
@@ -172,6 +175,9 @@ def isosurface(
             points, triangles = dual_contouring(values, level, origin, step, workers, model=model)
         else:
             points, triangles = _NUMPY_METHODS[method](values, level, origin, step, workers)
+    if points.shape[0] and bool((values == level).any()):
+        # nodes on the level: the crossings on their edges coincide
+        points, triangles = weld(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
     surface = triangle_polydata(points, triangles)
     if surface.n_points == 0:
         low, high = float(values.min()), float(values.max())
