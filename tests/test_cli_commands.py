@@ -225,3 +225,15 @@ def test_warnings_are_one_clean_line(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert any(line.startswith("fepre surface: warning: the surface is empty") for line in err)
     assert not any("UserWarning" in line or ".py:" in line for line in err)
+
+
+def test_an_empty_intersection_is_named_as_such():
+    # "bounds must have min < max on every axis; axis 0 has 4.75 >= 4.75" said nothing useful.
+    import fepre
+    from fepre import sdf
+
+    empty = sdf.sphere(1.0) & sdf.box(0.5, center=(5, 5, 5))
+    for call in (lambda: fepre.distmesh(empty, 0.1), lambda: fepre.sample(empty, spacing=0.1),
+                 lambda: fepre.features(empty, 0.1)):
+        with pytest.raises(ValueError, match="the model is empty: its bounds have no volume"):
+            call()

@@ -8,7 +8,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import as_bounds, as_points, positive_float
+from ..arguments import as_points, domain_bounds, positive_float
 from ..errors import ConvergenceWarning, FeatureWarning, MeshingError
 from ..features import features as detect_features
 from ..sdf.core import SDF
@@ -100,11 +100,7 @@ def distmesh(
         raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
     h = positive_float(h, "h")
     o = resolve_options(options, overrides)
-    if bounds is None:
-        if model.bounds is None:
-            raise ValueError("bounds is required for a model without bounds (model.bounds is None)")
-        bounds = model.bounds
-    lower, upper = (np.asarray(v, dtype=np.float64) for v in as_bounds(bounds, 3, "bounds"))
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
     extent = float((upper - lower).max())
     if h >= extent:
         raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
