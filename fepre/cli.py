@@ -176,7 +176,21 @@ def _run_mesh(args: argparse.Namespace) -> int:
     mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed, features=not args.no_features)
     _say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
     print(summary(mesh))
-    written = fepre.export(mesh, args.output, order=args.order, boundaries=part.boundaries or None, model=part.model)
+    if part.boundaries:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", fepre.export.BoundaryWarning)
+            faces = fepre.export.tag_boundaries(mesh, part.boundaries)
+        counts = np.bincount(np.asarray(faces["boundary_id"]), minlength=len(part.boundaries) + 1)
+        empty = [name for index, name in enumerate(part.boundaries) if counts[index] == 0]
+        if empty:
+            raise ValueError(
+                f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
+                f"mesh (none within a quarter of the local edge length, facing the same way); check "
+                f"where their functions are zero; nothing written"
+            )
+    written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
     return 0
 

@@ -237,3 +237,14 @@ def test_an_empty_intersection_is_named_as_such():
                  lambda: fepre.features(empty, 0.1)):
         with pytest.raises(ValueError, match="the model is empty: its bounds have no volume"):
             call()
+
+
+def test_a_named_boundary_that_matches_no_face_is_an_error(tmp_path, capsys):
+    # It was dropped from the .inp with a warning naming API keywords, and exit 0.
+    model = tmp_path / "part.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\nh = 0.5\n"
+                     "boundaries = {'lid': sdf.plane((0, 0, 1), (0, 0, 5.0))}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "part.inp")]) == 1
+    err = capsys.readouterr().err
+    assert "boundaries 'lid' in" in err and "match no boundary face" in err and "boundary_tolerance" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.py"]
