@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from typing import Any, Callable
@@ -65,7 +66,7 @@ def distmesh(
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
-        Print a progress line (iteration, points, worst quality, seconds) on stderr.
+        Print a progress line (iteration, points, worst dihedral angle, seconds) on stderr.
     callback : callable, optional
         Called with a :class:`fepre.distmesh.DistMeshState` after every iteration.
 
@@ -179,6 +180,16 @@ def distmesh(
                 stacklevel=2,
             )
         sliver_seconds = time.perf_counter() - t0
+        if progress:
+            from ..quality import tet_quality
+
+            measured = tet_quality(points, tets)
+            sys.stderr.write(
+                f"distmesh: quality stage: worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, "
+                f"largest {measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
+                f"{measured['radius_ratio'].min():.3f}  {sliver_seconds:7.2f} s\n"
+            )
+            sys.stderr.flush()
 
     history = dict(loop.history)
     history.update(
