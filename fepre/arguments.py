@@ -73,7 +73,7 @@ def as_vector(value: Any, dim: int, name: str, *, allow_scalar: bool = False) ->
         accepted = f"a number or a sequence of {dim} numbers" if allow_scalar else f"a sequence of {dim} numbers"
         raise ValueError(f"{name} must be {accepted}; got {value!r:.80}")
     if not np.isfinite(array).all():
-        raise ValueError(f"{name} must be finite; got {value!r:.80}")
+        raise ValueError(f"{name} must be finite; got {np.array2string(array, precision=6)}")
     return array
 
 
@@ -129,10 +129,31 @@ def as_bounds(value: Any, dim: int = 3, name: str = "bounds") -> tuple[tuple[flo
             f"sequence of {2 * dim} numbers; got shape {array.shape}"
         )
     if not np.isfinite(array).all():
-        raise ValueError(f"{name} must be finite; got {value!r:.80}")
+        raise ValueError(f"{name} must be finite; got {np.array2string(array, precision=6)}")
     if np.any(lo >= hi):
         axis = int(np.argmax(lo >= hi))
         raise ValueError(f"{name} must have min < max on every axis; axis {axis} has {lo[axis]} >= {hi[axis]}")
+    return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
+
+
+def domain_bounds(model: Any, bounds: Any) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The box to work in: ``bounds`` if given, else the model's own, with messages for an
+    unbounded model and for an empty one (operands whose boxes do not overlap)."""
+    if bounds is not None:
+        return as_bounds(bounds, 3, "bounds")
+    if model.bounds is None:
+        raise ValueError(
+            "bounds is required: the model is unbounded (its bounds are None); pass "
+            "bounds=((xmin, ymin, zmin), (xmax, ymax, zmax))"
+        )
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in model.bounds)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise ValueError("bounds is required: the model's own bounds are not finite")
+    if np.any(lo >= hi):
+        raise ValueError(
+            "the model is empty: its bounds have no volume (an intersection or difference of shapes "
+            "that do not overlap); check the model's placement"
+        )
     return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
 
 

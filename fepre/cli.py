@@ -64,6 +64,35 @@ def _write_atomically(save: Callable[[Path], None], path: Path) -> None:
         save(stage / path.name)
 
 
+def _output_path(value: str | None, flag: str, suffixes: tuple[str, ...]) -> Path | None:
+    """``value`` as an output path, checked before any work: suffix, folder, writability."""
+    import os
+
+    if value is None:
+        return None
+    path = Path(value)
+    if path.suffix.lower() not in suffixes:
+        listed = ", ".join(suffixes[:-1]) + (" or " if len(suffixes) > 1 else "") + suffixes[-1]
+        raise ValueError(f"{flag} must end in {listed}; got {path.name!r}")
+    if path.is_dir():
+        raise ValueError(f"{flag} {value!r} is a folder; give a file name")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"{flag} {value!r}: the folder {str(folder)!r} does not exist; create it first")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{flag} {value!r}: the folder {str(folder)!r} is not writable")
+    return path
+
+
+SURFACE_SUFFIXES = (".stl", ".ply", ".obj", ".vtp", ".vtk")
+
+
+def _mesh_suffixes() -> tuple[str, ...]:
+    from .export import FORMATS
+
+    return tuple(ext for f in FORMATS.values() for ext in f.extensions)
+
+
 def _model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL.py", help="Python file defining `model` (and optionally h, bounds, boundaries)")
 
@@ -88,14 +117,17 @@ def _run_surface(args: argparse.Namespace) -> int:
     from .modelfile import load_model
     from .surface import check_surface, isosurface
 
-    output = Path(args.output)
-    if output.suffix.lower() not in (".stl", ".ply", ".obj", ".vtp", ".vtk"):
-        raise ValueError(f"--output must end in .stl, .ply, .obj, .vtp or .vtk; got {output.name!r}")
+    output = _output_path(args.output, "--output", SURFACE_SUFFIXES)
     part = load_model(args.model)
     spacing = args.spacing if args.spacing is not None else _default_spacing(part)
     _say(f"fepre surface: {args.method} at spacing {spacing:g} ...")
     start = time.perf_counter()
     surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=part.bounds)
+    if surface.n_cells == 0:
+        raise ValueError(
+            f"the surface of {part.path} is empty at spacing {spacing:g} (the model is nowhere negative "
+            f"inside its bounds); nothing written"
+        )
     _say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s; checking ...")
     print(check_surface(surface, part.model))
     _write_atomically(lambda path: surface.save(str(path)), output)
@@ -128,14 +160,37 @@ def _run_mesh(args: argparse.Namespace) -> int:
     from .modelfile import load_model
     from .quality import summary
 
+    output = _output_path(args.output, "--output", _mesh_suffixes())
     part = load_model(args.model)
     h = _edge_length(args, part)
+    from .export.formats import resolve_format
+    from .export.meshio_formats import require_module
+
+    fmt = resolve_format(output, None)
+    if args.order not in fmt.orders:
+        raise ValueError(f"--order {args.order}: format {fmt.name} ({output.suffix}) supports order {fmt.orders[0]} only")
+    if fmt.backend is not None:
+        require_module(*fmt.backend, fmt.name)
     _say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
     mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed, features=not args.no_features)
     _say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
     print(summary(mesh))
-    written = fepre.export(mesh, args.output, order=args.order, boundaries=part.boundaries or None, model=part.model)
+    if part.boundaries:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", fepre.export.BoundaryWarning)
+            faces = fepre.export.tag_boundaries(mesh, part.boundaries)
+        counts = np.bincount(np.asarray(faces["boundary_id"]), minlength=len(part.boundaries) + 1)
+        empty = [name for index, name in enumerate(part.boundaries) if counts[index] == 0]
+        if empty:
+            raise ValueError(
+                f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
+                f"mesh (none within a quarter of the local edge length, facing the same way); check "
+                f"where their functions are zero; nothing written"
+            )
+    written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
     return 0
 
@@ -153,10 +208,9 @@ def _run_features(args: argparse.Namespace) -> int:
 
     from .modelfile import load_model
 
+    _output_path(args.output, "--output", (".vtp", ".vtk"))
     part = load_model(args.model)
     h = _edge_length(args, part)
-    if args.output and Path(args.output).suffix.lower() not in (".vtp", ".vtk"):
-        raise ValueError(f"--output must end in .vtp or .vtk; got {Path(args.output).name!r}")
     found = fepre.features(part.model, h, angle=args.angle, bounds=part.bounds, warn=False)
     print(found)
     if args.output:
@@ -183,6 +237,8 @@ def _run_compare(args: argparse.Namespace) -> int:
     from .compare import compare
     from .modelfile import load_model
 
+    _output_path(args.report, "--report", (".html", ".htm"))
+    _output_path(args.json, "--json", (".json",))
     part = load_model(args.model)
     h = _edge_length(args, part)
     result = compare(part.model, h, references=tuple(args.references), surface_spacing=args.surface_spacing,
@@ -214,6 +270,7 @@ def _configure_view(parser: argparse.ArgumentParser) -> None:
 def _run_view(args: argparse.Namespace) -> int:
     from . import plotting
 
+    _output_path(args.screenshot, "--screenshot", (".png",))
     off_screen = True if args.screenshot else None
     if not args.screenshot and not plotting.has_display():
         raise ValueError("no display to open a window on; pass --screenshot out.png to render off screen")
@@ -370,6 +427,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     _, (_, run) = COMMANDS[args.command]
+    import warnings
+
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        # a warning is news for the user, not a pointer into fepre's source
+        text = str(message).strip().replace("\n", " ")
+        print(f"fepre {args.command}: warning: {text}", file=sys.stderr, flush=True)
+
+    shown = warnings.showwarning
+    warnings.showwarning = one_line
     try:
         return int(run(args) or 0)
     except (ValueError, TypeError, OSError, MeshingError) as exc:
@@ -378,6 +444,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # pragma: no cover
         print("interrupted", file=sys.stderr)
         return 130
+    finally:
+        warnings.showwarning = shown
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -98,13 +98,15 @@ class DemoResult:
 
 
 def _summary_rows(parts: list[DemoPart], comparisons: dict[str, Any]) -> list[list[str]]:
-    rows = [["part", "h", "tets", "nodes", "fepre s", "min dihedral", "mean radius ratio", "volume error", "Hausdorff"]]
+    rows = [["part", "h", "tets", "nodes", "fepre s", "min dihedral", "max dihedral", "min radius ratio",
+             "mean radius ratio", "volume error", "Hausdorff"]]
     for part in parts:
         metrics = comparisons[part.name]["fepre"].metrics
         error = metrics["volume_error"]
         rows.append([
             part.name, f"{part.h:g}", str(metrics["elements"]), str(metrics["nodes"]), f"{metrics['seconds']:.1f}",
-            f"{metrics['min_dihedral_angle_min']:.1f}", f"{metrics['radius_ratio_mean']:.3f}",
+            f"{metrics['min_dihedral_angle_min']:.1f}", f"{metrics['max_dihedral_angle_max']:.1f}",
+            f"{metrics['radius_ratio_min']:.3f}", f"{metrics['radius_ratio_mean']:.3f}",
             "-" if math.isnan(error) else f"{error:+.2%}", f"{metrics['hausdorff']:.2e}",
         ])
     return rows

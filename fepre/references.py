@@ -132,9 +132,15 @@ def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
     import pytetwild
 
     h = positive_float(h, "h")
-    with warnings.catch_warnings():
+    # fTetWild writes "__tracked_surface.stl" into the working folder: run it in a scratch one
+    with warnings.catch_warnings(), tempfile.TemporaryDirectory(prefix="fepre-pytetwild-") as scratch:
         warnings.simplefilter("ignore")  # pytetwild's use of a deprecated pyvista attribute
-        grid = pytetwild.tetrahedralize_pv(surface, edge_length_abs=h, quiet=True)
+        previous = os.getcwd()
+        os.chdir(scratch)
+        try:
+            grid = pytetwild.tetrahedralize_pv(surface, edge_length_abs=h, quiet=True)
+        finally:
+            os.chdir(previous)
     if grid.n_cells == 0:
         raise MeshingError("pytetwild returned no tetrahedra")
     tets = grid.cells_dict.get(10)
@@ -198,14 +204,21 @@ def _gmsh_in_child(path: str, h: float, seed: int) -> tuple[np.ndarray, np.ndarr
     return points, tets, note, time.perf_counter() - start
 
 
-def _gmsh_child_main(connection: Any, path: str, h: float, seed: int) -> None:
-    """Child process entry: send back the gmsh result or the error text."""
+def gmsh_worker(arguments: list[str]) -> int:
+    """``python -m fepre.references STL OUT.npz H SEED``: mesh the STL with gmsh into OUT.npz.
+
+    A fresh interpreter, not a multiprocessing child: a spawned child imports the parent's
+    ``__main__``, which re-runs a user's script that has no ``if __name__ == "__main__"`` guard.
+    """
+    path, out, h, seed = arguments[0], arguments[1], float(arguments[2]), int(arguments[3])
     try:
-        connection.send(("ok", _gmsh_in_child(path, h, seed)))
+        points, tets, note, seconds = _gmsh_in_child(path, h, seed)
     except Exception as exc:  # noqa: BLE001 - reported to the parent as text
-        connection.send(("error", f"{type(exc).__name__}: {exc}"))
-    finally:
-        connection.close()
+        with open(out + ".error", "w", encoding="utf-8") as handle:
+            handle.write(f"{type(exc).__name__}: {exc}")
+        return 1
+    np.savez(out, points=points, tets=tets, note=np.array(note or ""), seconds=np.array(seconds))
+    return 0
 
 
 def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
@@ -218,47 +231,42 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
     as it is and only the volume is meshed (size ``h`` inside); the grid's field data
     ``"reference_note"`` then says so.
 
-    gmsh runs in a child process: on some surfaces it aborts the whole process (seen: "Failed
-    during initial partitioning") or never returns; either is reported as a
-    :class:`MeshingError` (the child is stopped after ``timeout`` seconds). The time gmsh itself
-    took is stored in field data ``"reference_seconds"``.
+    gmsh runs in a separate Python process (``python -m fepre.references``, which never imports
+    the caller's script): on some surfaces it aborts the whole process (seen: "Failed during
+    initial partitioning") or never returns; either is reported as a :class:`MeshingError` (the
+    process is stopped after ``timeout`` seconds). The time gmsh itself took is stored in field
+    data ``"reference_seconds"``.
     """
-    import multiprocessing
+    import subprocess
+    import sys
 
     h = positive_float(h, "h")
     timeout = positive_float(timeout, "timeout")
-    fd, path = tempfile.mkstemp(suffix=".stl", prefix="fepre-gmsh-")
-    os.close(fd)
-    context = multiprocessing.get_context("spawn")  # no fork of a process running VTK threads
-    receiver, sender = context.Pipe(duplex=False)
-    child = context.Process(target=_gmsh_child_main, args=(sender, path, h, seed), daemon=True)
-    try:
+    with tempfile.TemporaryDirectory(prefix="fepre-gmsh-") as scratch:
+        path = os.path.join(scratch, "surface.stl")
+        out = os.path.join(scratch, "mesh.npz")
         surface.save(path, binary=True)
-        child.start()
-        sender.close()
-        if not receiver.poll(timeout):
-            raise MeshingError(f"gmsh did not finish meshing the surface within {timeout:g} s (stopped)")
+        command = [sys.executable, "-m", "fepre.references", path, out, repr(float(h)), str(int(seed))]
         try:
-            status, payload = receiver.recv()
-        except EOFError:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
+        except subprocess.TimeoutExpired:
+            raise MeshingError(f"gmsh did not finish meshing the surface within {timeout:g} s (stopped)") from None
+        if os.path.exists(out + ".error"):
+            with open(out + ".error", encoding="utf-8") as handle:
+                raise MeshingError(f"gmsh failed to mesh the surface: {handle.read()}")
+        if done.returncode != 0 or not os.path.exists(out):
+            last = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no message"]
             raise MeshingError(
-                f"gmsh aborted while meshing the surface (its process died, exit code {child.exitcode})"
-            ) from None
-        if status == "error":
-            raise MeshingError(f"gmsh failed to mesh the surface: {payload}")
-        points, tets, note, seconds = payload
-        grid = _positive_tets(points, tets)
-        if note:
-            grid.field_data["reference_note"] = [note]
-        grid.field_data["reference_seconds"] = [seconds]
-        return grid
-    finally:
-        if child.is_alive():
-            child.kill()
-        if child.pid is not None:
-            child.join()
-        receiver.close()
-        os.unlink(path)
+                f"gmsh aborted while meshing the surface (its process died, exit code {done.returncode}: {last[0][:200]})"
+            )
+        with np.load(out) as result:
+            points, tets = result["points"], result["tets"]
+            note, seconds = str(result["note"]), float(result["seconds"])
+    grid = _positive_tets(points, tets)
+    if note:
+        grid.field_data["reference_note"] = [note]
+    grid.field_data["reference_seconds"] = [seconds]
+    return grid
 
 
 REFERENCES: dict[str, tuple[str, Callable[..., Any]]] = {
@@ -286,3 +294,9 @@ def run_reference(name: str, surface: Any, h: float, seed: int = 0):
         seconds = float(mesh.field_data["reference_seconds"][0])
     mesh.field_data["reference_settings"] = [REFERENCE_SETTINGS[name]]
     return mesh, seconds
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(gmsh_worker(sys.argv[1:]))

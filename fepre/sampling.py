@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import as_bounds, as_vector, nonnegative_float, positive_int
+from .arguments import as_bounds, as_vector, domain_bounds, nonnegative_float, positive_int
 from .config import config
 from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
 
@@ -73,14 +73,9 @@ def grid_geometry(
     if spacing is not None and shape is not None:
         raise ValueError("give spacing or shape, not both")
     if bounds is None:
-        if model is None or model.bounds is None:
-            raise ValueError(
-                "bounds is required: the model is unbounded (its bounds are None); pass "
-                "bounds=((xmin, ymin, zmin), (xmax, ymax, zmax))"
-            )
-        lo, hi = (np.array(b, dtype=float) for b in model.bounds)
-        if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
-            raise ValueError(f"bounds is required: the model's bounds {model.bounds} are not finite")
+        if model is None:
+            raise ValueError("bounds is required without a model")
+        lo, hi = (np.array(b, dtype=float) for b in domain_bounds(model, None))
         padded = True
     else:
         lo, hi = (np.array(b) for b in as_bounds(bounds, 3, "bounds"))

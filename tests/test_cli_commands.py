@@ -174,3 +174,77 @@ def test_mesh_keeps_the_rim_sharp_unless_told_not_to(folder):
                                  & (np.abs(np.linalg.norm(grid.points[:, :2], axis=1) - math.sqrt(0.75)) < 1e-9))
     assert on_rim(pv.read(sharp)) >= round(2 * math.pi * math.sqrt(0.75) / 0.3)
     assert on_rim(pv.read(rounded)) < on_rim(pv.read(sharp))
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["mesh", "{ball}", "-o", "{dir}/a.foo"], "--output must end in .inp"),
+        (["mesh", "{ball}", "-o", "{dir}/nodir/a.inp"], "the folder '{dir}/nodir' does not exist"),
+        (["compare", "{ball}", "--report", "{dir}/nodir/r.html"], "--report '{dir}/nodir/r.html': the folder"),
+        (["compare", "{ball}", "--json", "{dir}/r.txt"], "--json must end in .json"),
+        (["mesh", "{ball}", "-o", "{dir}/a.mesh", "--order", "2"], "--order 2: format medit (.mesh) supports order 1 only"),
+        (["view", "{ball}", "--screenshot", "{dir}/nodir/a.png"], "--screenshot '{dir}/nodir/a.png': the folder"),
+    ],
+)
+def test_bad_output_paths_fail_before_any_work(folder, tmp_path, capsys, argv, message):
+    # `-o a.foo` used to be refused after 6.8 s of meshing, a missing folder after the whole run.
+    fill = {"ball": str(folder / "ball.py"), "dir": str(tmp_path)}
+    start = __import__("time").perf_counter()
+    assert main([a.format(**fill) for a in argv]) == 1
+    assert __import__("time").perf_counter() - start < 5.0  # DistMesh of the ball alone takes longer
+    assert message.format(**fill) in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_empty_model_is_an_error_and_writes_nothing(tmp_path, capsys):
+    # `fepre surface empty.py -o a.stl` wrote an 84-byte empty STL and exited 0.
+    model = tmp_path / "empty.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0) & sdf.box(0.5, center=(5, 5, 5))\n"
+                     "bounds = ((-1, -1, -1), (1, 1, 1))\n")
+    assert main(["surface", str(model), "-o", str(tmp_path / "a.stl")]) == 1
+    assert "is empty" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.py"]
+
+
+def test_signatures_show_the_parameters():
+    import inspect
+
+    import fepre
+
+    for function, parameter in ((fepre.distmesh, "h"), (fepre.export, "order"), (fepre.features, "angle")):
+        assert parameter in inspect.signature(function).parameters
+
+
+def test_warnings_are_one_clean_line(tmp_path, capsys):
+    # They showed "cli.py:124: UserWarning: ..." and the source line of fepre's own code.
+    model = tmp_path / "empty.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0) & sdf.box(0.5, center=(5, 5, 5))\n"
+                     "bounds = ((-1, -1, -1), (1, 1, 1))\n")
+    main(["surface", str(model), "-o", str(tmp_path / "a.stl")])
+    err = capsys.readouterr().err.splitlines()
+    assert any(line.startswith("fepre surface: warning: the surface is empty") for line in err)
+    assert not any("UserWarning" in line or ".py:" in line for line in err)
+
+
+def test_an_empty_intersection_is_named_as_such():
+    # "bounds must have min < max on every axis; axis 0 has 4.75 >= 4.75" said nothing useful.
+    import fepre
+    from fepre import sdf
+
+    empty = sdf.sphere(1.0) & sdf.box(0.5, center=(5, 5, 5))
+    for call in (lambda: fepre.distmesh(empty, 0.1), lambda: fepre.sample(empty, spacing=0.1),
+                 lambda: fepre.features(empty, 0.1)):
+        with pytest.raises(ValueError, match="the model is empty: its bounds have no volume"):
+            call()
+
+
+def test_a_named_boundary_that_matches_no_face_is_an_error(tmp_path, capsys):
+    # It was dropped from the .inp with a warning naming API keywords, and exit 0.
+    model = tmp_path / "part.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\nh = 0.5\n"
+                     "boundaries = {'lid': sdf.plane((0, 0, 1), (0, 0, 5.0))}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "part.inp")]) == 1
+    err = capsys.readouterr().err
+    assert "boundaries 'lid' in" in err and "match no boundary face" in err and "boundary_tolerance" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.py"]

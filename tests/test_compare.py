@@ -181,14 +181,32 @@ def test_gmsh_reference_meshes_a_sharp_part_remeshed_or_with_its_surface_kept():
 
 
 def test_gmsh_reference_that_does_not_finish_is_stopped_and_reported():
-    import multiprocessing
-
     from fepre.references import gmsh_mesh, reference_surface
 
     surface = reference_surface(sdf.sphere(1.0), 0.1)
     with pytest.raises(fepre.MeshingError, match="did not finish .* within 0.001 s"):
         gmsh_mesh(surface, 0.2, timeout=0.001)
-    assert multiprocessing.active_children() == []
+
+
+def test_a_script_without_a_main_guard_runs_once_and_writes_nothing_else(tmp_path):
+    # The README tour run as a plain script printed its lines twice and ended in a
+    # multiprocessing RuntimeError ("gmsh aborted"): the gmsh child imported the user's __main__.
+    # pytetwild left a 0.5 MB __tracked_surface.stl in the working folder.
+    import subprocess
+    import sys
+
+    script = tmp_path / "tour.py"
+    script.write_text(
+        "import fepre\nfrom fepre import sdf\nprint('tour line')\n"
+        "part = sdf.box((1, 1, 1)) - sdf.cylinder(radius=0.25, height=2)\n"
+        "result = fepre.compare(part, h=0.3, references=('pytetwild', 'gmsh'), progress=False)\n"
+        "print('failed:', [r.name for r in result.results if r.error])\n"
+    )
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.splitlines() == ["tour line", "failed: []"]
+    assert "Traceback" not in done.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["tour.py"]
 
 
 def test_report_says_how_each_mesher_ran_and_its_mean_edge_length(tmp_path):

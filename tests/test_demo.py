@@ -70,3 +70,11 @@ def test_demo_prints_a_summary_and_progress_and_writes_one_report(demo):
     assert html.count("data:image/png;base64") >= 4
     assert "<h2>Summary</h2>" in html
     assert sorted(p.name for p in outdir.iterdir() if p.suffix == ".html") == ["report.html"]
+
+
+def test_demo_table_shows_the_worst_cells_on_every_measure():
+    # The table hid the worst cells: only min dihedral and mean radius ratio.
+    from fepre.demo import _summary_rows
+
+    header = _summary_rows([], {})[0]
+    assert {"min dihedral", "max dihedral", "min radius ratio", "mean radius ratio"} <= set(header)

@@ -182,3 +182,15 @@ def test_flat_cells_inside_the_point_set_leave_no_crack():
     cells = mesh.cells_dict[pv.CellType.TETRA]
     assert check_topology(cells, mesh.n_points).ok
     assert mesh["volume"].min() > 1e-3
+
+
+def test_progress_lines_show_the_worst_dihedral_angle(capsys):
+    # The line showed "worst quality -0.214" (the loop's signed measure), which users cannot read.
+    mesh = fepre.distmesh(sdf.sphere(1.0), 0.4, progress=True)
+    err = capsys.readouterr().err
+    lines = [line for line in err.replace("\r", "\n").splitlines() if line.startswith("distmesh:")]
+    assert lines and "worst quality" not in err
+    stage = [line for line in lines if "quality stage" in line]
+    assert len(stage) == 1
+    worst = float(stage[0].split("worst dihedral ")[1].split(" deg")[0])
+    assert worst == pytest.approx(mesh["min_dihedral_angle"].min(), abs=0.05)

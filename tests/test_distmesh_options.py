@@ -138,7 +138,7 @@ def test_progress_line_and_callback(capsys):
     states = []
     mesh_of(BALL, H, progress=True, callback=lambda s: states.append((s.iteration, len(s.points), s.tets.shape, s.max_move)))
     err = capsys.readouterr().err
-    assert "distmesh: iteration" in err and "points" in err and "worst quality" in err
+    assert "distmesh: iteration" in err and "points" in err and "worst dihedral" in err
     assert [s[0] for s in states] == list(range(1, len(states) + 1))
     assert all(shape[1] == 4 for _, _, shape, _ in states)
 

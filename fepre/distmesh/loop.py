@@ -132,10 +132,20 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
     return keep
 
 
-def _print_progress(iteration: int, n_points: int, worst: float, seconds: float, done: bool) -> None:
+def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, seconds: float, done: bool) -> None:
+    """One line: iteration, points, the worst dihedral angle of the current cells, time."""
+    from ..quality import dihedral_angles, signed_volumes
+
+    positive = signed_volumes(points, tets) > 0
+    worst = float(dihedral_angles(points, tets[positive]).min()) if positive.any() else 0.0
+    inverted = int(np.count_nonzero(~positive))
+    flipped = f"  ({inverted} cells inverted)" if inverted else ""
     # one line rewritten in place on a terminal; whole lines in a log file
     end = "\n" if done or not sys.stderr.isatty() else "\r"
-    sys.stderr.write(f"distmesh: iteration {iteration:5d}  {n_points:8d} points  worst quality {worst:6.3f}  {seconds:7.2f} s{end}")
+    sys.stderr.write(
+        f"distmesh: iteration {iteration:5d}  {len(points):8d} points  worst dihedral {worst:5.1f} deg"
+        f"{flipped}  {seconds:7.2f} s{end}"
+    )
     sys.stderr.flush()
 
 
@@ -259,13 +269,13 @@ def iterate(
             )
         if progress and (converged or seconds - last_print > 0.5):
             last_print = seconds
-            _print_progress(iteration, n, history["min_quality"][-1], seconds, converged)
+            _print_progress(iteration, p, tets, seconds, converged)
         if converged:
             break
 
     seconds = time.perf_counter() - start
     if progress and not converged:
-        _print_progress(iteration, n, history["min_quality"][-1] if history["min_quality"] else 0.0, seconds, True)
+        _print_progress(iteration, p, tets, seconds, True)
     return LoopResult(
         points=p,
         fixed_mask=fixed,

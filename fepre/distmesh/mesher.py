@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import as_bounds, as_points, positive_float
+from ..arguments import as_points, domain_bounds, positive_float
 from ..errors import ConvergenceWarning, FeatureWarning, MeshingError
 from ..features import features as detect_features
 from ..sdf.core import SDF
@@ -65,7 +66,7 @@ def distmesh(
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
-        Print a progress line (iteration, points, worst quality, seconds) on stderr.
+        Print a progress line (iteration, points, worst dihedral angle, seconds) on stderr.
     callback : callable, optional
         Called with a :class:`fepre.distmesh.DistMeshState` after every iteration.
 
@@ -100,11 +101,7 @@ def distmesh(
         raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
     h = positive_float(h, "h")
     o = resolve_options(options, overrides)
-    if bounds is None:
-        if model.bounds is None:
-            raise ValueError("bounds is required for a model without bounds (model.bounds is None)")
-        bounds = model.bounds
-    lower, upper = (np.asarray(v, dtype=np.float64) for v in as_bounds(bounds, 3, "bounds"))
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
     extent = float((upper - lower).max())
     if h >= extent:
         raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
@@ -183,6 +180,16 @@ def distmesh(
                 stacklevel=2,
             )
         sliver_seconds = time.perf_counter() - t0
+        if progress:
+            from ..quality import tet_quality
+
+            measured = tet_quality(points, tets)
+            sys.stderr.write(
+                f"distmesh: quality stage: worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, "
+                f"largest {measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
+                f"{measured['radius_ratio'].min():.3f}  {sliver_seconds:7.2f} s\n"
+            )
+            sys.stderr.flush()
 
     history = dict(loop.history)
     history.update(

@@ -200,3 +200,5 @@ class _CallableModule(types.ModuleType):
 
 
 sys.modules[__name__].__class__ = _CallableModule
+# inspect.signature() and IDEs show the function's parameters, not (*args, **kwargs)
+sys.modules[__name__].__signature__ = __import__("inspect").signature(export)

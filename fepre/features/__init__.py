@@ -25,7 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import as_bounds, evaluate_size, finite_float, positive_float
+from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
 from ..errors import FeatureWarning
 from ..sdf.core import SDF
 from .conflicts import resolve_conflicts
@@ -100,11 +100,7 @@ def features(
         raise ValueError(f"angle must be in (0, 180) degrees; got {angle!r}")
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
-    if bounds is None:
-        if model.bounds is None:
-            raise ValueError("bounds is required for a model without bounds (model.bounds is None)")
-        bounds = model.bounds
-    lower, upper = (np.asarray(b, dtype=np.float64) for b in as_bounds(bounds, 3, "bounds"))
+    lower, upper = (np.asarray(b, dtype=np.float64) for b in domain_bounds(model, bounds))
     scale = float(np.max(upper - lower))
     spacing = h / 4.0 if spacing is None else positive_float(spacing, "spacing")
     if spacing >= scale:
@@ -152,3 +148,5 @@ class _CallableModule(types.ModuleType):
 
 
 sys.modules[__name__].__class__ = _CallableModule
+# inspect.signature() and IDEs show the function's parameters, not (*args, **kwargs)
+sys.modules[__name__].__signature__ = __import__("inspect").signature(features)
