@@ -110,6 +110,12 @@ def _configure_surface(parser: argparse.ArgumentParser) -> None:
                                  "dual_contouring"),
                         help="extraction method (dual_contouring keeps sharp edges and corners)")
     parser.add_argument("--spacing", type=float, help="grid spacing (default: largest extent / 100)")
+    parser.add_argument("--level", type=float, default=0.0,
+                        help="the level set to extract (default 0: the part's surface; > 0 an offset outward)")
+    parser.add_argument("--bounds", type=float, nargs=6, metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+                        help="box to sample (default: the model file's bounds, else the model's own)")
+    parser.add_argument("--no-check", action="store_true", help="skip the surface check (watertight, genus, errors)")
+    parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
 
 
 @command("surface", "extract the surface of a model file and write it (STL, PLY, OBJ, VTP)")(_configure_surface)
@@ -118,18 +124,37 @@ def _run_surface(args: argparse.Namespace) -> int:
     from .surface import check_surface, isosurface
 
     output = _output_path(args.output, "--output", SURFACE_SUFFIXES)
+    if args.spacing is not None and not args.spacing > 0:
+        raise ValueError(f"--spacing must be > 0; got {args.spacing:g}")
+    bounds = None
+    if args.bounds is not None:
+        from .arguments import as_bounds
+
+        bounds = as_bounds((args.bounds[:3], args.bounds[3:]), 3, "--bounds")
     part = load_model(args.model)
-    spacing = args.spacing if args.spacing is not None else _default_spacing(part)
-    _say(f"fepre surface: {args.method} at spacing {spacing:g} ...")
+    bounds = bounds if bounds is not None else part.bounds
+    if args.spacing is not None:
+        spacing = args.spacing
+    elif bounds is not None:
+        spacing = max(b - a for a, b in zip(*bounds)) / 100.0
+    else:
+        spacing = _default_spacing(part)
+    say = (lambda message: None) if args.quiet else _say
+    say(f"fepre surface: {args.method} at spacing {spacing:g} ...")
     start = time.perf_counter()
-    surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=part.bounds)
+    surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=bounds, level=args.level)
     if surface.n_cells == 0:
         raise ValueError(
             f"the surface of {part.path} is empty at spacing {spacing:g} (the model is nowhere negative "
             f"inside its bounds); nothing written"
         )
-    _say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s; checking ...")
-    print(check_surface(surface, part.model))
+    if args.no_check:
+        say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s")
+    else:
+        say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s; checking ...")
+        check = check_surface(surface, part.model)
+        if not args.quiet:
+            print(check)
     _write_atomically(lambda path: surface.save(str(path)), output)
     print(f"wrote {output}")
     return 0
@@ -142,6 +167,7 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
+    parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
 
 
 def _edge_length(args: argparse.Namespace, part) -> float:
@@ -171,11 +197,14 @@ def _run_mesh(args: argparse.Namespace) -> int:
         raise ValueError(f"--order {args.order}: format {fmt.name} ({output.suffix}) supports order {fmt.orders[0]} only")
     if fmt.backend is not None:
         require_module(*fmt.backend, fmt.name)
-    _say(f"fepre mesh: DistMesh h={h:g} ...")
+    say = (lambda message: None) if args.quiet else _say
+    say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
-    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=True, seed=args.seed, features=not args.no_features)
-    _say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
-    print(summary(mesh))
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=not args.quiet, seed=args.seed,
+                          features=not args.no_features)
+    say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
+    if not args.quiet:
+        print(summary(mesh))
     if part.boundaries:
         import warnings
 
@@ -264,6 +293,10 @@ def _configure_view(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--metric", default="min_dihedral_angle",
                         help="cell quality to colour tetrahedra by (default min_dihedral_angle)")
     parser.add_argument("--no-clip", action="store_true", help="show the whole mesh instead of its interior")
+    parser.add_argument("--clip", metavar="AXIS[=VALUE]",
+                        help="clip plane of a mesh: normal x, y or z, through VALUE (default the centre), e.g. z=0.5")
+    parser.add_argument("--slice", metavar="AXIS[=VALUE]",
+                        help="show only the section of a mesh on this plane (e.g. y=0 through a lattice infill)")
 
 
 @command("view", "show a mesh (its interior coloured by quality), a surface or a model file")(_configure_view)
@@ -271,6 +304,11 @@ def _run_view(args: argparse.Namespace) -> int:
     from . import plotting
 
     _output_path(args.screenshot, "--screenshot", (".png",))
+    if args.clip and args.slice:
+        raise ValueError("give --clip or --slice, not both")
+    if (args.clip or args.slice) and args.no_clip:
+        raise ValueError(f"--no-clip contradicts {'--clip' if args.clip else '--slice'}")
+    plane = _plane(args.clip, "--clip") if args.clip else _plane(args.slice, "--slice") if args.slice else ("x", None)
     off_screen = True if args.screenshot else None
     if not args.screenshot and not plotting.has_display():
         raise ValueError("no display to open a window on; pass --screenshot out.png to render off screen")
@@ -283,14 +321,34 @@ def _run_view(args: argparse.Namespace) -> int:
         mesh, _ = _read_mesh(args.file)
         tetrahedra = plotting.tetrahedra_of(mesh)
         if tetrahedra is not None:
+            origin = None
+            if plane[1] is not None:
+                origin = list(tetrahedra.center)
+                origin["xyz".index(plane[0])] = plane[1]
             path = plotting.plot(tetrahedra, metric=args.metric, clip=not args.no_clip, off_screen=off_screen,
-                                 screenshot=args.screenshot, title=Path(args.file).name)
+                                 screenshot=args.screenshot, title=Path(args.file).name, normal=plane[0],
+                                 origin=origin, slice=bool(args.slice))
         else:
             path = plotting.plot_surface(mesh, off_screen=off_screen, screenshot=args.screenshot,
                                          title=Path(args.file).name)
     if path is not None:
         print(f"wrote {path}")
     return 0
+
+
+def _plane(text: str, flag: str) -> tuple[str, float | None]:
+    """``"z"`` or ``"z=0.5"`` as (axis, position or None)."""
+    axis, _, value = text.partition("=")
+    axis = axis.strip().lower()
+    if axis not in ("x", "y", "z"):
+        raise ValueError(f"{flag} must be x, y or z, optionally =VALUE (e.g. z=0.5); got {text!r}")
+    if not value:
+        return axis, None
+    try:
+        position = float(value)
+    except ValueError:
+        raise ValueError(f"{flag} {text!r}: {value!r} is not a number") from None
+    return axis, position
 
 
 def _configure_info(parser: argparse.ArgumentParser) -> None:

@@ -70,6 +70,9 @@ def quality_plotter(
     title: str = "",
     clim: tuple[float, float] | None = None,
     worst: float | None = 15.0,
+    normal: str = "x",
+    origin: Any = None,
+    slice: bool = False,
 ):
     """A ``pyvista.Plotter`` showing ``mesh`` coloured by the cell quality ``metric``.
 
@@ -80,7 +83,7 @@ def quality_plotter(
     metric : str
         One of :data:`QUALITY_METRICS`.
     clip : bool
-        Cut the mesh with a plane through its centre (normal +x), keeping whole cells, so the
+        Cut the mesh with a plane (``normal``, through ``origin``), keeping whole cells, so the
         interior shows.
     off_screen : bool, optional
         Render without a window (default: off screen when there is no display).
@@ -92,6 +95,12 @@ def quality_plotter(
     worst : float or None
         For ``min_dihedral_angle``: also draw, opaque and outlined, every cell of the *whole*
         mesh whose worst dihedral is below this angle (None: don't).
+    normal : {"x", "y", "z"}
+        Normal of the clipping or slicing plane.
+    origin : (3,) float, optional
+        A point of that plane (default: the mesh's centre).
+    slice : bool
+        Show only the cut through the cells on that plane (a lattice infill's walls in section).
 
     Returns
     -------
@@ -110,7 +119,15 @@ def quality_plotter(
     if clim is None:
         values = np.asarray(mesh.cell_data[metric])
         clim = natural if natural is not None else (float(values.min()), float(values.max()))
-    shown = mesh.clip(normal="x", origin=mesh.center, crinkle=True) if clip else mesh
+    choice(normal, "normal", ("x", "y", "z"))
+    origin = mesh.center if origin is None else [float(v) for v in origin]
+    if slice:
+        shown = mesh.slice(normal=normal, origin=origin)
+        if shown.n_cells == 0:
+            raise ValueError(f"the plane through {origin} with normal {normal} does not cut the mesh")
+        clip = False
+    else:
+        shown = mesh.clip(normal=normal, origin=origin, crinkle=True) if clip else mesh
     if shown.n_cells == 0:
         shown = mesh
     plotter = pv.Plotter(off_screen=_display_offscreen(off_screen), window_size=list(window_size))
@@ -175,6 +192,9 @@ def plot(
     window_size: tuple[int, int] = (900, 700),
     clim: tuple[float, float] | None = None,
     title: str = "",
+    normal: str = "x",
+    origin: Any = None,
+    slice: bool = False,
 ):
     """Show the interior of a tetrahedral mesh coloured by a quality metric.
 
@@ -193,7 +213,7 @@ def plot(
         No window (default: off screen only when there is no display).
     screenshot : path, optional
         Save a PNG of the view.
-    window_size, clim, title
+    window_size, clim, title, normal, origin, slice
         See :func:`quality_plotter`.
 
     Returns
@@ -207,7 +227,8 @@ def plot(
     >>> fepre.plot(mesh, screenshot="mesh.png", off_screen=True)  # doctest: +SKIP
     """
     plotter = quality_plotter(mesh, metric=metric, clip=clip, off_screen=_display_offscreen(off_screen),
-                              window_size=window_size, clim=clim, title=title)
+                              window_size=window_size, clim=clim, title=title, normal=normal, origin=origin,
+                              slice=slice)
     return _show(plotter, screenshot)
 
 

@@ -248,3 +248,38 @@ def test_a_named_boundary_that_matches_no_face_is_an_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "boundaries 'lid' in" in err and "match no boundary face" in err and "boundary_tolerance" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["part.py"]
+
+
+def test_surface_level_bounds_no_check_and_quiet(tmp_path, capsys):
+    model = tmp_path / "ball.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    grown = tmp_path / "grown.stl"
+    assert main(["surface", str(model), "-o", str(grown), "--level", "0.2", "--spacing", "0.05",
+                 "--bounds", "-1.5", "-1.5", "-1.5", "1.5", "1.5", "1.5", "--no-check", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.strip() == f"wrote {grown}" and "watertight" not in captured.out and captured.err == ""
+    assert pv.read(grown).volume == pytest.approx(4 / 3 * math.pi * 1.2**3, rel=0.01)  # the offset surface
+    half = tmp_path / "half.stl"
+    assert main(["surface", str(model), "-o", str(half), "--bounds", "-2", "-2", "0", "2", "2", "2", "--spacing", "0.05"]) == 0
+    points = np.asarray(pv.read(half).points)
+    assert points[:, 2].min() >= -1e-9 and "watertight" in capsys.readouterr().out
+    assert main(["surface", str(model), "-o", str(half), "--bounds", "1", "-2", "0", "-1", "2", "2"]) == 1
+    assert "--bounds must have min < max" in capsys.readouterr().err
+
+
+def test_view_slice_and_clip_render_inside(meshed, tmp_path, capsys):
+    for option in (["--slice", "z=0.2"], ["--clip", "y"]):
+        png = tmp_path / f"{option[0][2:]}.png"
+        assert main(["view", str(meshed / "ball.vtu"), *option, "--screenshot", str(png)]) == 0
+        assert _non_blank(png) > 0.05
+    assert main(["view", str(meshed / "ball.vtu"), "--slice", "w", "--screenshot", str(tmp_path / "x.png")]) == 1
+    assert "--slice must be x, y or z" in capsys.readouterr().err
+    assert main(["view", str(meshed / "ball.vtu"), "--slice", "z", "--clip", "x", "--screenshot", str(tmp_path / "x.png")]) == 1
+    assert "not both" in capsys.readouterr().err
+
+
+def test_mesh_quiet_prints_only_the_written_file(folder, tmp_path, capsys):
+    out = tmp_path / "ball.inp"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--h", "0.4", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith(f"wrote {out}") and captured.err == "" and "min_dihedral" not in captured.out

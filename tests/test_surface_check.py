@@ -77,3 +77,28 @@ def test_model_errors_and_hausdorff_to_a_shifted_copy():
 def test_str_is_a_readable_table():
     text = str(fepre.check_surface(polydata(*octahedron())))
     assert "watertight" in text and "euler characteristic  2" in text and "hausdorff" in text
+
+
+def test_distance_to_surface_matches_vtk_and_hausdorff_is_sampled_on_big_surfaces():
+    import pyvista as pv
+    import vtk
+
+    from fepre.surface import check as check_module
+    from fepre.surface.distance import distance_to_surface
+
+    ball = pv.Sphere(theta_resolution=24, phi_resolution=24)
+    queries = np.random.default_rng(3).normal(size=(500, 3)) * 0.6
+    implicit = vtk.vtkImplicitPolyDataDistance()
+    implicit.SetInput(ball)
+    expected = np.abs([implicit.EvaluateFunction(q) for q in queries])
+    got = distance_to_surface(queries, np.asarray(ball.points), np.asarray(ball.regular_faces))
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    shifted = ball.translate((0.02, 0.0, 0.0), inplace=False)
+    exact = check_module._hausdorff(ball, shifted)
+    limit = check_module.HAUSDORFF_VERTICES
+    try:
+        check_module.HAUSDORFF_VERTICES = 100  # sampled: a lower bound, close on an even surface
+        sampled = check_module._hausdorff(ball, shifted)
+    finally:
+        check_module.HAUSDORFF_VERTICES = limit
+    assert exact == pytest.approx(0.02, rel=0.05) and 0.8 * exact <= sampled <= exact

@@ -90,7 +90,10 @@ def test_vertices_lie_on_the_surface(surfaces, method):
     check = fepre.check_surface(surface, model)
     # interpolated crossings are within a small fraction of a cell; surface nets averages them
     assert check.max_sdf_error < (0.3 if method == "surface_nets" else 0.05)
-    assert check.hausdorff < 0.5 * TORUS[4]
+    if method == "flying_edges":
+        assert check.hausdorff is None  # the default reference would be the surface itself
+    else:
+        assert check.hausdorff < 0.5 * TORUS[4]
 
 
 @pytest.mark.parametrize("method", METHODS)

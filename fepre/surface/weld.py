@@ -47,15 +47,27 @@ def weld(points: np.ndarray, triangles: np.ndarray, tolerance: float = 0.0) -> t
         np.minimum.at(first, label, np.arange(len(points)))
         representative = first[label]
     else:
-        order = np.lexsort((points[:, 2], points[:, 1], points[:, 0]))
-        ordered = points[order]
-        new_run = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
-        representative = np.empty(len(points), dtype=np.int64)
-        representative[order] = order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]
+        # coincident points share any key made from their coordinates: sort by one such key
+        # (grid vertices often share an x, rarely this) and compare the ties fully (usually none)
+        key = points @ np.array([1.0, 0.7548776662466927, 0.5698402909980532])
+        by_x = np.argsort(key, kind="stable")
+        x = key[by_x]
+        tied = np.zeros(len(points), dtype=bool)
+        same = x[1:] == x[:-1]
+        tied[1:] |= same
+        tied[:-1] |= same
+        representative = np.arange(len(points), dtype=np.int64)
+        candidates = by_x[tied]
+        if candidates.size:
+            sub = points[candidates]
+            order = candidates[np.lexsort((sub[:, 2], sub[:, 1], sub[:, 0]))]
+            ordered = points[order]
+            new_run = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+            representative[order] = order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]
     merged = representative[triangles]
     keep = (merged[:, 0] != merged[:, 1]) & (merged[:, 1] != merged[:, 2]) & (merged[:, 0] != merged[:, 2])
     merged = merged[keep]
-    used = np.unique(merged)
+    used = np.flatnonzero(np.bincount(merged.ravel(), minlength=len(points)))  # sorted, O(n)
     index = np.full(len(points), -1, dtype=np.int64)
     index[used] = np.arange(used.size)
     return points[used], index[merged]
