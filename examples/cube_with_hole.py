@@ -1,4 +1,4 @@
-"""The seed's first example: a cube [0, 5]^3 minus a radius-1 cylinder along z through its centre.
+"""The first example of Kelly's DistMesh.jl study: a cube [0, 5]^3 minus a radius-1 cylinder along z through its centre.
 
 Writes ``cube_with_hole.stl`` (into the folder given as the first argument, default the current
 folder) with dual contouring, so the cube's edges and corners and the rims of the hole stay

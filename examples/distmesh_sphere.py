@@ -1,4 +1,4 @@
-"""DistMesh tetrahedra of the unit sphere (the seed's Table 3 case), their quality, a VTU file.
+"""DistMesh tetrahedra of the unit sphere (Table 3 of Kelly's DistMesh.jl study), their quality, a VTU file.
 
 Prints the mesh size, time, volume error and the quality summary (worst dihedral angle, radius
 ratio, ...), writes ``sphere.vtu`` and a picture of the interior coloured by worst dihedral angle.

@@ -1,4 +1,4 @@
-"""Sharp edges and corners: find the features of the seed's cube with a hole and keep them in a mesh.
+"""Sharp edges and corners: find the features of the cube with a hole of Kelly's DistMesh.jl study and keep them in a mesh.
 
 ``fepre.features`` finds the cube's 8 corners, its 12 edges and the two rims where the hole
 meets the top and bottom faces. DistMesh makes them mesh nodes (``features=True``, the

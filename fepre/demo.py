@@ -1,6 +1,6 @@
 """``fepre demo``: the demo parts meshed end to end, with one HTML report.
 
-Parts: the seed's cube with a hole, a sphere, a torus, an L-bracket with a filleted inner edge
+Parts: the cube with a hole of Kelly's DistMesh.jl study, a sphere, a torus, an L-bracket with a filleted inner edge
 (smooth union) and a bolt hole, and a gyroid-infilled block. For each part the demo writes the
 surface (STL), the tetrahedral mesh (VTU) and a CalculiX/Abaqus solver file (INP, with named
 boundary sets), compares the mesh with reference meshers, and finally writes ``report.html``.
@@ -70,7 +70,7 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
     parts = [
         DemoPart("cube_with_hole", cube, 0.5 * scale, 0.05 * scale, 125.0 - 5.0 * math.pi,
                  {"hole": hole, "bottom": sdf.plane((0, 0, -1), (0, 0, 0)), "top": sdf.plane((0, 0, 1), (0, 0, 5))},
-                 ("gmsh",), "the seed's example: [0,5]^3 minus a radius-1 cylinder"),
+                 ("gmsh",), "the first example of Kelly's DistMesh.jl study: [0,5]^3 minus a radius-1 cylinder"),
         DemoPart("sphere", sdf.sphere(1.0), 0.2 * scale, 0.025 * scale, 4.0 * math.pi / 3.0, {},
                  ("gmsh",) if quick else ("pytetwild", "gmsh"), "unit sphere"),
         DemoPart("torus", sdf.torus(1.0, 0.4), 0.15 * scale, 0.02 * scale, 2.0 * math.pi**2 * 1.0 * 0.4**2, {},
