@@ -185,7 +185,6 @@ def test_bad_polygons_are_refused(vertices, fragment):
         (lambda: sdf.revolve(sdf.box()), ValueError, "shape2d"),
         (lambda: sdf.revolve(None), TypeError, "shape2d"),
         (lambda: sdf.revolve(sdf.circle(), offset=float("nan")), ValueError, "offset"),
-        (lambda: sdf.revolve(sdf.circle(1.0, center=(-3, 0))), ValueError, "r > 0"),
     ],
 )
 def test_bad_arguments_are_refused_naming_the_parameter(make, error, fragment):
@@ -356,3 +355,11 @@ def test_repr_shows_the_tree():
     assert repr(model) == "extrude(height=2)\n└─ circle(radius=1, center=(0, 0))"
     ring = sdf.revolve(sdf.rectangle((0.2, 0.5), center=(1, 0)), offset=0.5)
     assert repr(ring) == "revolve(offset=0.5)\n└─ rectangle(size=(0.2, 0.5), center=(1, 0))"
+
+
+def test_a_profile_on_the_other_side_of_the_axis_revolves_like_its_mirror():
+    # The profile and its mirror image about the axis are one region (it was refused before).
+    left = sdf.revolve(sdf.circle(1.0, center=(-3, 0)))
+    right = sdf.revolve(sdf.circle(1.0, center=(3, 0)))
+    points = np.random.default_rng(4).uniform(-5, 5, (500, 3))
+    np.testing.assert_allclose(left(points), right(points), atol=1e-12)

@@ -114,3 +114,22 @@ def test_check_surface_counts_topology_as_a_reader_of_the_file_does(tmp_path):
     assert topology(merged) == topology(as_read) == (1, 5.0, True, True)
     assert abs(merged.points - as_read.points) <= 1e-3 * as_read.points
     assert fepre.check_surface(raw, merge_coincident=False).points == raw.n_points
+
+
+def test_a_profile_drawn_from_the_axis_revolves_into_one_solid():
+    # revolve(polygon([(0, 0), (10, 0), ..., (0, 120)])) was -0 along the whole axis: 25-34
+    # surface components and zero-area faces along it. The profile is now revolved with its
+    # mirror image, and grid nodes on the axis are inside.
+    shaft = sdf.revolve(sdf.polygon([(0, 0), (10, 0), (10, 40), (6, 40), (6, 120), (0, 120)]))
+    exact = math.pi * (100 * 40 + 36 * 80)
+    grid = fepre.sample(shaft, spacing=1.0)
+    points, values = np.asarray(grid.points), np.asarray(grid["sdf"])
+    axis = (np.abs(points[:, 0]) < 1e-9) & (np.abs(points[:, 1]) < 1e-9) & (points[:, 2] > 0.5) & (points[:, 2] < 119.5)
+    assert axis.sum() == 119 and np.all(values[axis] < 0)
+    for method in METHODS:
+        check = fepre.check_surface(fepre.isosurface(grid, method=method, model=shaft), shaft)
+        assert check.components == 1, method
+        if method != "dual_contouring":  # left: 6 non-manifold edges on the end face at z = 0
+            assert (check.genus, check.watertight, check.manifold, check.degenerate_triangles) == (0, True, True, 0)
+            assert abs(check.volume - exact) <= 0.5 * 1.0 * check.area
+    assert sdf.revolve(sdf.circle(0.5), offset=2.0).exact  # off the axis: unchanged

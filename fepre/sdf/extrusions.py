@@ -146,8 +146,11 @@ def revolve(shape2d: SDF, offset: float = 0.0) -> SDF:
     """Solid of revolution about the z axis: ``{(x, y, z): shape2d(sqrt(x^2 + y^2) - offset, z) < 0}``.
 
     The 2D shape's x coordinate is the distance from the z axis minus ``offset``, its y coordinate
-    is z. Only the part of the profile at r >= 0 matters. The value is always a 1-Lipschitz lower
-    bound; ``exact`` is True when ``shape2d`` is exact and its bounds stay off the axis
+    is z. A profile that touches or crosses the axis (``xmin + offset <= 0``, e.g. a shaft's
+    half-section drawn from the axis) is revolved together with its mirror image about the axis:
+    the two are one region, so the axis is inside the solid, not a seam of zero value (25-34
+    surface components and zero-area faces along the axis). The value is always a 1-Lipschitz
+    lower bound; ``exact`` is True when ``shape2d`` is exact and its bounds stay off the axis
     (``xmin + offset > 0``), e.g. a torus from a circle.
 
     Examples
@@ -157,4 +160,11 @@ def revolve(shape2d: SDF, offset: float = 0.0) -> SDF:
     >>> ring.exact, float(ring([2.0, 0.0, 1.5]))
     (True, 1.0)
     """
-    return Revolution(_shape2d(shape2d), finite_float(offset, "offset"))
+    shape2d, offset = _shape2d(shape2d), finite_float(offset, "offset")
+    bounds = shape2d.bounds
+    if bounds is not None and bounds[0][0] + offset <= 0.0:
+        # on the axis the profile's own edge has value 0: union it with its mirror image so the
+        # axis lies inside (the union's shared face is settled on grids, see fepre.sdf.touching)
+        placed = shape2d.translate((offset, 0.0)) if offset else shape2d
+        return Revolution(placed | placed.mirror((1.0, 0.0)), 0.0)
+    return Revolution(shape2d, offset)

@@ -93,6 +93,36 @@ def settle_grid_block(model: SDF, values: np.ndarray, coords: Coords) -> None:
         values[tuple(w[moved] for w in where)] = settled[moved]
 
 
+#: Probe distance (times the model's size) on either side of a candidate shared face.
+PROBE = 1e-6
+
+
+def _both_sides(points, shared, operands, signs, normals, on_zero, inside, scale) -> np.ndarray:
+    """For the candidate points (``shared``): is the boolean's value clearly on the same side of
+    zero a probe step away along the face normal, in both directions?"""
+    index = np.flatnonzero(shared)
+    rows = sorted(normals)
+    # the normal of the first operand on zero at each point
+    normal = np.zeros((index.size, len(points)))
+    found = np.zeros(index.size, dtype=bool)
+    candidates = np.flatnonzero(on_zero.sum(axis=0) >= 2)
+    position = np.searchsorted(candidates, index)
+    for row in rows:
+        take = ~found & on_zero[row, index]
+        normal[take] = normals[row][position[take]]
+        found |= take
+    step = PROBE * scale
+    result = np.ones(index.size, dtype=bool)
+    for direction in (1.0, -1.0):
+        probe = [p[index] + direction * step * normal[:, axis] for axis, p in enumerate(points)]
+        values = np.array([sign * np.broadcast_to(o._values(*probe), (index.size,)) for o, sign in zip(operands, signs)])
+        combined = values.min(axis=0) if inside else values.max(axis=0)
+        result &= (combined < -0.5 * step) if inside else (combined > 0.5 * step)
+    keep = np.zeros(shared.size, dtype=bool)
+    keep[index[result]] = True
+    return keep
+
+
 def settle_shared_faces(
     out: np.ndarray, coords: Coords, operands: Sequence[SDF], signs: Sequence[float], inside: bool, scale: float
 ) -> None:
@@ -133,6 +163,10 @@ def settle_shared_faces(
             shared_sub |= on_zero[i, candidates] & on_zero[j, candidates] & (cosine < OPPOSITE_COSINE)
     shared = np.zeros(count, dtype=bool)
     shared[candidates[shared_sub]] = True
+    if shared.any():
+        # a shared face has the boolean's solid (union) or its outside (difference) on both sides;
+        # where it meets the real boundary (a shaft's axis at its end face) one side is on zero
+        shared &= _both_sides(points, shared, operands, signs, normals, on_zero, inside, scale)
     if shared.any():
         index = tuple(w[shared] for w in where)
         out[index] = -tolerance if inside else tolerance
