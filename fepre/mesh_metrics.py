@@ -157,11 +157,11 @@ def model_hausdorff(
     corners = np.asarray(surface.points, dtype=np.float64)[np.asarray(surface.regular_faces, dtype=np.int64)]
     samples = np.einsum("sk,tkd->tsd", _BARYCENTRIC, corners).reshape(-1, 3)
     truth = np.asarray(isosurface(model, spacing=spacing).points, dtype=np.float64)
-    truth = model.project(truth, iterations=30)
+    truth = model.project(truth, iterations=30, warn=False)
     if exclude is not None:
         samples = samples[exclude(samples) > margin]
         truth = truth[exclude(truth) > margin]
-    to_surface = np.linalg.norm(model.project(samples, iterations=30) - samples, axis=1) if len(samples) else np.zeros(1)
+    to_surface = np.linalg.norm(model.project(samples, iterations=30, warn=False) - samples, axis=1) if len(samples) else np.zeros(1)
     from_surface = _distances_to_surface(truth, surface) if len(truth) else np.zeros(1)
     return float(to_surface.max()), float(from_surface.max())
 

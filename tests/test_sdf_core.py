@@ -163,3 +163,22 @@ def test_package_exposes_errors_and_version():
     assert fepre.__version__.count(".") >= 2
     with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
         fepre.nonsense  # noqa: B018
+
+
+def test_project_warns_when_points_stay_off_the_surface():
+    # Sphere minus box: 5% of random points stall off the surface (0.3 away) near the cut's
+    # edges; they were returned silently.
+    import warnings
+
+    import fepre
+
+    part = sdf.sphere(1.0) - sdf.box(1.0, center=(0.8, 0, 0))
+    points = np.random.default_rng(0).uniform(-1.5, 1.5, (5000, 3))
+    with pytest.warns(fepre.ConvergenceWarning, match=r"project: \d+ of 5000 points are still off the zero set"):
+        projected = part.project(points)
+    off = np.abs(part(projected)) > 1e-12 * part.length_scale
+    assert 0 < off.sum() < 0.1 * len(points)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.abs(sdf.sphere(1.0)(sdf.sphere(1.0).project(points))).max() < 1e-12
+        part.project(points, warn=False)

@@ -177,7 +177,7 @@ def expose_shallow_vertices(
     if not chosen.any():
         return unchanged
     cells, candidates, vertex = cells[chosen], candidates[chosen], vertex[chosen]
-    projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol)
+    projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol, warn=False)
     reached = np.abs(model(projected)) <= surface_tol
     if guard is not None and reached.any():
         check = np.flatnonzero(reached)

@@ -77,7 +77,7 @@ def snap_pinned_nodes(model, points: np.ndarray, tets: np.ndarray, pinned: np.nd
     off = np.flatnonzero(pinned & (np.abs(model(points)) > 1e-4 * h))
     if off.size == 0:
         return points, 0
-    target = model.project(points[off], iterations=20)
+    target = model.project(points[off], iterations=20, warn=False)
     if found:
         nearest, near = _onto_features(model, points[off], found, h)
         target[near] = nearest[near]

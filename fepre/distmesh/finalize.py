@@ -94,7 +94,7 @@ class _PointSet:
         index = index[~self.fixed[index]]
         if len(index) == 0:
             return
-        self.points[index] = self.model.project(self.points[index], iterations=30, tol=0.05 * self.tol)
+        self.points[index] = self.model.project(self.points[index], iterations=30, tol=0.05 * self.tol, warn=False)
         self.values[index] = self.model(self.points[index])
         lost = np.zeros(len(self.points), bool)
         lost[index] = np.abs(self.values[index]) > self.tol

@@ -47,7 +47,7 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
         return candidates
     from scipy.spatial import cKDTree
 
-    projected = model.project(candidates, iterations=8, tol=1e-6 * h)
+    projected = model.project(candidates, iterations=8, tol=1e-6 * h, warn=False)
     projected = projected[np.abs(model(projected)) < 1e-3 * h]
     side = 1.1 * h
     cells = np.floor((projected - lower) / side).astype(np.int64)

@@ -249,7 +249,7 @@ def improve_arrays(
         )
     surface_tol = 1e-4 * h
     if boundary_nodes.size:
-        points[boundary_nodes] = model.project(points[boundary_nodes], iterations=20, tol=0.05 * surface_tol)
+        points[boundary_nodes] = model.project(points[boundary_nodes], iterations=20, tol=0.05 * surface_tol, warn=False)
     used = np.bincount(tets.ravel(), minlength=n) > 0
     movable = used & ~fixed_mask
     rng = np.random.default_rng(seed)

@@ -195,7 +195,7 @@ def smooth_round(
     feasible = np.ones(candidates.shape[:2], dtype=bool)
     if boundary.any():
         flat = candidates[:, boundary].reshape(-1, 3)
-        projected = model.project(flat, iterations=4)
+        projected = model.project(flat, iterations=4, warn=False)
         candidates[:, boundary] = projected.reshape(candidates.shape[0], -1, 3)
         off = np.abs(model(projected)).reshape(candidates.shape[0], -1) > surface_tol
         feasible[:, boundary] = ~off
@@ -268,7 +268,7 @@ def relax_round(
     new_points[moving] += step * (target[moving] - points[moving])
     boundary = np.flatnonzero(moving & on_boundary)
     if boundary.size:
-        new_points[boundary] = model.project(new_points[boundary], iterations=4)
+        new_points[boundary] = model.project(new_points[boundary], iterations=4, warn=False)
         off = np.abs(model(new_points[boundary])) > surface_tol
         if guard is not None:
             off[~off] = ~guard.moves_allowed(boundary[~off], points[boundary[~off]], new_points[boundary[~off]])

@@ -17,11 +17,13 @@ Node order is VTK's (and Abaqus/CalculiX C3D10's): corners 0-3, then edges (0,1)
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from ..errors import ConvergenceWarning
 from ..features.newton import solve_on_patches
 from ..quality import signed_volumes
 
@@ -179,7 +181,9 @@ def quadratic_tetrahedra(
         boundary_edges = np.unique(
             np.searchsorted(unique_keys, tri_pairs[:, 0] * n_points + tri_pairs[:, 1])
         )
-        projected = np.asarray(model.project(midpoints[boundary_edges]), dtype=np.float64)
+        with warnings.catch_warnings():  # nodes that do not get there stay straight, below
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            projected = np.asarray(model.project(midpoints[boundary_edges]), dtype=np.float64)
         on_crease, crease_points = crease_midpoints(model, points, boundary_triangles, a[boundary_edges], b[boundary_edges])
         projected[on_crease] = crease_points
         move = np.linalg.norm(projected - midpoints[boundary_edges], axis=1)
