@@ -250,8 +250,15 @@ def final_mesh(
                 for candidate in {backend, FALLBACK_BACKEND}:
                     whole = tetrahedralize(state.points, candidate, h, keep_flat=True)
                     if _manifold(whole, len(state.points)):
+                        hull = float(np.abs(signed_volumes(state.points, whole)).sum())
                         whole = _flip_flat_cells(state.points, whole, h)
-                        if not _cracked(whole, len(state.points)):
+                        volumes = signed_volumes(state.points, whole)
+                        # the flipped cells must tile the same hull: no crack, no overlap
+                        if (
+                            not _cracked(whole, len(state.points))
+                            and volumes.min() > 0
+                            and abs(float(volumes.sum()) - hull) <= 1e-9 * hull
+                        ):
                             tets = whole
                             break
         centroid_values = model(state.points[tets].mean(axis=1))
