@@ -27,3 +27,18 @@ class FeatureWarning(UserWarning):
     together than about ``h/2`` (thin walls, tiny steps, small holes); the message names what was
     skipped. Meshing goes on without those features.
     """
+
+
+def warn_user(message: str, category: type[Warning]) -> None:
+    """``warnings.warn`` pointing at the first caller outside fepre (the user's line), however
+    deep inside fepre the warning is raised (``stacklevel`` counted by hand pointed into fepre's
+    own call wrappers, e.g. ``fepre/distmesh/__init__.py:27``)."""
+    import os
+    import sys
+    import warnings
+
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    frame, level = sys._getframe(1), 2
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)

@@ -283,3 +283,21 @@ def test_mesh_quiet_prints_only_the_written_file(folder, tmp_path, capsys):
     assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--h", "0.4", "--quiet"]) == 0
     captured = capsys.readouterr()
     assert captured.out.startswith(f"wrote {out}") and captured.err == "" and "min_dihedral" not in captured.out
+
+
+def test_api_warnings_point_at_the_users_line(tmp_path):
+    # They pointed into fepre ("fepre/distmesh/__init__.py:27", "fepre/export/__init__.py:199").
+    import subprocess
+    import sys
+
+    script = tmp_path / "user.py"
+    script.write_text(
+        "import warnings, fepre\nfrom fepre import sdf\nwarnings.simplefilter('always')\n"
+        "fepre.distmesh(sdf.sphere(1.0), 0.4, maxiter=3)\n"
+        "fepre.export(fepre.distmesh(sdf.sphere(1.0), 0.5), 'x.inp', boundaries={'lid': sdf.plane((0, 0, 1), (0, 0, 5))})\n"
+    )
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    lines = [line for line in done.stderr.splitlines() if "Warning:" in line]
+    assert any(line.startswith(f"{script}:4: ConvergenceWarning") for line in lines), lines
+    assert any(line.startswith(f"{script}:5: BoundaryWarning") for line in lines), lines
+    assert not any("/fepre/" in line for line in lines)

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import sys
 import time
-import warnings
 from typing import Any, Callable
 
 import numpy as np
 
 from ..arguments import as_points, domain_bounds, positive_float
-from ..errors import ConvergenceWarning, FeatureWarning, MeshingError
+from ..errors import ConvergenceWarning, FeatureWarning, MeshingError, warn_user
 from ..features import features as detect_features
 from ..sdf.core import SDF
 from .feature_protection import FeatureProtection
@@ -130,7 +129,7 @@ def distmesh(
     if o.features:
         found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
         for message in found.skipped:
-            warnings.warn(f"distmesh: {message}", FeatureWarning, stacklevel=2)
+            warn_user(f"distmesh: {message}", FeatureWarning)
         if found:
             nodes = found.nodes
             feature_nodes = len(nodes)
@@ -173,11 +172,10 @@ def distmesh(
             points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed)
         except MeshingError as exc:
             # the stage checks its own result and refuses it; the loop's mesh is valid
-            warnings.warn(
+            warn_user(
                 f"the quality stage (slivers=True) failed and was skipped: {exc}; returning the "
                 "DistMesh mesh without it",
                 ConvergenceWarning,
-                stacklevel=2,
             )
         sliver_seconds = time.perf_counter() - t0
         if progress:
@@ -204,10 +202,9 @@ def distmesh(
     )
     grid = to_grid(points, tets, model, history, found)
     if not loop.converged:
-        warnings.warn(
+        warn_user(
             f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "
             f"(last interior move {loop.history['max_dp'][-1]:.3g} h > ptol={o.ptol:g}); returning the mesh reached",
             ConvergenceWarning,
-            stacklevel=2,
         )
     return grid

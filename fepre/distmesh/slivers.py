@@ -43,13 +43,12 @@ of the input's) and a violation raises :class:`fepre.MeshingError`.
 from __future__ import annotations
 
 import time
-import warnings
 from typing import Any, Callable
 
 import numpy as np
 
 from ..arguments import finite_float, positive_float, positive_int
-from ..errors import ConvergenceWarning, MeshingError
+from ..errors import ConvergenceWarning, MeshingError, warn_user
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
@@ -358,14 +357,13 @@ def improve_arrays(
         "converged": converged,
     }
     if not converged:
-        warnings.warn(
+        warn_user(
             f"the quality stage reached a worst dihedral angle of {after['min_dihedral']:.2f} deg, a largest of "
             f"{after['max_dihedral']:.2f} deg and a smallest radius ratio of {after['min_radius_ratio']:.3f}, short of "
             f"min_dihedral={targets.min_dihedral:g} deg, max_dihedral={targets.max_dihedral:g} deg, "
             f"min_radius_ratio={targets.min_radius_ratio:g}, after {rounds} rounds (maxiter={maxiter}); "
             "returning the best mesh reached",
             ConvergenceWarning,
-            stacklevel=2,
         )
     return points, tets, info
 

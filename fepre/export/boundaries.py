@@ -12,8 +12,8 @@ Regions select cells whose centroid has a negative value.
 
 from __future__ import annotations
 
+from ..errors import warn_user
 import re
-import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
@@ -213,21 +213,17 @@ def assign_boundaries(
             overlapping = ties[:, j]
             if overlapping.any():
                 winners = np.unique(best[overlapping])
-                warnings.warn(
+                warn_user(
                     f"boundaries {name!r} and {', '.join(repr(names[w]) for w in winners)} overlap "
                     f"on {int(overlapping.sum())} faces; they go to the first name in the dict",
-                    BoundaryWarning,
-                    stacklevel=3,
-                )
+                    BoundaryWarning)
         empty = [n for j, n in enumerate(names) if not np.any(set_ids == j)]
         if empty:
-            warnings.warn(
+            warn_user(
                 f"boundaries {', '.join(map(repr, empty))} match no boundary face (none within "
                 f"boundary_tolerance={tolerance:g} x local edge length and boundary_angle={angle:g} "
                 f"degrees)",
-                BoundaryWarning,
-                stacklevel=3,
-            )
+                BoundaryWarning)
     all_names = names if default_index < len(names) else names + [DEFAULT_BOUNDARY]
     return FaceSets(elements, local, triangles, set_ids, all_names)
 
@@ -252,9 +248,8 @@ def assign_regions(
         unassigned &= ~inside
     empty = [n for j, n in enumerate(names) if not np.any(region_ids == j)]
     if empty:
-        warnings.warn(
-            f"regions {', '.join(map(repr, empty))} contain no cell centroid", BoundaryWarning, stacklevel=3
-        )
+        warn_user(
+            f"regions {', '.join(map(repr, empty))} contain no cell centroid", BoundaryWarning)
     all_names = names if default_index < len(names) else names + [default_region]
     used = np.unique(region_ids)
     if default_index == len(names) and default_index not in used and names:

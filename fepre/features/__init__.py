@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import sys
 import types
-import warnings
 from typing import Any, Callable
 
 import numpy as np
 
 from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
-from ..errors import FeatureWarning
+from ..errors import FeatureWarning, warn_user
 from ..sdf.core import SDF
 from .conflicts import resolve_conflicts
 from .curves import FeatureCurve, build_curves
@@ -124,7 +123,7 @@ def features(
     corners, curves, conflicts = resolve_conflicts(creases.corners, curves, local_h, scale, angle)
     skipped.extend(conflicts)
     if skipped and warn:
-        warnings.warn("fepre.features: " + "; ".join(skipped), FeatureWarning, stacklevel=2)
+        warn_user("fepre.features: " + "; ".join(skipped), FeatureWarning)
     return Features(corners, tuple(curves), h, angle, spacing, tuple(skipped))
 
 

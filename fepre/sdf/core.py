@@ -479,16 +479,13 @@ class SDF:
             remaining = np.abs(self(current[active])) if active.size else np.zeros(0)
             off = remaining > tol
             if off.any():
-                import warnings
+                from ..errors import ConvergenceWarning, warn_user
 
-                from ..errors import ConvergenceWarning
-
-                warnings.warn(
+                warn_user(
                     f"project: {int(off.sum())} of {len(current)} points are still off the zero set after "
                     f"iterations={iterations} (largest |value| {float(remaining.max()):.3g} > tol={tol:.3g}); "
                     f"pass more iterations or check the points",
                     ConvergenceWarning,
-                    stacklevel=2,
                 )
         return current[0] if single else current
 

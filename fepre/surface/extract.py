@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
 from ..arguments import choice, finite_float
 from ..config import config
+from ..errors import warn_user
 from ..sdf.core import SDF
 from .dual_contouring import dual_contouring
 from .flying_edges import flying_edges
@@ -160,11 +160,10 @@ def isosurface(
     if "sdf_band" in grid.field_data and name == "sdf":
         width = float(np.asarray(grid.field_data["sdf_band"])[0])
         if abs(level) > width - float(np.linalg.norm(grid.spacing)):
-            warnings.warn(
+            warn_user(
                 f"level {level:g} is not inside the sampled band (half-width {width:g}); the surface "
                 f"may be wrong: sample with a wider band",
                 UserWarning,
-                stacklevel=2,
             )
     if method == "flying_edges":
         points, triangles = flying_edges(grid, name, level, workers)
@@ -181,11 +180,10 @@ def isosurface(
     surface = triangle_polydata(points, triangles)
     if surface.n_points == 0:
         low, high = float(values.min()), float(values.max())
-        warnings.warn(
+        warn_user(
             f"the surface is empty: level {level:g} is not crossed by the samples (range "
             f"[{low:g}, {high:g}]); choose a level inside that range or check the model and bounds",
             UserWarning,
-            stacklevel=2,
         )
     elif normals:
         surface.point_data["Normals"] = _point_normals(surface, model, points, triangles)
