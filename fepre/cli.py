@@ -188,6 +188,7 @@ def _run_mesh(args: argparse.Namespace) -> int:
 
     output = _output_path(args.output, "--output", _mesh_suffixes())
     part = load_model(args.model)
+    part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part)
     from .export.formats import resolve_format
     from .export.meshio_formats import require_module
@@ -239,6 +240,7 @@ def _run_features(args: argparse.Namespace) -> int:
 
     _output_path(args.output, "--output", (".vtp", ".vtk"))
     part = load_model(args.model)
+    part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part)
     found = fepre.features(part.model, h, angle=args.angle, bounds=part.bounds, warn=False)
     print(found)
@@ -269,6 +271,7 @@ def _run_compare(args: argparse.Namespace) -> int:
     _output_path(args.report, "--report", (".html", ".htm"))
     _output_path(args.json, "--json", (".json",))
     part = load_model(args.model)
+    part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part)
     result = compare(part.model, h, references=tuple(args.references), surface_spacing=args.surface_spacing,
                      exact_volume=args.exact_volume, bounds=part.bounds, seed=args.seed, progress=_say)

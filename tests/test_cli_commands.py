@@ -301,3 +301,12 @@ def test_api_warnings_point_at_the_users_line(tmp_path):
     assert any(line.startswith(f"{script}:4: ConvergenceWarning") for line in lines), lines
     assert any(line.startswith(f"{script}:5: BoundaryWarning") for line in lines), lines
     assert not any("/fepre/" in line for line in lines)
+
+
+@pytest.mark.parametrize("command", ["surface", "mesh", "features", "compare"])
+def test_an_unbounded_model_gets_the_model_file_hint_everywhere(tmp_path, capsys, command):
+    model = tmp_path / "lattice.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.gyroid(1.0)\nh = 0.2\n")
+    extra = {"surface": ["-o", str(tmp_path / "a.stl")], "mesh": ["-o", str(tmp_path / "a.inp")]}.get(command, [])
+    assert main([command, str(model), *extra]) == 1
+    assert "the model is unbounded; set `bounds = ((xmin, ymin, zmin), (xmax, ymax, zmax))` in the model file" in capsys.readouterr().err

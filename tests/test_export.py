@@ -535,3 +535,15 @@ def test_midside_nodes_of_feature_curve_edges_lie_on_both_surfaces(tmp_path):
         assert rim_mids.size >= 2 * np.pi * rim / 4.0 * 0.8  # about one edge per h along the circle
         assert np.abs(radius[rim_mids] - rim).max() < 1e-8
         assert np.abs(points[rim_mids, 2] - z).max() < 1e-8
+
+
+def test_a_failing_writer_names_the_users_path_not_the_staging_folder(tmp_path):
+    # Messages showed internal temporary names such as "romnt/.fepre-export-n1zept6b".
+    from fepre.export.atomic import STAGING_PREFIX, staged_files
+
+    target = tmp_path / "part.stl"
+    with pytest.raises(OSError) as caught:
+        with staged_files(target, [target.name], overwrite=True) as stage:
+            raise OSError(f"cannot write {stage / target.name}: disk full")
+    assert str(caught.value) == f"cannot write {target}: disk full"
+    assert STAGING_PREFIX not in str(caught.value) and list(tmp_path.iterdir()) == []

@@ -57,7 +57,20 @@ def staged_files(path: Path, names: list[str], overwrite: bool) -> Iterator[Path
     except PermissionError as exc:
         raise PermissionError(f"path: no permission to write in directory {str(directory)!r}") from exc
     try:
-        yield stage
+        try:
+            yield stage
+        except Exception as exc:
+            # a writer's message names the staged file: show the user's path instead
+            text = str(exc)
+            if str(stage) in text:
+                cleaned = text.replace(str(stage / path.name), str(path)).replace(str(stage), str(directory))
+                try:
+                    replacement = type(exc)(cleaned)
+                except Exception:  # noqa: BLE001 - an exception type that takes other arguments
+                    replacement = None
+                if replacement is not None:
+                    raise replacement from None
+            raise
         missing = [name for name in names if not (stage / name).is_file()]
         if missing:
             raise RuntimeError(f"writer did not produce {missing}")  # a bug in fepre, not user input
