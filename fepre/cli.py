@@ -51,9 +51,18 @@ def _run_bench(args: argparse.Namespace) -> int:
     return bench.run(args.name, args.args)
 
 
+_LOG = None
+
+
 def _say(message: str) -> None:
-    """Progress on stderr, so stdout keeps only results."""
-    print(message, file=sys.stderr, flush=True)
+    """Progress on stderr, so stdout keeps only results: one line per step with the time since
+    the command started (:class:`fepre.progress.StepLog`)."""
+    global _LOG
+    if _LOG is None:
+        from .progress import StepLog
+
+        _LOG = StepLog()
+    _LOG(message)
 
 
 def _write_atomically(save: Callable[[Path], None], path: Path) -> None:
@@ -155,6 +164,7 @@ def _run_surface(args: argparse.Namespace) -> int:
         check = check_surface(surface, part.model)
         if not args.quiet:
             print(check)
+    say(f"fepre surface: writing {output} ...")
     _write_atomically(lambda path: surface.save(str(path)), output)
     print(f"wrote {output}")
     return 0
@@ -220,6 +230,7 @@ def _run_mesh(args: argparse.Namespace) -> int:
                 f"mesh (none within a quarter of the local edge length, facing the same way); check "
                 f"where their functions are zero; nothing written"
             )
+    say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
     return 0
@@ -489,6 +500,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     _, (_, run) = COMMANDS[args.command]
     import warnings
+
+    global _LOG
+    from .progress import StepLog
+
+    _LOG = StepLog()
 
     def one_line(message, category, filename, lineno, file=None, line=None) -> None:
         # a warning is news for the user, not a pointer into fepre's source

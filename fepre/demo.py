@@ -172,6 +172,9 @@ def run_demo(
     failures: dict[str, str] = {}
     for index, part in enumerate(parts, 1):
         label = f"demo [{index}/{len(parts)}] {part.name}"
+        if done_parts := index - 1:  # the time left at the pace of the parts done so far
+            left = (time.perf_counter() - start) / done_parts * (len(parts) - done_parts)
+            say(f"{label}: starting (about {left:.0f} s left for the demo)")
         try:
             files[part.name], comparisons[part.name] = _run_part(part, outdir, label, references, say)
         except MeshingError as exc:  # one part's failure is reported; the others still run

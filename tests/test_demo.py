@@ -66,6 +66,10 @@ def test_demo_prints_a_summary_and_progress_and_writes_one_report(demo):
     assert header.split()[:4] == ["part", "h", "tets", "nodes"]
     for part in demo_parts(quick=True):
         assert f"{part.name}: surface" in err and f"{part.name}: DistMesh" in err
+    # a log: each step on its own line with the time since the start, and the time left
+    steps = [line for line in err.splitlines() if "demo [" in line]
+    assert steps and all(line.startswith("[") and " s] demo [" in line for line in steps)
+    assert any("s left for the demo)" in line for line in steps)
     html = (outdir / "report.html").read_text()
     assert html.count("data:image/png;base64") >= 4
     assert "<h2>Summary</h2>" in html
