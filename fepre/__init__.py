@@ -22,7 +22,7 @@ from typing import Any
 
 from . import sdf
 from .config import config
-from .errors import ConvergenceWarning, FeatureWarning, MeshingError
+from .errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning
 
 try:
     __version__ = _version("fepre")
@@ -46,7 +46,7 @@ _LAZY: dict[str, str] = {
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli"}
 
-__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "__version__", *_LAZY, *_SUBMODULES]
+__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
 
 
 def __getattr__(name: str) -> Any:

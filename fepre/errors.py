@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["MeshingError", "ConvergenceWarning", "FeatureWarning"]
+__all__ = ["MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning"]
 
 
 class MeshingError(RuntimeError):
@@ -26,6 +26,16 @@ class FeatureWarning(UserWarning):
     Raised by :func:`fepre.features` (and so by :func:`fepre.distmesh`) for features closer
     together than about ``h/2`` (thin walls, tiny steps, small holes); the message names what was
     skipped. Meshing goes on without those features.
+    """
+
+
+class ResolutionWarning(UserWarning):
+    """The mesh leaves out material of the model that is thinner than its ``h`` resolves.
+
+    Raised by :func:`fepre.distmesh` when walls, fins or pins under about ``h`` thick came out
+    thinner, perforated or missing (see :func:`fepre.distmesh.lost_material`); the message
+    names where, how thick the material is, about how much volume is missing and the ``h``
+    that would keep it.
     """
 
 

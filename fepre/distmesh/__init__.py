@@ -16,8 +16,9 @@ from .loop import DistMeshState
 from .mesher import distmesh
 from .options import DistMeshOptions
 from .improve_mesh import improve
+from .lost_material import LostRegion, lost_material
 
-__all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve"]
+__all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve", "lost_material", "LostRegion"]
 
 
 class _CallableModule(types.ModuleType):

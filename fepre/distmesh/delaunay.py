@@ -27,8 +27,16 @@ def _scipy(points: np.ndarray) -> np.ndarray:
 
     try:
         return Delaunay(points).simplices.astype(np.int64)
+    except QhullError:
+        pass
+    # Many points exactly on a few planes (the faces of a box at a fine h) can make Qhull's
+    # facet merging fail ("wide merge error"); joggling the input by ~1e-11 of its size is
+    # Qhull's own remedy and gives a triangulation without merged facets
+    try:
+        return Delaunay(points, qhull_options="QJ Qbb").simplices.astype(np.int64)
     except QhullError as exc:
-        raise MeshingError(f"Delaunay triangulation (Qhull) failed on {len(points)} points: {exc}") from exc
+        first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise MeshingError(f"Delaunay triangulation (Qhull) failed on {len(points)} points: {first_line}") from exc
 
 
 def _gmsh(points: np.ndarray) -> np.ndarray:

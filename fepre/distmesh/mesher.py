@@ -9,7 +9,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..arguments import as_points, domain_bounds, positive_float
-from ..errors import ConvergenceWarning, FeatureWarning, MeshingError, warn_user
+from ..errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning, warn_user
 from ..features import features as detect_features
 from ..sdf.core import SDF
 from .feature_protection import FeatureProtection
@@ -189,6 +189,11 @@ def distmesh(
             )
             sys.stderr.flush()
 
+    from .lost_material import lost_material, lost_material_message
+
+    lost = lost_material(model, points, tets, h) if o.check_resolution else []
+    if lost:
+        warn_user(f"distmesh: {lost_material_message(lost, h)}", ResolutionWarning)
     history = dict(loop.history)
     history.update(
         iterations=np.array([loop.iterations]),
@@ -198,6 +203,7 @@ def distmesh(
         slivers_seconds=np.array([sliver_seconds]),
         features_seconds=np.array([features_seconds]),
         feature_nodes=np.array([feature_nodes]),
+        lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - start]),
     )
     grid = to_grid(points, tets, model, history, found)

@@ -100,6 +100,11 @@ class DistMeshOptions:
     feature_angle : float, default 30
         Crease threshold of ``features``, degrees: patches whose normals differ by more are a
         sharp edge.
+    check_resolution : bool, default True
+        Look for material of the model that the mesh left out (walls, fins and pins thinner
+        than ``h`` resolves; :func:`fepre.distmesh.lost_material`) and warn with a
+        :class:`fepre.ResolutionWarning` naming where, how thick and the ``h`` that keeps it.
+        Costs a narrow-band sample of the model at ``h/4``, a few percent of the meshing time.
     """
 
     deltat: float = 0.1
@@ -126,6 +131,7 @@ class DistMeshOptions:
     slivers: bool = True
     features: bool = True
     feature_angle: float = 30.0
+    check_resolution: bool = True
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -148,7 +154,7 @@ class DistMeshOptions:
         put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
         if self.feature_angle >= 180.0:
             raise ValueError(f"feature_angle must be in (0, 180) degrees; got {self.feature_angle!r}")
-        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features"):
+        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features", "check_resolution"):
             value = getattr(self, name)
             if not isinstance(value, (bool, numbers.Integral)) or value not in (0, 1):
                 raise TypeError(f"{name} must be True or False; got {value!r}")

@@ -1,0 +1,72 @@
+"""Material thinner than h: the mesh says where it left material out (issue 12, thin walls)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.distmesh import lost_material
+
+PLATE_VOLUME = 20 * 20 * 4
+
+
+def finned_plate(thickness: float):
+    """A 20 x 20 x 4 plate with a fin ``thickness`` thick and 8 high standing on it at x = 5."""
+    return sdf.box((20, 20, 4)) | sdf.box((thickness, 20, 10)).translate((5, 0, 5))
+
+
+def test_a_fin_thinner_than_h_is_named_with_its_thickness_place_and_the_h_that_keeps_it():
+    """Before: the 0.6 thick fin at h = 1 lost 12% of its volume without a word."""
+    part = finned_plate(0.6)
+    with pytest.warns(fepre.ResolutionWarning, match=r"0\.6 thick.*h <= 0\.6") as caught:
+        mesh = fepre.distmesh(part, 1.0)
+    missing = PLATE_VOLUME + 0.6 * 20 * 8 - mesh.volume
+    assert missing > 5.0  # the loss is real
+    regions = lost_material(part, mesh.points, mesh.cells_dict[10], 1.0)
+    assert regions[0].thickness == pytest.approx(0.6, abs=0.05)
+    assert regions[0].center[0] == pytest.approx(5.0, abs=0.3)
+    assert 2.0 < regions[0].center[2] < 10.0
+    # the estimate is of the right size (grid nodes at h/4 around a 0.6 wide sliver of fin)
+    assert 0.5 * missing < sum(r.volume for r in regions) < 2.0 * missing
+    assert float(mesh.field_data["distmesh_lost_volume"][0]) == pytest.approx(sum(r.volume for r in regions))
+    assert len(caught) == 1
+
+
+def test_the_fin_meshed_at_the_suggested_h_keeps_its_volume_without_a_warning():
+    part = finned_plate(0.6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.ResolutionWarning)
+        mesh = fepre.distmesh(part, 0.6)
+    assert mesh.volume == pytest.approx(PLATE_VOLUME + 0.6 * 20 * 8, rel=5e-3)
+
+
+@pytest.mark.parametrize(
+    "part, h",
+    [
+        (finned_plate(3.0), 1.0),
+        (sdf.sphere(5.0), 1.0),
+        (sdf.cylinder(1.5, 10.0), 1.0),  # a pin 3 h across: convex chords are not "lost"
+        (sdf.torus(5.0, 1.2), 0.8),
+        (sdf.box((10, 10, 10)) - sdf.cylinder(2.0, 12.0), 1.0),
+    ],
+)
+def test_parts_that_h_resolves_raise_no_resolution_warning(part, h):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.ResolutionWarning)
+        mesh = fepre.distmesh(part, h)
+    assert float(mesh.field_data["distmesh_lost_volume"][0]) == 0.0
+
+
+def test_a_mesh_that_covers_the_model_has_no_lost_region():
+    """An independent mesh (a box cut into six tetrahedra) covers its own box exactly."""
+    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
+    tets = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
+    assert lost_material(sdf.box((2, 2, 2)), corners, tets, 1.0) == []
+    # half the box missing: one region, about 4 in volume; its deepest node off the covered
+    # diagonal through the centre is 0.75 deep (grid h/4), the box 2 thick
+    half = lost_material(sdf.box((2, 2, 2)), corners, tets[:3], 1.0)
+    assert len(half) == 1
+    assert 1.5 <= half[0].thickness <= 2.0
+    assert half[0].volume == pytest.approx(4.0, rel=0.35)
