@@ -17,9 +17,14 @@ its cells is chosen:
 
 Co-planar points inside the point set (a box corner's prism, h thick walls) can give the
 triangulation a flat cell; dropping it would leave a crack that the repair closes by cutting
-cells away. When the triangulation has such a crack, its flat cells are kept, ordered like
-their neighbours, and flipped away (edge removal and 2-3 flips fill the same region with
-positive cells) before anything is chosen.
+cells away. The solid is first chosen from the backend's own triangulation, cracks and all: a
+crack outside the part or on its surface (the flat cells of co-circular nodes on a rim) goes
+with the outside cells. Only when that solid is not valid (not a closed 2-manifold, a boundary
+node off the zero set, or a boundary face farther than ``0.25 h`` from it: a cut through the
+part) are the flat cells kept, ordered like their neighbours, and flipped away (edge removal and
+2-3 flips fill the same region with positive cells), and the solid chosen again. (Qhull's full
+triangulation is the fallback there; on the nodes of a cylinder, which settle in columns along
+its generators, it holds stacks of slivers as long as the cylinder.)
 
 Nothing moves after the triangulation, so every cell keeps its positive Delaunay volume, and
 the boundary nodes are on the zero set by construction.
@@ -85,6 +90,12 @@ class _PointSet:
     @property
     def on_surface(self) -> np.ndarray:
         return np.abs(self.values) <= self.tol
+
+    def copy(self) -> "_PointSet":
+        twin = object.__new__(_PointSet)
+        twin.model, twin.h, twin.tol = self.model, self.h, self.tol
+        twin.points, twin.fixed, twin.values = self.points.copy(), self.fixed.copy(), self.values.copy()
+        return twin
 
     def keep(self, mask: np.ndarray) -> None:
         self.points, self.fixed, self.values = self.points[mask], self.fixed[mask], self.values[mask]
@@ -213,40 +224,18 @@ def _caps(model, state: _PointSet, tets: np.ndarray, locked: np.ndarray) -> np.n
     return caps
 
 
-def final_mesh(
-    model,
-    points: np.ndarray,
-    fixed: np.ndarray,
-    h: float,
-    geps: float,
-    backend: str,
-    previous: np.ndarray | None = None,
-):
-    """Triangulate ``points`` and choose the cells of a valid solid.
-
-    ``backend`` triangulates. Nodes on sharp features lie exactly on lines and planes,
-    co-spherical sets on which gmsh can return overlapping cells: such a triangulation (and a
-    ``previous`` one) is refused and the points are triangulated by ``FALLBACK_BACKEND``
-    (Qhull) instead.
-
-    ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
-    reused when no point had to move or go and every cell is still positive. Returns
-    ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
-    solid can be chosen.
-    """
-    state = _PointSet(model, points, fixed, h)
-    n_before = len(state.points)
-    state.project(np.flatnonzero(state.values > 0))
-    state.merge()
-    changed = len(state.points) != n_before or not np.array_equal(state.points, points)
-
-    tets = previous if not changed and previous is not None and _manifold(previous, len(state.points)) else None
+def _star_rounds(model, state: _PointSet, previous, backend: str, h: float, mend_cracks: bool) -> np.ndarray:
+    """Triangulate ``state``'s points and move or drop the interior nodes whose star reaches
+    outside, then triangulate again, for up to ``_STAR_ROUNDS`` rounds; the last triangulation.
+    With ``mend_cracks`` a triangulation whose dropped flat cells left cracks is replaced by one
+    with its flat cells flipped away."""
+    tets = previous
     for round_ in range(_STAR_ROUNDS + 1):
         if tets is None or len(tets) == 0 or signed_volumes(state.points, tets).min() <= 1e-9 * h**3:
             tets = tetrahedralize(state.points, backend, h)
             if not _manifold(tets, len(state.points)):
                 tets = tetrahedralize(state.points, FALLBACK_BACKEND, h)
-            if _cracked(tets, len(state.points)):
+            if mend_cracks and _cracked(tets, len(state.points)):
                 for candidate in {backend, FALLBACK_BACKEND}:
                     whole = tetrahedralize(state.points, candidate, h, keep_flat=True)
                     if _manifold(whole, len(state.points)):
@@ -277,6 +266,13 @@ def final_mesh(
         state.merge()
         tets = None
 
+    return tets
+
+
+def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) -> np.ndarray:
+    """The cells of the solid: every interior node's star, the cells inside but shallow caps,
+    repaired to a closed 2-manifold."""
+    centroid_values = model(state.points[tets].mean(axis=1))
     on_surface = state.on_surface
     locked = ~on_surface[tets].all(axis=1)
     volumes = signed_volumes(state.points, tets)
@@ -302,8 +298,63 @@ def final_mesh(
             misplaced(strict) < misplaced(repaired) or not _valid_selection(state.points, tets[repaired])
         ):
             repaired = strict
-    selected = repaired
-    tets = tets[selected]
+    return tets[repaired]
+
+
+def _valid_solid(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
+    """True when ``tets`` form a valid solid whose boundary nodes are on the zero set and whose
+    boundary faces are chords of the surface (a cut through the part or a face across a
+    concave region lies farther than ``_FAR_OUTSIDE h`` from it)."""
+    if len(tets) == 0 or not _valid_selection(state.points, tets):
+        return False
+    faces = boundary_faces(tets)
+    nodes = np.unique(faces)
+    if np.abs(state.values[nodes]).max() > state.tol:
+        return False
+    return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= _FAR_OUTSIDE * h)
+
+
+def final_mesh(
+    model,
+    points: np.ndarray,
+    fixed: np.ndarray,
+    h: float,
+    geps: float,
+    backend: str,
+    previous: np.ndarray | None = None,
+):
+    """Triangulate ``points`` and choose the cells of a valid solid.
+
+    ``backend`` triangulates. Nodes on sharp features lie exactly on lines and planes,
+    co-spherical sets on which gmsh can return overlapping cells: such a triangulation (and a
+    ``previous`` one) is refused and the points are triangulated by ``FALLBACK_BACKEND``
+    (Qhull) instead.
+
+    ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
+    reused when no point had to move or go and every cell is still positive. Returns
+    ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
+    solid can be chosen.
+    """
+    state = _PointSet(model, points, fixed, h)
+    n_before = len(state.points)
+    state.project(np.flatnonzero(state.values > 0))
+    state.merge()
+    changed = len(state.points) != n_before or not np.array_equal(state.points, points)
+    previous = previous if not changed and previous is not None and _manifold(previous, len(state.points)) else None
+
+    # The backend's own triangulation first, even when dropping its flat cells left cracks: a
+    # crack outside the part, or on its surface, is left out with the outside cells. (Qhull's
+    # full triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds
+    # stacks of slivers as long as the cylinder.) When the solid chosen from it is not valid,
+    # the cracks are mended by flipping the flat cells away and the choice is made again.
+    first = state.copy()
+    tets = _star_rounds(model, first, previous, backend, h, mend_cracks=False)
+    chosen = _choose(model, first, tets, geps, h)
+    if _valid_solid(model, first, chosen, h):
+        state, tets = first, chosen
+    else:
+        tets = _star_rounds(model, state, previous, backend, h, mend_cracks=True)
+        tets = _choose(model, state, tets, geps, h)
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
     points_out, tets, fixed_out = compact(state.points, tets, state.fixed)

@@ -7,7 +7,9 @@ from typing import Any
 import numpy as np
 
 from ..arguments import finite_float, positive_float
+from .axis_section import AxisSection, mirrored_section
 from .core import SDF, Coords
+from .polygon import Polygon
 from .orthant import axis_sign, orthant_distance, orthant_gradient
 from .radial import radial, radial_direction
 
@@ -107,7 +109,8 @@ class Revolution(SDF):
             bounds = ((-outer, -outer, z0), (outer, outer, z1))
             # Off the axis, the distance in the meridian plane is the 3D distance. A profile that
             # reaches the axis may have boundary there that is not a surface of the solid.
-            exact = shape.exact and u0 + offset > 0
+            # (a polygon's mirrored section is exact across the axis)
+            exact = shape.exact and (u0 + offset > 0 or isinstance(shape, AxisSection))
         super().__init__(bounds=bounds, exact=exact, children=(shape,))
 
     def _parameters(self) -> dict[str, Any]:
@@ -149,9 +152,11 @@ def revolve(shape2d: SDF, offset: float = 0.0) -> SDF:
     is z. A profile that touches or crosses the axis (``xmin + offset <= 0``, e.g. a shaft's
     half-section drawn from the axis) is revolved together with its mirror image about the axis:
     the two are one region, so the axis is inside the solid, not a seam of zero value (25-34
-    surface components and zero-area faces along the axis). The value is always a 1-Lipschitz
-    lower bound; ``exact`` is True when ``shape2d`` is exact and its bounds stay off the axis
-    (``xmin + offset > 0``), e.g. a torus from a circle.
+    surface components and zero-area faces along the axis). For a :func:`polygon` profile the
+    section ``profile | mirror`` is built exactly (:mod:`fepre.sdf.axis_section`) and the value is
+    the distance; for other profiles it is a 1-Lipschitz lower bound there. ``exact`` is True
+    when ``shape2d`` is exact and either its bounds stay off the axis (``xmin + offset > 0``,
+    e.g. a torus from a circle) or it is a polygon.
 
     Examples
     --------
@@ -165,6 +170,8 @@ def revolve(shape2d: SDF, offset: float = 0.0) -> SDF:
     if bounds is not None and bounds[0][0] + offset <= 0.0:
         # on the axis the profile's own edge has value 0: union it with its mirror image so the
         # axis lies inside (the union's shared face is settled on grids, see fepre.sdf.touching)
+        if type(shape2d) is Polygon:
+            return Revolution(mirrored_section(shape2d, offset), 0.0)
         placed = shape2d.translate((offset, 0.0)) if offset else shape2d
         return Revolution(placed | placed.mirror((1.0, 0.0)), 0.0)
     return Revolution(shape2d, offset)

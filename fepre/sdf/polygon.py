@@ -35,6 +35,7 @@ class Polygon(SDF):
         # Outward unit normals (for the gradient on the boundary itself).
         outward = np.column_stack([self._edge[:, 1], -self._edge[:, 0]]) * np.sign(self.area)
         self._outward = outward / np.linalg.norm(outward, axis=1)[:, None]
+        self._scale = float(np.max(np.abs(vertices))) or 1.0
         super().__init__(bounds=(tuple(vertices.min(axis=0)), tuple(vertices.max(axis=0))), exact=True)
 
     def _parameters(self) -> dict[str, Any]:
@@ -134,7 +135,9 @@ class Polygon(SDF):
         px, py, shape = self._flat(x, y)
         distance, offset, nearest = self._nearest(px, py, offsets=True)
         length = np.abs(distance)
-        on_boundary = length == 0
+        # A point on an edge is left a few ulps off it by rounding (r = sqrt(x^2 + y^2) of a
+        # revolved profile): the offset's direction is noise there, the edge's normal is not.
+        on_boundary = length <= 1e-12 * self._scale
         # Outside, the gradient points away from the nearest point; inside, towards it.
         direction = np.where(distance < 0, -1.0, 1.0) / np.where(on_boundary, 1.0, length)
         gradient = np.where(on_boundary[:, None], self._outward[nearest], offset * direction[:, None])
