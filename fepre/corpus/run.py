@@ -17,7 +17,7 @@ __all__ = ["PartResult", "true_volume", "mesh_part", "judge", "TARGETS"]
 TARGETS = (25.0, 150.0, 0.25)
 #: volume error allowed on resolvable parts with flat faces only (their boundary is exact)
 POLYHEDRAL_VOLUME = 0.005
-#: volume error above which an unresolvable part must have said where it lost material
+#: volume error above which an unresolvable part must have said where it lost or added material
 SILENT_LOSS = 0.02
 
 
@@ -69,7 +69,7 @@ def mesh_part(part: CorpusPart, volume: float | None = None, **options) -> PartR
 def judge(part: CorpusPart, check: MeshCheck, volume_error: float, warned: list[str]) -> list[str]:
     """The targets a mesh misses: validity always; the three shape targets and (flat faces
     only) the volume on resolvable parts; components where known; on the other parts, no
-    volume loss above 2% without a ResolutionWarning."""
+    volume lost or added above 2% without a ResolutionWarning."""
     failures = list(check.problems)
     if part.resolvable:
         low, high, ratio = TARGETS
@@ -81,8 +81,9 @@ def judge(part: CorpusPart, check: MeshCheck, volume_error: float, warned: list[
             failures.append(f"radius ratio {check.min_radius_ratio:.3f} < {ratio:g}")
         if part.polyhedral and abs(volume_error) > POLYHEDRAL_VOLUME:
             failures.append(f"volume error {100 * volume_error:+.2f}%")
-    elif volume_error < -SILENT_LOSS and "ResolutionWarning" not in warned:
-        failures.append(f"lost {100 * -volume_error:.1f}% of the volume without a ResolutionWarning")
+    elif abs(volume_error) > SILENT_LOSS and "ResolutionWarning" not in warned:
+        change = "lost" if volume_error < 0 else "added"
+        failures.append(f"{change} {100 * abs(volume_error):.1f}% of the volume without a ResolutionWarning")
     if part.components is not None and check.components != part.components:
         failures.append(f"{check.components} components, not {part.components}")
     return failures
