@@ -27,6 +27,9 @@ _OUTSIDE_DEPTH = 0.15
 _SPACING = 0.25
 #: a region is reported from this many lost deep nodes (an eighth of h^3 at h/4)
 _MIN_NODES = 8
+#: regions are reported when they hold this volume together (times h^3): less is the size of a
+#: few elements (the acute corners where a lattice's sheet meets its shell, filled by chords)
+_MIN_VOLUME = 2.0
 #: largest number of grid nodes sampled; coarser spacing beyond it
 _MAX_NODES = 16_000_000
 
@@ -57,13 +60,13 @@ def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list
     --------
     >>> from fepre import sdf, distmesh
     >>> import warnings
-    >>> fin = sdf.box((8, 8, 2)) | sdf.box((0.5, 8, 6)).translate((2, 0, 3))   # a 0.5 thick fin
+    >>> fin = sdf.box((8, 8, 2)) | sdf.box((0.3, 8, 6)).translate((2, 0, 3))   # a 0.3 thick fin
     >>> with warnings.catch_warnings():
     ...     warnings.simplefilter("ignore")
     ...     mesh = distmesh(fin, 1.0)
     >>> region = lost_material(fin, mesh.points, mesh.cells_dict[10], 1.0)[0]
     >>> round(region.thickness, 2)
-    0.5
+    0.3
     """
     return _uncovered_regions(model, points, tets, h, outside=False)
 
@@ -158,13 +161,16 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     deepest = np.zeros(count + 1)
     np.maximum.at(deepest, label, depth.ravel()[picked])
     keep = np.flatnonzero(deep_nodes >= _MIN_NODES)
+    if volume[keep].sum() < _MIN_VOLUME * h**3:
+        return []
     regions = [LostRegion(tuple(float(c) for c in centre[r]), 2.0 * float(deepest[r]), float(volume[r])) for r in keep]
     regions.sort(key=lambda region: -region.volume)
     return regions
 
 
 def lost_material_message(regions: list[LostRegion], h: float) -> str:
-    """One line naming the largest lost regions and the ``h`` that would mesh them."""
+    """One line naming the largest lost regions and the ``h`` that would mesh them (half the
+    thinnest: two elements across; at one element a 0.6 fin's base corners were still cut)."""
 
     def place(region: LostRegion) -> str:
         center = ", ".join(f"{c:.4g}" for c in region.center)
@@ -173,7 +179,7 @@ def lost_material_message(regions: list[LostRegion], h: float) -> str:
     total = sum(region.volume for region in regions)
     shown = "; ".join(place(region) for region in regions[:3])
     more = f" and {len(regions) - 3} more" if len(regions) > 3 else ""
-    thinnest = min(region.thickness for region in regions[:3])
+    thinnest = 0.5 * min(region.thickness for region in regions[:3])  # two elements across
     return (
         f"the mesh leaves out about {total:.3g} (volume) of the model where it is thinner than "
         f"h = {h:g} resolves: {shown}{more}; mesh with h <= {thinnest:.2g} (or a size field that "
@@ -191,7 +197,7 @@ def added_material_message(regions: list[LostRegion], h: float) -> str:
     total = sum(region.volume for region in regions)
     shown = "; ".join(place(region) for region in regions[:3])
     more = f" and {len(regions) - 3} more" if len(regions) > 3 else ""
-    narrowest = min(region.thickness for region in regions[:3])
+    narrowest = 0.5 * min(region.thickness for region in regions[:3])
     return (
         f"the mesh adds about {total:.3g} (volume) outside the model, where its surfaces come closer "
         f"than h = {h:g} resolves (a narrow gap, or parts touching along an edge or at a point): "
