@@ -120,10 +120,12 @@ def test_quick_corpus_part_meshes_to_the_targets(part):
 SURFACE_PARTS = [p for p in corpus.parts(seed=0, per_category=2) if p.category in ("touching", "coplanar", "reentrant", "narrow_gap", "thin_plate")]
 
 
-@pytest.mark.parametrize("method", ["flying_edges", "marching_cubes", "marching_tetrahedra"])
+@pytest.mark.parametrize("method", ["flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets", "dual_contouring"])
 @pytest.mark.parametrize("spacing", [0.5, 0.3])
 def test_corpus_surfaces_are_closed_manifold_with_the_parts_topology(method, spacing):
-    """On spacings that do (0.5: the aligned parts' faces lie on grid planes) and do not align."""
+    """On spacings that do (0.5: the aligned parts' faces lie on grid planes) and do not align.
+    Surface nets and dual contouring pinched on 9 of these 24 part-spacing pairs (one vertex per
+    cell where rotated parts put two pieces of surface in a cell)."""
     for part in SURFACE_PARTS:
         check = fepre.check_surface(fepre.isosurface(part.model, method=method, spacing=spacing))
         found = (check.watertight, check.manifold, check.components, check.genus, check.degenerate_triangles)

@@ -9,9 +9,10 @@ ratios, conformity, closed manifold boundary), volumes against the construction 
 estimate of the model's volume.
 
 fepre's verdict (:func:`fepre.corpus.run.judge`): a valid mesh; on parts whose features are at
-least h apart, worst dihedral >= 25 deg, largest <= 150 deg, radius ratio >= 0.25, and (flat faces
-only) volume within 0.5%; elsewhere no volume loss above 2% without a ResolutionWarning; the
-part's components. pytetwild's boundary is not on the model's zero set (it meshes a surface
+least h apart, worst dihedral >= 25 deg, largest <= 150 deg, radius ratio >= 0.25, and (flat faces,
+walls of 2 h or more) volume within 0.5%; on the other flat-faced parts no volume lost or added above 2% without
+a ResolutionWarning; the part's components. (Curved parts lose volume to their chords at a
+coarse h; the table shows it.) pytetwild's boundary is not on the model's zero set (it meshes a surface
 within its envelope), so its rows show shape and volume only. ``--parts`` prints a line per part.
 
 ``--surfaces`` also extracts every part's surface with the five methods at spacings h/2 and 0.37 h

@@ -37,6 +37,7 @@ class CorpusPart:
     components: Optional[int]  # None: not known by construction
     resolvable: bool  # features at least h apart: the quality targets apply
     polyhedral: bool  # flat faces only: the boundary is exact, so is the volume
+    min_wall: float = float("inf")  # the thinnest wall, in units of h, where the construction says
 
     def __repr__(self) -> str:
         return f"CorpusPart({self.name!r}, h={self.h:g})"
@@ -135,7 +136,8 @@ def _small_hole(rng):
     for radius, (x, y) in zip(radii, spots):
         part = part - sdf.cylinder(float(radius), thickness + 2, center=(x, y, 0.0))
     volume = size * size * thickness - thickness * math.pi * float(np.sum(radii**2))
-    return _rotated(part, rng), volume, 1, bool(radii.min() >= 1.0), False
+    ligament = min(size / 4 - radii.max(), size / 2 - 2 * radii.max())
+    return _rotated(part, rng), volume, 1, bool(radii.min() >= 1.0), False, {"min_wall": float(ligament)}
 
 
 def _narrow_gap(rng):
@@ -145,13 +147,13 @@ def _narrow_gap(rng):
     block = sdf.box((length, width, height))
     slot = sdf.box((gap, width + 2, depth + 1), center=(0.0, 0.0, height / 2 - depth / 2 + 0.5))
     volume = length * width * height - gap * width * depth
-    return _rotated(block - slot, rng), volume, 1, bool(gap >= 1.0), True
+    return _rotated(block - slot, rng), volume, 1, bool(gap >= 1.0), True, {"min_wall": float(min(height - depth, (length - gap) / 2))}
 
 
 def _thin_plate(rng):
     size = rng.uniform(6, 10, 2)
     thickness = rng.uniform(0.3, 3.0)
-    return _rotated(sdf.box((size[0], size[1], thickness)), rng), float(size[0] * size[1] * thickness), 1, bool(thickness >= 1.0), True
+    return _rotated(sdf.box((size[0], size[1], thickness)), rng), float(size[0] * size[1] * thickness), 1, bool(thickness >= 1.0), True, {"min_wall": float(thickness)}
 
 
 def _lattice(rng):
@@ -203,7 +205,7 @@ def _scaled(factor: float, placement: float = 0.0) -> Callable:
     return make
 
 
-#: category name -> generator(rng) -> (model, volume, components, resolvable, polyhedral[, h])
+#: category name -> generator(rng) -> (model, volume, components, resolvable, polyhedral[, h][, extra fields])
 _GENERATORS: dict[str, Callable] = {
     "touching": _touching,
     "coplanar": _coplanar,
@@ -249,8 +251,9 @@ def parts(seed: int = 0, per_category: int = 4, categories=None) -> list[CorpusP
             continue
         rng = np.random.default_rng([seed, index])
         for number in range(per_category):
-            made = _GENERATORS[category](_Draw(rng, aligned=category in ALIGNED and number % 2 == 1))
+            made = list(_GENERATORS[category](_Draw(rng, aligned=category in ALIGNED and number % 2 == 1)))
+            extra = made.pop() if isinstance(made[-1], dict) else {}
             model, volume, components, resolvable, polyhedral = made[:5]
             h = made[5] if len(made) > 5 else 1.0
-            result.append(CorpusPart(f"{category}-{number}", category, model, float(h), volume, components, resolvable, polyhedral))
+            result.append(CorpusPart(f"{category}-{number}", category, model, float(h), volume, components, resolvable, polyhedral, **extra))
     return result

@@ -16,9 +16,9 @@ from .loop import DistMeshState
 from .mesher import distmesh
 from .options import DistMeshOptions
 from .improve_mesh import improve
-from .lost_material import LostRegion, lost_material
+from .lost_material import LostRegion, added_material, lost_material
 
-__all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve", "lost_material", "LostRegion"]
+__all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve", "lost_material", "added_material", "LostRegion"]
 
 
 class _CallableModule(types.ModuleType):

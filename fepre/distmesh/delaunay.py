@@ -39,6 +39,31 @@ def _scipy(points: np.ndarray) -> np.ndarray:
         raise MeshingError(f"Delaunay triangulation (Qhull) failed on {len(points)} points: {first_line}") from exc
 
 
+@functools.lru_cache(maxsize=1)
+def _c_library():
+    """The C library gmsh draws its random numbers from (``rand``), or None where it cannot be loaded."""
+    import ctypes
+    import ctypes.util
+
+    for name in (None, ctypes.util.find_library("c"), "msvcrt"):
+        try:
+            library = ctypes.CDLL(name)
+            library.srand  # noqa: B018 - the attribute lookup is the check
+            return library
+        except (OSError, AttributeError, TypeError):
+            continue
+    return None
+
+
+def _reset_c_random() -> None:
+    """Seed the C library's ``rand``: gmsh's Delaunay kernel breaks ties on co-spherical points
+    (lattices, nodes on one plane or circle) with it, so without this the same points gave a
+    different triangulation on every call in a process (the same in each fresh process)."""
+    library = _c_library()
+    if library is not None:
+        library.srand(1)
+
+
 def _gmsh(points: np.ndarray) -> np.ndarray:
     try:
         import gmsh
@@ -56,6 +81,7 @@ def _gmsh(points: np.ndarray) -> np.ndarray:
     if not started:
         gmsh.initialize(readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
+    _reset_c_random()
     try:
         result = gmsh.algorithm.tetrahedralize(points.ravel())
         tets = np.asarray(result[0] if isinstance(result, tuple) else result, dtype=np.int64)

@@ -22,9 +22,10 @@ crack outside the part or on its surface (the flat cells of co-circular nodes on
 with the outside cells. Only when that solid is not valid (not a closed 2-manifold, a boundary
 node off the zero set, or a boundary face farther than ``0.25 h`` from it: a cut through the
 part) are the flat cells kept, ordered like their neighbours, and flipped away (edge removal and
-2-3 flips fill the same region with positive cells), and the solid chosen again. (Qhull's full
-triangulation is the fallback there; on the nodes of a cylinder, which settle in columns along
-its generators, it holds stacks of slivers as long as the cylinder.)
+2-3 flips fill the same region with positive cells), and the solid chosen again; then the same
+two with Qhull's triangulation when the backend is gmsh. (Qhull's full triangulation is only a
+fallback: on the nodes of a cylinder, which settle in columns along its generators, it holds
+stacks of slivers as long as the cylinder.)
 
 Nothing moves after the triangulation, so every cell keeps its positive Delaunay volume, and
 the boundary nodes are on the zero set by construction.
@@ -347,14 +348,21 @@ def final_mesh(
     # full triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds
     # stacks of slivers as long as the cylinder.) When the solid chosen from it is not valid,
     # the cracks are mended by flipping the flat cells away and the choice is made again.
-    first = state.copy()
-    tets = _star_rounds(model, first, previous, backend, h, mend_cracks=False)
-    chosen = _choose(model, first, tets, geps, h)
-    if _valid_solid(model, first, chosen, h):
-        state, tets = first, chosen
+    attempts = [(backend, False), (backend, True)]
+    if backend != FALLBACK_BACKEND:  # another triangulation of the same points
+        attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
+    mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
+    for number, (triangulator, mend_cracks) in enumerate(attempts):
+        trial = state.copy()
+        tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
+        chosen = _choose(model, trial, tets, geps, h)
+        if _valid_solid(model, trial, chosen, h):
+            break
+        if number == 1:
+            mended = (trial, chosen)
     else:
-        tets = _star_rounds(model, state, previous, backend, h, mend_cracks=True)
-        tets = _choose(model, state, tets, geps, h)
+        trial, chosen = mended
+    state, tets = trial, chosen
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
     points_out, tets, fixed_out = compact(state.points, tets, state.fixed)

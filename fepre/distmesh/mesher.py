@@ -189,11 +189,14 @@ def distmesh(
             )
             sys.stderr.flush()
 
-    from .lost_material import lost_material, lost_material_message
+    from .lost_material import added_material, added_material_message, lost_material, lost_material_message
 
     lost = lost_material(model, points, tets, h) if o.check_resolution else []
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, h)}", ResolutionWarning)
+    added = added_material(model, points, tets, h) if o.check_resolution else []
+    if added:
+        warn_user(f"distmesh: {added_material_message(added, h)}", ResolutionWarning)
     history = dict(loop.history)
     history.update(
         iterations=np.array([loop.iterations]),
@@ -204,6 +207,7 @@ def distmesh(
         features_seconds=np.array([features_seconds]),
         feature_nodes=np.array([feature_nodes]),
         lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
+        added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - start]),
     )
     grid = to_grid(points, tets, model, history, found)

@@ -117,6 +117,20 @@ def _format_value(value: Any) -> str:
     return repr(value)
 
 
+def _far_for_single(axes) -> bool:
+    """True when rounding the grid's coordinates to float32 moves them by more than 1e-4 of the
+    smallest node spacing (the grid lies far from the origin for its spacing)."""
+    largest, step = 0.0, np.inf
+    for axis in axes:
+        vector = np.asarray(axis, dtype=np.float64)
+        largest = max(largest, float(np.abs(vector).max()))
+        if vector.size > 1:
+            step = min(step, float(np.abs(np.diff(vector)).min()))
+    if not np.isfinite(step) or step == 0.0:
+        return False
+    return largest * float(np.finfo(np.float32).eps) > 1e-4 * step
+
+
 class SDF:
     """A signed distance function node: negative inside, zero on the boundary, positive outside.
 
@@ -374,6 +388,10 @@ class SDF:
             if not np.isfinite(vector).all():
                 raise ValueError(f"axis {name} must be finite")
             vectors.append(vector)
+        if dtype.itemsize < 8 and _far_for_single(axes):
+            # float32 coordinates far from the origin (a part placed at 1e4) keep three decimals:
+            # evaluate in float64, store in ``dtype``
+            vectors = [np.asarray(axis, dtype=np.float64) for axis in axes]
         shape = tuple(v.size for v in reversed(vectors))
         if out is None:
             out = np.empty(shape, dtype=dtype)

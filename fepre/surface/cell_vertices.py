@@ -143,8 +143,9 @@ def donated_corners(
     ijk = np.floor((point - origin) / spacing).astype(np.int64)
     inside_grid = np.all((ijk >= 0) & (ijk < np.array([nx - 1, ny - 1, nz - 1])), axis=1)
     ids = ijk @ np.array([1, nx, nx * ny])
-    target = np.minimum(np.searchsorted(dual.scan.cells, ids), dual.n_cells - 1)
-    usable = inside_grid & (dual.scan.cells[target] == ids) & (rank[target] < 3)
+    cells = dual.vertex_grid_cell
+    target = np.minimum(np.searchsorted(cells, ids), dual.n_cells - 1)
+    usable = inside_grid & (cells[target] == ids) & (rank[target] < 3)
     donor, point, target = donor[usable], point[usable], target[usable]
     target, first = np.unique(target, return_index=True)  # one donor per target
     donor, point = donor[first], point[first]
@@ -189,10 +190,11 @@ def widened_for_tips(
     ijk = np.floor((point - origin) / spacing).astype(np.int64)
     ijk = np.clip(ijk, 0, np.array([nx - 2, ny - 2, nz - 2]))
     ids = ijk @ np.array([1, nx, nx * ny])
-    where = np.minimum(np.searchsorted(dual.scan.cells, ids), dual.n_cells - 1)
+    cells = dual.vertex_grid_cell
+    where = np.minimum(np.searchsorted(cells, ids), dual.n_cells - 1)
     low, high = box
     gap = np.maximum(np.maximum(low[donor] - point, point - high[donor]), 0.0) / spacing
-    tip = (dual.scan.cells[where] != ids) & (gap.max(axis=1) < _TIP_REACH)
+    tip = (cells[where] != ids) & (gap.max(axis=1) < _TIP_REACH)
     donor, point, ids, distance = donor[tip], point[tip], ids[tip], np.linalg.norm(gap[tip], axis=1)
     if donor.size == 0:
         return None

@@ -1,19 +1,26 @@
-"""Connectivity of the dual methods: one vertex per active cell, one quad per crossing grid edge.
+"""Connectivity of the dual methods: one vertex per piece of surface in a cell, one quad per crossing grid edge.
 
-Surface nets and dual contouring share it; they differ only in where they put each cell's vertex
-and how they split each quad. Vertex ``c`` belongs to active cell ``c`` (the order of
-:attr:`fepre.surface.grid_scan.GridScan.cells`), crossing ``k`` to the ``k``-th crossing grid edge
-(x edges first, then y, then z, each in the scan's sorted order).
+Surface nets and dual contouring share it; they differ only in where they put each vertex and
+how they split each quad. A cell usually holds one piece of surface; where it holds several (a
+thin wall, two faces meeting at an edge at an angle to the grid, a narrow gap) each piece gets
+its own vertex, the pieces being those of the marching cubes case table (the cut edges joined by
+its triangles), as in Schaefer, Ju and Warren's manifold dual contouring (2007). Vertices are
+numbered by active cell (the order of :attr:`fepre.surface.grid_scan.GridScan.cells`), then by
+piece; crossing ``k`` is the ``k``-th crossing grid edge (x edges first, then y, then z, each in
+the scan's sorted order).
 
 Every interior crossing edge is a cut edge of exactly four cells, and a cell's local edge index
 says where around the edge the cell sits, so the quads come from a scatter, not a search. Each
-quad is ordered so its normal points along its edge from the inside end to the outside end: the
-surface is closed, manifold (except where one cell holds two separate pieces of surface) and
-consistently outward wherever the grid encloses the part.
+quad is ordered so its normal points along its edge from the inside end to the outside end. The
+quads are the dual of the marching cubes surface (a polygon per piece, a vertex per crossing),
+which is closed and manifold, so the dual surface is too, and consistently outward wherever the
+grid encloses the part. (One vertex per cell pinched the surface wherever a cell held two
+pieces: rotated boxes, slots and plates came out non-manifold.)
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,11 +59,17 @@ class DualCells:
     cell: np.ndarray
     crossing: np.ndarray
     quads: np.ndarray
+    vertex_cell: np.ndarray
 
     @property
     def n_cells(self) -> int:
-        """Number of active cells (vertices)."""
-        return int(self.scan.cells.size)
+        """Number of vertices (pieces of surface in the active cells)."""
+        return int(self.vertex_cell.size)
+
+    @property
+    def vertex_grid_cell(self) -> np.ndarray:
+        """Flat grid cell id (VTK order) of every vertex, non-decreasing."""
+        return self.scan.cells[self.vertex_cell]
 
     @property
     def n_crossings(self) -> int:
@@ -100,8 +113,13 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
         return None
     offsets = np.concatenate([[0], np.cumsum(sizes)])
     cell, local, crossing = cell_edge_vertices(scan, CUBE_TABLE, offsets, workers)
+    piece = _pieces()[scan.cases[cell], local]
+    key = cell * 4 + piece
+    keys, vertex = np.unique(key, return_inverse=True)
+    vertex = vertex.ravel()
+    order = np.argsort(vertex, kind="stable")
     around = np.full((offsets[-1], 4), -1, dtype=np.int64)
-    around[crossing, local % 4] = cell
+    around[crossing, local % 4] = vertex
     flat = values.reshape(-1)
     threshold = inside_threshold(values.dtype, level)
     quads = []
@@ -112,7 +130,32 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
         backwards = flat[edges[valid]] >= threshold  # the start node is outside: the edge points in
         quad[backwards] = quad[backwards][:, ::-1]
         quads.append(quad)
-    return DualCells(scan, offsets, cell, crossing, np.concatenate(quads))
+    return DualCells(scan, offsets, vertex[order], crossing[order], np.concatenate(quads), keys // 4)
+
+
+@functools.lru_cache(maxsize=1)
+def _pieces() -> np.ndarray:
+    """(256, 12) piece (0..3) of each cut local edge of each marching cubes case: edges joined by
+    the case's triangles are one piece; -1 for uncut edges."""
+    table = CUBE_TABLE
+    pieces = np.full((256, 12), -1, dtype=np.int64)
+    for case in range(256):
+        parent = list(range(12))
+
+        def find(e: int) -> int:
+            while parent[e] != e:
+                parent[e] = parent[parent[e]]
+                e = parent[e]
+            return e
+
+        edges = table.triangle_edges[case, : table.triangle_count[case]]
+        for a, b, c in edges:
+            parent[find(int(b))] = find(int(a))
+            parent[find(int(c))] = find(int(a))
+        roots: dict[int, int] = {}
+        for e in sorted({int(e) for e in edges.ravel()}):
+            pieces[case, e] = roots.setdefault(find(e), len(roots))
+    return pieces
 
 
 def shorter_diagonal(points: np.ndarray, quads: np.ndarray) -> np.ndarray:

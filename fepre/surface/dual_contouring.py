@@ -1,7 +1,7 @@
 """fepre's dual contouring (Ju, Losasso, Schaefer, Warren 2002): sharp edges and corners from a grid.
 
-Connectivity is surface nets' (:mod:`fepre.surface.dual_cells`): one vertex per active cell, one
-quad per crossing grid edge, so the surface is closed, manifold and outward wherever surface
+Connectivity is surface nets' (:mod:`fepre.surface.dual_cells`): one vertex per piece of surface
+in an active cell, one quad per crossing grid edge, so the surface is closed, manifold and outward wherever surface
 nets' is. Only the vertices differ: each sits at the minimiser of its cell's quadratic error
 function (:mod:`fepre.surface.qef`), built from the Hermite data of its cut edges
 (:mod:`fepre.surface.hermite`), so a cell cut by a crease gets a vertex on the crease and a cell
@@ -28,9 +28,10 @@ Steps, all vectorised over the active cells:
    planes a twentieth of the way away by four hundred times less.
 5. Each quad is split along the better diagonal (:mod:`fepre.surface.quad_split`).
 
-Limits: where one cell holds two pieces of surface (an ambiguous face, e.g. along a crease at an
-angle to the grid) the shared connectivity pinches, as surface nets' does; a corner whose tip
-lies in a cell with no inside node more than half a cell from a neighbour's box is cut off.
+Limits: a cell holding two pieces of surface (an ambiguous face, e.g. along a crease at an angle
+to the grid) gives each piece a vertex from its own samples, so the surface stays manifold but the
+crease is chamfered in that cell; a corner whose tip lies in a cell with no inside node more
+than half a cell from a neighbour's box is cut off.
 """
 
 from __future__ import annotations
@@ -114,7 +115,7 @@ def dual_contouring(
     else:
         hermite = hermite_from_model(dual, values, level, origin, spacing, model)
     nz, ny, nx = values.shape
-    k, rest = np.divmod(dual.scan.cells, nx * ny)
+    k, rest = np.divmod(dual.vertex_grid_cell, nx * ny)
     j, i = np.divmod(rest, nx)
     low = origin + np.stack([i, j, k], axis=1) * spacing
     centre = low + 0.5 * spacing

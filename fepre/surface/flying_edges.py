@@ -42,8 +42,16 @@ def flying_edges(grid, scalars: str, level: float, workers: int | None = None) -
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
     use_smp_threads(workers)
+    # vtkFlyingEdges3D writes float32 points: far from the origin (a part placed at 1e4) they
+    # lose their last digits and triangles collapse. Extract about the origin, shift in float64.
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    local = vtkImageData()
+    local.ShallowCopy(grid)
+    origin = np.array(grid.GetOrigin(), dtype=np.float64)
+    local.SetOrigin(0.0, 0.0, 0.0)
     fe = vtkFlyingEdges3D()
-    fe.SetInputData(grid)
+    fe.SetInputData(local)
     fe.SetInputArrayToProcess(0, 0, 0, vtkDataObject.FIELD_ASSOCIATION_POINTS, scalars)
     fe.SetValue(0, float(level))
     fe.ComputeNormalsOff()
@@ -54,7 +62,7 @@ def flying_edges(grid, scalars: str, level: float, workers: int | None = None) -
     output = fe.GetOutput()
     if output.GetNumberOfPoints() == 0:
         return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    points = vtk_to_numpy(output.GetPoints().GetData())
+    points = vtk_to_numpy(output.GetPoints().GetData()).astype(np.float64) + origin
     connectivity = vtk_to_numpy(output.GetPolys().GetConnectivityArray())
     # flying edges orders triangles with normals towards lower values: reverse for outward
     return points, connectivity.reshape(-1, 3)[:, ::-1]

@@ -1,12 +1,11 @@
-"""fepre's naive surface nets: one vertex per active cell, one quad per crossing grid edge.
+"""fepre's naive surface nets: one vertex per piece of surface in an active cell, one quad per crossing grid edge.
 
-The vertex of a cell is the mean of the level crossings on its cut edges. The connectivity
+The vertex of a piece is the mean of the level crossings on its cut edges. The connectivity
 (:mod:`fepre.surface.dual_cells`) gives every interior crossing grid edge the quad of the four
-cells around it, outward; each quad is split along its shorter diagonal.
-
-Where one cell holds two separate pieces of the surface (an ambiguous face or cube), both pieces
-share the cell's vertex and the surface pinches there; :func:`fepre.check_surface` reports such
-a surface as not manifold. On smooth parts sampled finely enough it does not happen.
+pieces around it, outward; each quad is split along its shorter diagonal. A cell holding two
+separate pieces of the surface (an ambiguous face or cube: a thin wall, an edge at an angle to
+the grid) gives each its own vertex, so the surface is closed and manifold wherever marching
+cubes' is.
 """
 
 from __future__ import annotations
