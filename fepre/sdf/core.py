@@ -388,7 +388,8 @@ class SDF:
             if not np.isfinite(vector).all():
                 raise ValueError(f"axis {name} must be finite")
             vectors.append(vector)
-        if dtype.itemsize < 8 and _far_for_single(axes):
+        far = dtype.itemsize < 8 and _far_for_single(axes)
+        if far:
             # float32 coordinates far from the origin (a part placed at 1e4) keep three decimals:
             # evaluate in float64, store in ``dtype``
             vectors = [np.asarray(axis, dtype=np.float64) for axis in axes]
@@ -448,6 +449,13 @@ class SDF:
                 run(block)
         else:
             list(thread_pool(workers).map(run, blocks))
+        if far:
+            # a node on a face far from the origin reads the rounding of its coordinates (3e-14 at
+            # 248.5), not 0: one sign or the other at random, so a grid edge along a crease
+            # "crosses" it and the dual methods put four vertices on one line (zero-area
+            # triangles). Values below that rounding are 0, as they are near the origin.
+            noise = 16.0 * float(np.finfo(np.float64).eps) * max(float(np.abs(v).max()) for v in vectors)
+            out[np.abs(out) <= noise] = 0.0
         return out
 
     def project(
