@@ -14,6 +14,7 @@ from .dual_contouring import dual_contouring
 from .flying_edges import flying_edges
 from .marching_cubes import marching_cubes
 from .weld import weld
+from .zero_area import flip_zero_area
 from .marching_tetrahedra import marching_tetrahedra
 from .surface_nets import surface_nets
 
@@ -177,6 +178,10 @@ def isosurface(
     if points.shape[0] and bool((values == level).any()):
         # nodes on the level: the crossings on their edges coincide
         points, triangles = weld(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
+    if len(triangles):
+        # corners on one line (dual contouring along a crease, marching tetrahedra through an
+        # edge): flipped away, the surface unchanged
+        triangles = flip_zero_area(np.asarray(points, dtype=np.float64), np.asarray(triangles))
     surface = triangle_polydata(points, triangles)
     if surface.n_points == 0:
         low, high = float(values.min()), float(values.max())

@@ -6,8 +6,9 @@ place and triangles between them of zero area (2,568 on a flange whose faces lie
 A reader of the written file (an STL has no vertex ids) sees one vertex there; :func:`weld`
 merges exactly coincident vertices the same way and drops the triangles that collapse, which
 leaves the surface closed and manifold where the level set is (two sheets that meet at a node
-stay joined there, as in the file). Marching tetrahedra also makes a few zero-area triangles
-whose corners are distinct but collinear; they are left (counted by ``check_surface``).
+stay joined there, as in the file). Zero-area triangles whose corners are distinct but
+collinear (marching tetrahedra, dual contouring along a crease) are flipped away afterwards
+(:mod:`fepre.surface.zero_area`).
 """
 
 from __future__ import annotations
