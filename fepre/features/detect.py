@@ -216,7 +216,10 @@ def find_creases(model, spacing: float, bounds, angle: float, scale: float) -> C
             pair_angles = np.stack(
                 [crease_angles(model, triple[:, [i, j]], corners, step) for i, j in ((0, 1), (1, 2), (0, 2))], axis=1
             )
-            sharp = (pair_angles > angle).all(axis=1)  # three creases meet (else: a junction of two)
+            # three creases meet (else: a junction of two); a pair at nearly 180 degrees is one
+            # plane seen from both sides (a block standing on a plate: its bottom face, picked by
+            # rounding at the foot of its walls once rotated), whose "corners" slide along a line
+            sharp = ((pair_angles > angle) & (pair_angles < 180.0 - angle)).all(axis=1)
             corners, triple = corners[sharp], triple[sharp]
         keep = _cluster_first(corners, 1e-6 * scale)
         corners, corner_labels = corners[keep], triple[keep]
