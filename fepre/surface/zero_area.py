@@ -46,11 +46,6 @@ def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         if bad.size == 0:
             break
         n = int(points.shape[0])
-        directed = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-        keys = directed[:, 0] * n + directed[:, 1]
-        order = np.argsort(keys)
-        sorted_keys = keys[order]
-        undirected = np.unique(np.minimum(directed[:, 0], directed[:, 1]) * n + np.maximum(directed[:, 0], directed[:, 1]))
         p = points[triangles[bad]]
         lengths = np.stack([np.einsum("ij,ij->i", p[:, (k + 1) % 3] - p[:, k], p[:, (k + 1) % 3] - p[:, k]) for k in range(3)], axis=1)
         first = np.argmax(lengths, axis=1)  # the longest edge runs from corner first to first + 1
@@ -58,14 +53,23 @@ def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         u = triangles[bad, first]
         v = triangles[bad, (first + 1) % 3]
         w = triangles[bad, (first + 2) % 3]
+        # only triangles holding one of these vertices can be across u -> v or hold the new edge
+        near = np.flatnonzero(np.isin(triangles, np.unique(np.concatenate([u, v, w]))).any(axis=1))
+        directed = triangles[near][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        keys = directed[:, 0] * n + directed[:, 1]
+        order = np.argsort(keys)
+        sorted_keys = keys[order]
+
+        def lookup(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            where = np.minimum(np.searchsorted(sorted_keys, key), sorted_keys.size - 1)
+            return sorted_keys[where] == key, order[where]
+
         # the triangle across u -> v holds v -> u
-        where = np.searchsorted(sorted_keys, v * n + u)
-        found = (where < sorted_keys.size) & (sorted_keys[np.minimum(where, sorted_keys.size - 1)] == v * n + u)
-        other = np.where(found, order[np.minimum(where, sorted_keys.size - 1)] // 3, -1)
-        local = np.where(found, order[np.minimum(where, sorted_keys.size - 1)] % 3, 0)
+        found, slot = lookup(v * n + u)
+        other = np.where(found, near[slot // 3], -1)
+        local = np.where(found, slot % 3, 0)
         d = triangles[np.maximum(other, 0), (local + 2) % 3]
-        new_edge = np.minimum(w, d) * n + np.maximum(w, d)
-        exists = np.isin(new_edge, undirected)
+        exists = lookup(w * n + d)[0] | lookup(d * n + w)[0]
         ok = found & ~exists & (d != w)
         # one flip per triangle per round: a triangle in two candidate flips keeps the first
         used = np.zeros(triangles.shape[0], dtype=bool)
