@@ -168,39 +168,34 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     return regions
 
 
+def _summary(regions: list[LostRegion], describe: str) -> tuple[float, str, float]:
+    """Total volume, the three largest regions as text (``describe`` formats the thickness) and
+    half the smallest thickness among them (two elements across)."""
+    shown = "; ".join(
+        f"about {r.volume:.3g} near ({', '.join(f'{c:.4g}' for c in r.center)}), {describe.format(r.thickness)}"
+        for r in regions[:3]
+    )
+    more = f" and {len(regions) - 3} more" if len(regions) > 3 else ""
+    return sum(r.volume for r in regions), shown + more, 0.5 * min(r.thickness for r in regions[:3])
+
+
 def lost_material_message(regions: list[LostRegion], h: float) -> str:
     """One line naming the largest lost regions and the ``h`` that would mesh them (half the
     thinnest: two elements across; at one element a 0.6 fin's base corners were still cut)."""
-
-    def place(region: LostRegion) -> str:
-        center = ", ".join(f"{c:.4g}" for c in region.center)
-        return f"about {region.volume:.3g} near ({center}), {region.thickness:.3g} thick"
-
-    total = sum(region.volume for region in regions)
-    shown = "; ".join(place(region) for region in regions[:3])
-    more = f" and {len(regions) - 3} more" if len(regions) > 3 else ""
-    thinnest = 0.5 * min(region.thickness for region in regions[:3])  # two elements across
+    total, shown, fine = _summary(regions, "{:.3g} thick")
     return (
         f"the mesh leaves out about {total:.3g} (volume) of the model where it is thinner than "
-        f"h = {h:g} resolves: {shown}{more}; mesh with h <= {thinnest:.2g} (or a size field that "
+        f"h = {h:g} resolves: {shown}; mesh with h <= {fine:.2g} (or a size field that "
         "is that fine there) to keep it"
     )
 
 
 def added_material_message(regions: list[LostRegion], h: float) -> str:
     """One line naming the largest regions of added material and the ``h`` that would keep them open."""
-
-    def place(region: LostRegion) -> str:
-        center = ", ".join(f"{c:.4g}" for c in region.center)
-        return f"about {region.volume:.3g} near ({center}), a gap {region.thickness:.3g} wide"
-
-    total = sum(region.volume for region in regions)
-    shown = "; ".join(place(region) for region in regions[:3])
-    more = f" and {len(regions) - 3} more" if len(regions) > 3 else ""
-    narrowest = 0.5 * min(region.thickness for region in regions[:3])
+    total, shown, fine = _summary(regions, "a gap {:.3g} wide")
     return (
         f"the mesh adds about {total:.3g} (volume) outside the model, where its surfaces come closer "
         f"than h = {h:g} resolves (a narrow gap, or parts touching along an edge or at a point): "
-        f"{shown}{more}; mesh with h <= {narrowest:.2g} to keep a gap open (parts that only touch "
+        f"{shown}; mesh with h <= {fine:.2g} to keep a gap open (parts that only touch "
         "stay joined)"
     )
