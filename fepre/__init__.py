@@ -44,7 +44,7 @@ _LAZY: dict[str, str] = {
     "plot": "fepre.plotting",
     "plot_model": "fepre.plotting",
 }
-_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli"}
+_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus"}
 
 __all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
 

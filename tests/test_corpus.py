@@ -130,3 +130,9 @@ def test_corpus_surfaces_are_closed_manifold_with_the_parts_topology(method, spa
         check = fepre.check_surface(fepre.isosurface(part.model, method=method, spacing=spacing))
         found = (check.watertight, check.manifold, check.components, check.genus, check.degenerate_triangles)
         assert found == (True, True, 1, 0, 0), (part.name, found)
+
+
+def test_the_corpus_is_reachable_as_fepre_corpus():
+    import fepre as top
+
+    assert top.corpus.parts is corpus.parts and "corpus" in dir(top)
