@@ -164,6 +164,16 @@ def _run_surface(args: argparse.Namespace) -> int:
         check = check_surface(surface, part.model)
         if not args.quiet:
             print(check)
+        if check.thin_components:
+            import warnings
+
+            from .errors import ResolutionWarning
+
+            warnings.warn(
+                f"{check.thin_components} of the {check.components} components are thinner than the spacing "
+                f"{spacing:g} (parts of the model below the grid's resolution); a smaller --spacing resolves them",
+                ResolutionWarning,
+            )
     say(f"fepre surface: writing {output} ...")
     _write_atomically(lambda path: surface.save(str(path)), output)
     print(f"wrote {output}")

@@ -102,3 +102,31 @@ def test_distance_to_surface_matches_vtk_and_hausdorff_is_sampled_on_big_surface
     finally:
         check_module.HAUSDORFF_VERTICES = limit
     assert exact == pytest.approx(0.02, rel=0.05) and 0.8 * exact <= sampled <= exact
+
+
+def test_components_thinner_than_the_grid_are_counted_and_the_cli_warns(tmp_path, capsys):
+    """An acute wedge's tip, thinner than the grid, is caught by a few nodes here and there:
+    extra components that the check reports as thinner than the spacing (corpus part acute-1)."""
+    from fepre.cli import main
+    from fepre.corpus import parts
+
+    part = {p.name: p for p in parts(0, 4, ["acute"])}["acute-1"]
+    check = fepre.check_surface(fepre.isosurface(part.model, method="surface_nets", spacing=0.5 * part.h))
+    assert (check.components, check.thin_components) == (4, 3)
+    whole = fepre.check_surface(fepre.isosurface(part.model, method="surface_nets", spacing=0.2 * part.h))
+    assert whole.components - whole.thin_components == 1  # a tip is thinner than any grid
+    # a plate 1.2 spacings thick (its surface thinner) is one thin component; a ball of radius
+    # 3 spacings is not
+    plate = fepre.check_surface(fepre.isosurface(sdf.box((4.0, 4.0, 0.4)), spacing=1.0 / 3.0))
+    assert plate.thin_components == 1
+    ball = fepre.check_surface(fepre.isosurface(sdf.sphere(1.0), spacing=1.0 / 3.0))
+    assert ball.thin_components == 0
+    model_file = tmp_path / "wedge.py"
+    model_file.write_text(
+        "from fepre.corpus import parts\n"
+        "model = {p.name: p for p in parts(0, 4, ['acute'])}['acute-1'].model\n"
+    )
+    assert main(["surface", str(model_file), "-o", str(tmp_path / "wedge.stl"), "--method", "surface_nets",
+                 "--spacing", str(0.5 * part.h), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: 3 of the 4 components are thinner than the spacing" in err

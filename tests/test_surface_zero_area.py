@@ -7,7 +7,7 @@ import pytest
 
 import fepre
 from fepre import corpus
-from fepre.surface.zero_area import flip_zero_area
+from fepre.surface.zero_area import collapse_coincident, flip_zero_area
 
 
 def _octahedron_with_a_split_edge():
@@ -44,3 +44,36 @@ def test_dual_contouring_along_a_rotated_crease_has_no_zero_area_triangle():
     surface = fepre.isosurface(part.model, method="dual_contouring", spacing=0.37 * part.h)
     check = fepre.check_surface(surface)
     assert (check.watertight, check.manifold, check.degenerate_triangles) == (True, True, 0)
+
+
+def test_a_zero_length_edge_is_collapsed_only_where_the_surface_stays_a_manifold():
+    # an octahedron whose apex 4 is split into 4 and a copy 6: the top faces on the 3 side
+    # take 6, and the two zero-area triangles (0, 4, 6) and (1, 6, 4) close the seam
+    points = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], [0, 0, 1]], float)
+    faces = np.array([
+        [0, 2, 4], [2, 1, 4], [1, 3, 6], [3, 0, 6], [0, 4, 6], [1, 6, 4],
+        [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5],
+    ])
+    before = fepre.check_surface(pv.PolyData(points, np.hstack([np.full((len(faces), 1), 3), faces]).ravel()))
+    assert before.watertight and before.degenerate_triangles == 2
+    p, t = collapse_coincident(points, faces, 1e-9)
+    after = fepre.check_surface(pv.PolyData(p, np.hstack([np.full((len(t), 1), 3), t]).ravel()))
+    assert (len(p), len(t)) == (6, 8)
+    assert (after.watertight, after.manifold, after.oriented, after.genus, after.degenerate_triangles) == (True, True, True, 0, 0)
+    assert after.volume == pytest.approx(4 / 3)
+    # a tetrahedron with two corners at one point would collapse to a double triangle: left alone
+    pinched = np.array([[0, 1, 2], [1, 0, 3], [0, 2, 3], [1, 3, 2]])  # a tetrahedron
+    same = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    same[1] = same[0]
+    assert collapse_coincident(same, pinched, 1e-9)[1].shape == (4, 3)
+
+
+@pytest.mark.parametrize("name, factor", [("tiny-1", 0.5), ("far-0", 0.37)])
+def test_dual_contouring_on_the_last_corpus_pairs_with_degenerate_triangles(name, factor):
+    """Two pieces of one cell on one crease corner (tiny-1) and corners on a crease 7000 from
+    the origin, off their line by rounding (far-0), gave one or two degenerate triangles."""
+    part = {p.name: p for p in corpus.parts(0, 4, ["tiny", "far"])}[name]
+    surface = fepre.isosurface(part.model, method="dual_contouring", spacing=factor * part.h)
+    check = fepre.check_surface(surface)
+    assert (check.watertight, check.manifold, check.degenerate_triangles) == (True, True, 0)
+    assert surface.volume == pytest.approx(part.volume, rel=0.01)

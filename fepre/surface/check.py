@@ -19,6 +19,11 @@ class SurfaceCheck:
     reader of an STL sees it; ``triangles``, ``area``, ``volume``, ``min_angle`` and
     ``degenerate_triangles`` are of the triangles as given.
 
+    ``thin_components`` counts the components thinner than the grid spacing (enclosed volume
+    over area under half a spacing): a wall under a spacing, or the pieces of an acute wedge's
+    tip that the samples caught here and there. Their shape is below what the grid resolves;
+    a finer spacing fixes them. None without a spacing.
+
     ``max_sdf_error``/``mean_sdf_error`` are ``|model(vertex)|`` divided by ``error_unit`` (the grid
     spacing the surface was extracted at); ``hausdorff`` is the two-sided vertex-to-surface
     distance to the reference, in world units. Figures that need a model or reference are None
@@ -41,6 +46,7 @@ class SurfaceCheck:
     hausdorff: float | None
     min_angle: float
     degenerate_triangles: int
+    thin_components: int | None = None
 
     def __str__(self) -> str:
         rows = []
@@ -193,6 +199,7 @@ def check_surface(
     euler = int(used.size - edges + faces.shape[0])
     genus = components - euler / 2 if watertight and oriented and manifold else None
 
+    welded_points, welded_faces = points, faces
     points, faces = original_points, original_faces
     p = points[faces]
     cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
@@ -231,6 +238,10 @@ def check_surface(
     if reference is not None and faces.size and reference.n_cells:
         hausdorff = _hausdorff(surface, reference)
 
+    thin_components = None
+    if unit is not None and used.size:
+        thin_components = _thin_components(welded_points, welded_faces, labels, unit)
+
     return SurfaceCheck(
         points=int(used.size),
         triangles=int(faces.shape[0]),
@@ -248,4 +259,17 @@ def check_surface(
         hausdorff=hausdorff,
         min_angle=float(angles.min()) if angles.size else 0.0,
         degenerate_triangles=degenerate,
+        thin_components=thin_components,
     )
+
+
+def _thin_components(points: np.ndarray, faces: np.ndarray, labels: np.ndarray, spacing: float) -> int:
+    """Number of components thinner than ``spacing``: enclosed volume over area under half of it
+    (a plate t thick has t/2, a ball of radius r has r/3)."""
+    label = labels[faces[:, 0]]
+    p = points[faces]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    area = np.bincount(label, weights=np.linalg.norm(cross, axis=1) / 2)
+    volume = np.abs(np.bincount(label, weights=np.einsum("ij,ij->i", p[:, 0], cross) / 6))
+    present = area > 0
+    return int(np.count_nonzero(present & (volume <= 0.5 * spacing * area)))

@@ -113,8 +113,8 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
         return None
     offsets = np.concatenate([[0], np.cumsum(sizes)])
     cell, local, crossing = cell_edge_vertices(scan, CUBE_TABLE, offsets, workers)
-    piece = _pieces()[scan.cases[cell], local]
-    key = cell * 4 + piece
+    piece = _split_tunnels(scan, cell, local, _pieces()[scan.cases[cell], local])
+    key = cell * _MAX_PIECES + piece
     keys, vertex = np.unique(key, return_inverse=True)
     vertex = vertex.ravel()
     order = np.argsort(vertex, kind="stable")
@@ -130,7 +130,139 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
         backwards = flat[edges[valid]] >= threshold  # the start node is outside: the edge points in
         quad[backwards] = quad[backwards][:, ::-1]
         quads.append(quad)
-    return DualCells(scan, offsets, vertex[order], crossing[order], np.concatenate(quads), keys // 4)
+    return DualCells(scan, offsets, vertex[order], crossing[order], np.concatenate(quads), keys // _MAX_PIECES)
+
+
+#: labels per cell: a case's pieces 0..3, then ``8 * (piece + 1) + arc`` for the arcs of cut pieces
+_MAX_PIECES = 64
+
+
+def _face_edges() -> np.ndarray:
+    """(6, 12) True where local edge ``e`` lies on face ``2 * axis + side`` of the cube."""
+    table = CUBE_TABLE
+    faces = np.zeros((6, 12), dtype=bool)
+    for axis in range(3):
+        for side in range(2):
+            faces[2 * axis + side] = (table.edge_direction != axis) & (table.edge_start[:, axis] == side)
+    return faces
+
+
+def _segments(case: int) -> list[tuple[int, int]]:
+    """The boundary segments (pairs of local edges on one cube face) of a case's polygons:
+    triangle edges used by one triangle only."""
+    table = CUBE_TABLE
+    count: dict[tuple[int, int], int] = {}
+    for tri in table.triangle_edges[case, : table.triangle_count[case]]:
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            edge = (int(min(a, b)), int(max(a, b)))
+            count[edge] = count.get(edge, 0) + 1
+    return [edge for edge, n in count.items() if n == 1]
+
+
+@functools.lru_cache(maxsize=1)
+def _tunnel_faces() -> np.ndarray:
+    """(256, 4) bit mask of the faces on which a case's piece holds all four crossings."""
+    faces = _face_edges()
+    pieces = _pieces()
+    mask = np.zeros((256, 4), dtype=np.int64)
+    for case in range(256):
+        for p in range(4):
+            held = pieces[case] == p
+            for f in range(6):
+                if np.count_nonzero(held & faces[f]) == 4:
+                    mask[case, p] |= 1 << f
+    return mask
+
+
+@functools.lru_cache(maxsize=None)
+def _split_piece(case: int, piece: int, faces_mask: int) -> tuple[int, ...]:
+    """Arc (0, 1, ...) of each local edge of ``piece`` once its polygon is cut at its segments
+    on the faces in ``faces_mask`` (-1 for edges not in the piece)."""
+    faces = _face_edges()[[f for f in range(6) if faces_mask >> f & 1]]
+    held = _pieces()[case] == piece
+    parent = list(range(12))
+
+    def find(e: int) -> int:
+        while parent[e] != e:
+            e = parent[e]
+        return e
+
+    for a, b in _segments(case):
+        if held[a] and held[b] and not (faces[:, a] & faces[:, b]).any():
+            parent[find(b)] = find(a)
+    roots: dict[int, int] = {}
+    return tuple(roots.setdefault(find(e), len(roots)) if held[e] else -1 for e in range(12))
+
+
+def _split_tunnels(scan: GridScan, cell: np.ndarray, local: np.ndarray, piece: np.ndarray) -> np.ndarray:
+    """Piece labels (0..``_MAX_PIECES``-1) once no two neighbouring cells both join the four
+    crossings of their common face into one piece.
+
+    On an ambiguous face (inside corners diagonal) a case may join both of the face's segments
+    into one piece: a tunnel through the face. If the cell across the face does too, the two
+    vertices share the four quads of the face's crossings: a non-manifold edge. Both pieces
+    are cut at that face into their two arcs (the face resolved the other way, the tunnel
+    closed); the arcs pair the face's crossings alike on both sides (the polygons are simple
+    curves on the cube), so each new vertex shares two quads with its partner and has one
+    closed fan. A cut arc can still hold the four crossings of another face, so cutting
+    repeats until no such pair is left. Only cells whose case has a tunnel take part; they
+    are few (edges that touch, saddles at the grid's resolution).
+    """
+    tunnels = _tunnel_faces()
+    cases = scan.cases
+    if not tunnels.any(axis=1)[cases].any():
+        return piece
+    rows = np.flatnonzero(tunnels[cases[cell], piece])
+    if rows.size == 0:
+        return piece
+    nz, ny, nx = scan.shape
+    # every row of the cells involved: arcs are formed from all of a piece's crossings
+    involved = np.unique(cell[rows])
+    rows = np.flatnonzero(np.isin(cell, involved))
+    row_cell, row_local, row_piece = cell[rows], local[rows], piece[rows]
+    row_case = cases[row_cell]
+    cut = np.zeros(rows.size, dtype=np.int64)  # faces at which each row's piece is cut
+    faces_of_edge = np.nonzero(_face_edges().T)[1].reshape(12, 2)
+    steps = np.array([1, nx, nx * ny])
+    original = np.unique(row_cell * 4 + row_piece, return_inverse=True)[1].ravel()
+    label = row_piece
+    for _ in range(12):
+        # crossings held by each (cell, label) on each face
+        key = (row_cell * _MAX_PIECES + label)[:, None] * 6 + faces_of_edge[row_local]
+        keys, counts = np.unique(key.ravel(), return_counts=True)
+        full = keys[counts == 4]
+        full_face = full % 6
+        full_cell = scan.cells[full // 6 // _MAX_PIECES]  # grid node ids, so neighbours are offsets
+        plus = full_face % 2 == 1
+        across = full_cell[plus] + steps[full_face[plus] // 2]
+        minus_faces = full_face[plus] - 1
+        has = np.isin(across * 6 + minus_faces, full_cell[~plus] * 6 + full_face[~plus])
+        minus = full[~plus][np.isin(full_cell[~plus] * 6 + full_face[~plus], (across * 6 + minus_faces)[has])]
+        to_cut = np.concatenate([full[plus][has], minus])
+        if to_cut.size == 0:
+            break
+        row_key = (row_cell * _MAX_PIECES + label) * 6
+        for face in range(6):
+            cut[np.isin(row_key + face, to_cut)] |= 1 << face
+        # every arc of a piece is labelled from the same cuts (the new faces cut one arc only)
+        np.bitwise_or.at(piece_cut := np.zeros(original.max() + 1, dtype=np.int64), original, cut)
+        cut = piece_cut[original]
+        label = _arc_labels(row_case, row_piece, cut, row_local)
+    else:  # pragma: no cover - each round cuts a new face of some piece, at most 3 per piece
+        raise RuntimeError("dual cells: splitting tunnels did not settle")
+    piece = piece.copy()
+    piece[rows] = label
+    return piece
+
+
+def _arc_labels(case: np.ndarray, piece: np.ndarray, cut: np.ndarray, local: np.ndarray) -> np.ndarray:
+    """Label of each row's arc: its piece unless cut, else ``8 * (piece + 1) + arc``."""
+    label = piece.copy()
+    split = np.flatnonzero(cut)
+    combos, inverse = np.unique(np.stack([case[split], piece[split], cut[split]], axis=1), axis=0, return_inverse=True)
+    arcs = np.array([_split_piece(int(c), int(p), int(m)) for c, p, m in combos], dtype=np.int64)
+    label[split] = 8 * (piece[split] + 1) + arcs[inverse.ravel(), local[split]]
+    return label
 
 
 @functools.lru_cache(maxsize=1)

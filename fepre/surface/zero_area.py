@@ -7,16 +7,22 @@ the triangles ``(w, u, d)`` and ``(w, d, v)`` (``w`` splits ``u v``), so flippin
 ``w d`` removes the zero-area triangle and leaves the surface, its orientation and its topology
 as they were. Flips whose new edge already exists are skipped (they would make it non-manifold);
 where four or more corners are collinear the flips repeat, a few rounds.
+
+Two vertices at one point (two pieces of a cell whose vertices both land on a crease corner)
+make the two triangles on their edge zero-area with no flip that helps: such an edge is
+collapsed when its ends share no neighbour but the two opposite corners (the link condition,
+so the surface stays a manifold of the same topology).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["flip_zero_area"]
+__all__ = ["collapse_coincident", "flip_zero_area"]
 
 #: a triangle has zero area when twice its area is at most this times its longest side squared
-ZERO_AREA = 1e-12
+#: (far from the origin rounding leaves corners on a crease about 1e-12 off their line)
+ZERO_AREA = 1e-10
 #: rounds of flips (each round flips triangles that share no edge)
 _ROUNDS = 8
 
@@ -86,3 +92,53 @@ def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         triangles[bad[chosen]] = np.stack([w[chosen], u[chosen], d[chosen]], axis=1)
         triangles[other[chosen]] = np.stack([w[chosen], d[chosen], v[chosen]], axis=1)
     return triangles
+
+
+def collapse_coincident(points: np.ndarray, triangles: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Collapse triangle edges no longer than ``tolerance`` where the link condition holds.
+
+    Returns the used points and the renumbered triangles (unchanged when no edge is that short).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> # a square pyramid's apex 4 and a copy 5 of it: the edge 4-5 is zero-length
+    >>> points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [.5, .5, 1], [.5, .5, 1]], float)
+    >>> triangles = np.array([[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 5, 4], [1, 2, 5], [2, 3, 5], [3, 4, 5], [3, 0, 4]])
+    >>> p, t = collapse_coincident(points, triangles, 1e-9)
+    >>> len(p), len(t)
+    (5, 6)
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    p = points[triangles]
+    short = np.stack([np.einsum("ij,ij->i", p[:, (k + 1) % 3] - p[:, k], p[:, (k + 1) % 3] - p[:, k]) for k in range(3)], axis=1)
+    rows, first = np.nonzero(short <= tolerance * tolerance)
+    if rows.size == 0:
+        return points, triangles
+    ends = np.sort(np.stack([triangles[rows, first], triangles[rows, (first + 1) % 3]], axis=1), axis=1)
+    ends = np.unique(ends[ends[:, 0] != ends[:, 1]], axis=0)
+    touched = np.unique(ends)
+    near = triangles[np.isin(triangles, touched).any(axis=1)]  # the triangles around the short edges
+    representative = np.arange(len(points), dtype=np.int64)
+    for a, b in ends:  # a handful per surface
+        a, b = representative[a], representative[b]
+        if a == b:
+            continue
+        ring = representative[near]
+        around_a = set(ring[(ring == a).any(axis=1)].ravel().tolist()) - {a}
+        around_b = set(ring[(ring == b).any(axis=1)].ravel().tolist()) - {b}
+        on_edge = ring[(ring == a).any(axis=1) & (ring == b).any(axis=1)]
+        opposite = set(on_edge.ravel().tolist()) - {a, b}
+        # (a tetrahedron meets the link condition but would collapse to two triangles)
+        if len(on_edge) != 2 or (around_a & around_b) != opposite or len((around_a | around_b) - {a, b}) < 3:
+            continue
+        representative[touched[representative[touched] == b]] = a
+    if np.array_equal(representative, np.arange(len(points))):
+        return points, triangles
+    merged = representative[triangles]
+    keep = (merged[:, 0] != merged[:, 1]) & (merged[:, 1] != merged[:, 2]) & (merged[:, 0] != merged[:, 2])
+    merged = merged[keep]
+    used = np.flatnonzero(np.bincount(merged.ravel(), minlength=len(points)))
+    index = np.full(len(points), -1, dtype=np.int64)
+    index[used] = np.arange(used.size)
+    return points[used], index[merged]
