@@ -82,11 +82,14 @@ def initial_points(
     fixed: np.ndarray,
     rng: np.random.Generator,
     boundary_layer: bool = False,
+    absolute: bool = False,
 ) -> np.ndarray:
     """Fixed points followed by lattice points with sdf < ``geps``, thinned by ``size``.
 
     With a size function a lattice point is kept with probability ``min(size)^3 / size^3``
-    (Persson's rejection), so the edge length where ``size`` is smallest is ``h``. Lattice points
+    (Persson's rejection), so the edge length where ``size`` is smallest is ``h``; with
+    ``absolute`` (a size field in world units, never below ``h``) with probability
+    ``h^3 / size^3``, so edges are about ``size`` everywhere. Lattice points
     closer than ``h/2`` to a fixed point are dropped. With ``boundary_layer`` the lattice keeps
     only points deeper than ``h/2`` and the surface gets its own points (:func:`surface_points`).
     """
@@ -104,7 +107,7 @@ def initial_points(
         dimension = np.full(len(points), 3.0)
     if size is not None and len(points):
         r0 = evaluate_size(size, points)
-        keep = rng.random(len(points)) < (r0.min() / r0) ** dimension
+        keep = rng.random(len(points)) < ((h if absolute else r0.min()) / r0) ** dimension
         points = points[keep]
     if len(fixed) and len(points):
         from scipy.spatial import cKDTree
