@@ -10,10 +10,10 @@ Examples
 --------
 >>> import fepre
 >>> from fepre import sdf
->>> plate = sdf.box((20.0, 20.0, 0.6)) - sdf.cylinder(0.5, 1.0)
->>> field = fepre.size_field(plate, 0.1, 4.0)
->>> [round(float(s), 2) for s in field([[0.6, 0.0, 0.0], [8.0, 8.0, 0.0]])]   # at the hole, far off
-[0.1, 0.2]
+>>> plate = sdf.box((20.0, 20.0, 2.0)) - sdf.cylinder(0.5, 3.0)
+>>> field = fepre.size_field(plate, 0.05, 4.0)
+>>> [round(float(s), 2) for s in field([[0.5, 0.0, 0.0], [8.0, 8.0, 1.0]])]   # at the hole (chord), on a face (2/3, less a level)
+[0.14, 0.65]
 """
 
 from .build import size_field
