@@ -155,7 +155,8 @@ class SizeField:
 
         The mesh (any :class:`pyvista.DataSet`, e.g. a solver's mesh with an error-driven size
         per cell) is probed on a grid over ``bounds`` (default the mesh's) at ``spacing``
-        (default a third of its smallest size). Grid nodes outside the mesh take the nearest
+        (default a third of its smallest size, or coarser to keep the grid under
+        ``BACKGROUND_NODES`` nodes). Grid nodes outside the mesh take the nearest
         covered node's size; :func:`fepre.distmesh` checks that the mesh covers the part.
         """
         import pyvista as pv
@@ -179,7 +180,10 @@ class SizeField:
             from ..arguments import as_bounds
 
             lower, upper = (np.asarray(v, dtype=np.float64) for v in as_bounds(bounds, 3, "bounds"))
-        step = float(sizes.min()) / 3.0 if spacing is None else float(spacing)
+        if spacing is None:
+            step = max(float(sizes.min()) / 3.0, float(np.cbrt(np.prod(upper - lower) / BACKGROUND_NODES)))
+        else:
+            step = float(spacing)
         if not step > 0:
             raise ValueError(f"spacing must be > 0; got {spacing!r}")
         counts = np.maximum(np.ceil((upper - lower) / step - 1e-9).astype(np.int64) + 1, 2)
@@ -213,6 +217,8 @@ class SizeField:
 
 #: largest grid a size field is built on (a field this size holds 128 MB of float64)
 MAX_NODES = 16_000_000
+#: nodes of the grid a background mesh is probed on by default
+BACKGROUND_NODES = 2_000_000
 
 
 class _Coverage:
