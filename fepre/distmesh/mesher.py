@@ -185,7 +185,7 @@ def distmesh(
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
     from ..sizing.estimate import estimated_cells
 
-    expected = estimated_cells(model, size, h, lower, upper, absolute)
+    expected = estimated_cells(model, size, h, lower, upper, absolute, ceiling=MAX_CELLS)
     if expected > MAX_CELLS:
         advice = "a larger hmin or hmax" if absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
         raise ValueError(

@@ -13,7 +13,7 @@ within a spacing of the surface, projected onto it). Each seed gets the smallest
 - with ``features``, the distance to the nearest feature curve facing it (two sharp edges
   closer than the size, e.g. a shallow step or a thin rib's top),
 
-clamped to ``[hmin, hmax]``. The field on the grid is the lower envelope of the cones
+clamped to ``[hmin, hmax]`` (walls: to ``[WALL_FLOOR * hmin, hmax]``). The field on the grid is the lower envelope of the cones
 ``size + (gradation - 1) * distance`` over the seeds (:mod:`fepre.sizing.gradation`), capped at
 ``hmax``: away from the surface, sizes grow at the rate ``gradation`` allows.
 """
@@ -32,7 +32,32 @@ from .field import MAX_NODES, SizeField
 from .gradation import graded_sizes
 from .rays import ray_lengths
 
-__all__ = ["size_field"]
+__all__ = ["size_field", "WALL_FLOOR"]
+
+#: walls thinner than ``elements_across * hmin`` get sizes below ``hmin``, down to this times it
+WALL_FLOOR = 0.075
+
+
+def _spread(seeds: np.ndarray, normal: np.ndarray, thickness: np.ndarray, wall: np.ndarray, spacing: float):
+    """Copies of wall seeds (surface and mid-surface) at steps of their size across the tangent
+    patch each stands for (a grid spacing square): the cones of seeds a spacing apart would let
+    the size between them grow by (gradation - 1) * spacing / 2, far above a thin wall's size."""
+    helper = np.where(np.abs(normal[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    first = np.cross(normal, helper)
+    first /= np.linalg.norm(first, axis=1)[:, None]
+    second = np.cross(normal, first)
+    points, sizes = [], []
+    for count in np.unique(np.ceil(spacing / wall).astype(np.int64)):
+        group = np.ceil(spacing / wall).astype(np.int64) == count
+        if count <= 1:
+            continue
+        steps = (np.arange(count) + 0.5) / count - 0.5  # across [-spacing/2, spacing/2]
+        a, b = (g.ravel() for g in np.meshgrid(steps, steps, indexing="ij"))
+        offsets = spacing * (a[None, :, None] * first[group][:, None, :] + b[None, :, None] * second[group][:, None, :])
+        for base in (seeds[group], seeds[group] - 0.5 * thickness[group, None] * normal[group]):
+            points.append((base[:, None, :] + offsets).reshape(-1, 3))
+            sizes.append(np.repeat(wall[group], a.size))
+    return points, sizes
 
 
 def _check(hmin: Any, hmax: Any, elements_across: Any, chord_tolerance: Any, gradation: Any):
@@ -69,8 +94,10 @@ def size_field(
     hmin, hmax : float
         Smallest and largest edge length (world units), ``0 < hmin < hmax``.
     elements_across : float
-        Elements through the thickness of every wall that ``hmin`` allows (default 3): a wall
-        ``t`` thick gets ``t / elements_across``, but never less than ``hmin``.
+        Elements through the thickness of every wall (default 3): a wall ``t`` thick gets
+        ``t / elements_across``, below ``hmin`` too for walls thinner than
+        ``elements_across * hmin`` (fewer elements than one per wall would lose or spoil it),
+        down to ``WALL_FLOOR * hmin`` (0.075: a wall 0.3 hmin thick still gets 3 or more; the tip of an acute edge stops refining there).
     chord_tolerance : float, optional
         Largest distance between a curved surface and the chord of an element's edge (default
         ``hmin / 10``): a radius ``R`` gets ``sqrt(8 * chord_tolerance * R)``.
@@ -134,21 +161,36 @@ def size_field(
     curvature = max_curvature(model, seeds, 0.05 * hmin)
     with np.errstate(divide="ignore"):
         chord = np.sqrt(8.0 * chord_tolerance / curvature)
-    wanted = np.minimum.reduce([thickness / elements_across, gap, chord])
+    # walls keep elements_across elements below hmin too (down to WALL_FLOOR * hmin: the tip of
+    # an acute edge would otherwise refine without end); other needs stop at hmin
+    wall = np.clip(thickness / elements_across, WALL_FLOOR * hmin, hmax)
+    wanted = np.minimum(wall, np.clip(np.minimum(gap, chord), hmin, hmax))
     # a wall's size holds through it, not only on its faces: its mid-surface is a seed too
-    thin = np.isfinite(thickness) & (thickness / elements_across < hmax)
+    thin = np.isfinite(thickness) & (wall < hmax)
     points = [seeds, seeds[thin] - 0.5 * thickness[thin, None] * normal[thin]]
-    sizes_at = [wanted, thickness[thin] / elements_across]
+    sizes_at = [wanted, wall[thin]]
     if features:
         from .feature_gaps import feature_sizes
 
         feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, (lower, upper))
         points.append(feature_seeds)
-        sizes_at.append(feature_wanted)
-    points, wanted = np.concatenate(points), np.clip(np.concatenate(sizes_at), hmin, hmax)
+        sizes_at.append(np.clip(feature_wanted, hmin, hmax))
+    # walls under hmin: seeds as dense as their size along the wall, on a grid that fine
+    below = np.flatnonzero(thin & (wall < hmin))
+    if below.size:
+        extra, extra_sizes = _spread(seeds[below], normal[below], thickness[below], wall[below], spacing)
+        points += extra
+        sizes_at += extra_sizes
+    points, wanted = np.concatenate(points), np.concatenate(sizes_at)
+    fine = max(min(spacing, 2.0 * float(wanted.min())), float(np.cbrt(np.prod(upper - lower) / MAX_NODES)))
+    if fine < spacing:
+        spacing = fine
+        counts = np.ceil((upper - lower) / spacing - 1e-9).astype(np.int64) + 1
+        nx, ny = int(counts[0]), int(counts[1])
     index = np.clip(np.rint((points - lower) / spacing).astype(np.int64), 0, counts - 1)
     seed_nodes = index[:, 0] + nx * (index[:, 1] + ny * index[:, 2])
-    sizes = graded_sizes(values.shape, np.full(3, spacing), seed_nodes, wanted, gradation - 1.0, hmax)
-    field = SizeField(lower, np.full(3, spacing), np.clip(sizes, hmin, hmax))
+    shape = (int(counts[2]), int(counts[1]), int(counts[0]))
+    sizes = graded_sizes(shape, np.full(3, spacing), seed_nodes, wanted, gradation - 1.0, hmax)
+    field = SizeField(lower, np.full(3, spacing), np.clip(sizes, WALL_FLOOR * hmin, hmax))
     field.seconds = time.perf_counter() - start
     return field

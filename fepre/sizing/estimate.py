@@ -15,8 +15,12 @@ __all__ = ["estimated_cells", "CELLS_PER_H3"]
 CELLS_PER_H3 = 8.3
 
 
-def estimated_cells(model, size, h: float, lower: np.ndarray, upper: np.ndarray, absolute: bool) -> float:
+def estimated_cells(model, size, h: float, lower: np.ndarray, upper: np.ndarray, absolute: bool,
+                    ceiling: float = 0.0) -> float:
     """About how many cells a mesh of ``model`` in the box gets at edge length ``h`` (or ``size``).
+
+    With ``ceiling``, an upper bound (the whole box at the smallest size) is returned instead
+    when it is below ``ceiling``: the caller only asks whether the mesh is too big.
 
     Examples
     --------
@@ -25,6 +29,13 @@ def estimated_cells(model, size, h: float, lower: np.ndarray, upper: np.ndarray,
     >>> round(estimated_cells(sdf.box(2.0), None, 0.5, -np.ones(3), np.ones(3), False) / 1000, 1)
     0.5
     """
+    from .field import SizeField
+
+    smallest = max(float(size.hmin), h) if absolute and isinstance(size, SizeField) else h
+    if size is None or isinstance(size, SizeField):
+        bound = CELLS_PER_H3 * float(np.prod(upper - lower)) / smallest**3
+        if bound <= ceiling:  # the whole box at the smallest size: no need to look closer
+            return bound
     counts = 48
     axes = [np.linspace(lower[k], upper[k], counts) for k in range(3)]
     cell = np.prod((upper - lower) / (counts - 1))
