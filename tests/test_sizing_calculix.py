@@ -1,6 +1,6 @@
 """A graded mesh from the automatic size field, proven in CalculiX: the stress concentration at a
-small hole in a wide plate under tension (Kirsch), with a twentieth of the cells a uniform mesh
-needs for the same accuracy (issue 14)."""
+small hole in a wide plate under tension (Kirsch), with fewer than a seventh of the cells of a
+uniform mesh that is still less accurate (issue 14)."""
 
 from __future__ import annotations
 
@@ -46,7 +46,8 @@ def test_kirsch_plate_meshed_with_the_automatic_size_field(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         mesh = fepre.distmesh(plate, size=field)
-    # a uniform C3D10 mesh needs h = 0.75 (about 400,000 cells) for the same accuracy
+    # measured: this mesh has 20,000 cells and Kt 1.8% low; a uniform one at h = 1 has 148,000
+    # cells and is still 4.1% low, at h = 1.5 (45,000 cells) 7.7% low
     assert mesh.n_cells < 25_000
     faces = {"left": sdf.plane((-1, 0, 0), (-WIDTH / 2, 0, 0)), "right": sdf.plane((1, 0, 0), (WIDTH / 2, 0, 0))}
     exported = fepre.export(mesh, tmp_path / "part.inp", order=2, model=plate, boundaries=faces)
