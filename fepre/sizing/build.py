@@ -5,15 +5,15 @@ within a spacing of the surface, projected onto it). Each seed gets the smallest
 
 - the wall's thickness there over ``elements_across`` (a ray along the inward normal, to where
   it leaves the part: :mod:`fepre.sizing.rays`);
-- the width of the gap in front of it (the ray along the outward normal, to where it enters
-  the part again): a slot, a narrow gap, a small hole's diameter;
+- half the width of the gap in front of it (the ray along the outward normal, to where it
+  enters the part again): a slot, a narrow gap, a small hole's diameter, two elements across;
 - ``sqrt(8 * chord_tolerance / k)``, the chord of the circle of curvature ``k`` (the largest
   principal curvature of the smooth piece of surface there, :mod:`fepre.sizing.curvature`)
   whose sagitta is ``chord_tolerance``;
 - with ``features``, the distance to the nearest feature curve facing it (two sharp edges
   closer than the size, e.g. a shallow step or a thin rib's top),
 
-clamped to ``[hmin, hmax]`` (walls: to ``[WALL_FLOOR * hmin, hmax]``). The field on the grid is the lower envelope of the cones
+clamped to ``[hmin, hmax]`` (walls and gaps: to ``[WALL_FLOOR * hmin, hmax]``). The field on the grid is the lower envelope of the cones
 ``size + (gradation - 1) * distance`` over the seeds (:mod:`fepre.sizing.gradation`), capped at
 ``hmax``: away from the surface, sizes grow at the rate ``gradation`` allows.
 """
@@ -164,7 +164,9 @@ def size_field(
     # walls keep elements_across elements below hmin too (down to WALL_FLOOR * hmin: the tip of
     # an acute edge would otherwise refine without end); other needs stop at hmin
     wall = np.clip(thickness / elements_across, WALL_FLOOR * hmin, hmax)
-    wanted = np.minimum(wall, np.clip(np.minimum(gap, chord), hmin, hmax))
+    # two elements across every gap (a hole's diameter): below hmin too, or it closes
+    opening = np.clip(gap / 2.0, WALL_FLOOR * hmin, hmax)
+    wanted = np.minimum.reduce([wall, opening, np.clip(chord, hmin, hmax)])
     # a wall's size holds through it, not only on its faces: its mid-surface is a seed too
     thin = np.isfinite(thickness) & (wall < hmax)
     points = [seeds, seeds[thin] - 0.5 * thickness[thin, None] * normal[thin]]
