@@ -38,10 +38,11 @@ __all__ = ["size_field", "WALL_FLOOR"]
 WALL_FLOOR = 0.075
 
 
-def _spread(seeds: np.ndarray, normal: np.ndarray, thickness: np.ndarray, wall: np.ndarray, spacing: float):
-    """Copies of wall seeds (surface and mid-surface) at steps of their size across the tangent
-    patch each stands for (a grid spacing square): the cones of seeds a spacing apart would let
-    the size between them grow by (gradation - 1) * spacing / 2, far above a thin wall's size."""
+def _spread(seeds: np.ndarray, normal: np.ndarray, wall: np.ndarray, spacing: float, thickness: np.ndarray | None = None):
+    """Copies of seeds under hmin (and, given the wall ``thickness``, of its mid-surface) at steps
+    of their size across the tangent patch each stands for (a grid spacing square): the cones of
+    seeds a spacing apart would let the size between them grow by (gradation - 1) * spacing / 2,
+    far above a thin wall's or a narrow gap's size."""
     helper = np.where(np.abs(normal[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
     first = np.cross(normal, helper)
     first /= np.linalg.norm(first, axis=1)[:, None]
@@ -54,7 +55,10 @@ def _spread(seeds: np.ndarray, normal: np.ndarray, thickness: np.ndarray, wall: 
         steps = (np.arange(count) + 0.5) / count - 0.5  # across [-spacing/2, spacing/2]
         a, b = (g.ravel() for g in np.meshgrid(steps, steps, indexing="ij"))
         offsets = spacing * (a[None, :, None] * first[group][:, None, :] + b[None, :, None] * second[group][:, None, :])
-        for base in (seeds[group], seeds[group] - 0.5 * thickness[group, None] * normal[group]):
+        bases = [seeds[group]]
+        if thickness is not None:
+            bases.append(seeds[group] - 0.5 * thickness[group, None] * normal[group])
+        for base in bases:
             points.append((base[:, None, :] + offsets).reshape(-1, 3))
             sizes.append(np.repeat(wall[group], a.size))
     return points, sizes
@@ -180,7 +184,13 @@ def size_field(
     # walls under hmin: seeds as dense as their size along the wall, on a grid that fine
     below = np.flatnonzero(thin & (wall < hmin))
     if below.size:
-        extra, extra_sizes = _spread(seeds[below], normal[below], thickness[below], wall[below], spacing)
+        extra, extra_sizes = _spread(seeds[below], normal[below], wall[below], spacing, thickness[below])
+        points += extra
+        sizes_at += extra_sizes
+    # and along the faces of gaps under hmin (their middle is outside the part)
+    narrow = np.flatnonzero((opening < hmin) & ~(thin & (wall < hmin)))
+    if narrow.size:
+        extra, extra_sizes = _spread(seeds[narrow], normal[narrow], wanted[narrow], spacing)
         points += extra
         sizes_at += extra_sizes
     points, wanted = np.concatenate(points), np.concatenate(sizes_at)
