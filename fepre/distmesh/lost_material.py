@@ -59,7 +59,7 @@ class LostRegion:
     volume: float
 
 
-def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> list[LostRegion]:
     """The regions of ``model`` (deeper than ``0.1 h``) that no tetrahedron covers, largest first.
 
     Examples
@@ -74,10 +74,10 @@ def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list
     >>> round(region.thickness, 2)
     0.3
     """
-    return _uncovered_regions(model, points, tets, h, outside=False)
+    return _uncovered_regions(model, points, tets, h, outside=False, size=size)
 
 
-def added_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+def added_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> list[LostRegion]:
     """The regions outside ``model`` (farther than ``0.15 h``) that tetrahedra cover, largest first.
 
     The mirror image of :func:`lost_material`: a gap narrower than about ``h`` bridged by cells,
@@ -97,12 +97,14 @@ def added_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> lis
     >>> round(region.thickness, 1)
     0.4
     """
-    return _uncovered_regions(model, points, tets, h, outside=True)
+    return _uncovered_regions(model, points, tets, h, outside=True, size=size)
 
 
-def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool) -> list[LostRegion]:
+def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None) -> list[LostRegion]:
     """Regions of the model's inside not covered by the cells (``outside=False``), or of its
-    outside covered by them (``outside=True``)."""
+    outside covered by them (``outside=True``). With ``size`` (a graded mesh's edge lengths, at
+    least ``h``) the depth tests are relative to the local size: a coarse element's chord sags
+    further from a curved face than ``h`` allows."""
     import pyvista as pv
     from scipy import ndimage
 
@@ -129,7 +131,13 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     spacing_mean = float(np.cbrt(np.prod(step)))
     weight = np.clip(0.5 + depth / spacing_mean, 0.0, 1.0)
     side = weight > 0.0
-    deep = depth > (_OUTSIDE_DEPTH if outside else _DEPTH) * h
+    factor = _OUTSIDE_DEPTH if outside else _DEPTH
+    deep = depth > factor * h
+    if size is not None and deep.any():
+        k, j, i = np.nonzero(deep)
+        local = np.maximum(np.asarray(size(origin + np.column_stack([i, j, k]) * step), dtype=np.float64), h)
+        shallow = depth[k, j, i] <= factor * local
+        deep[k[shallow], j[shallow], i[shallow]] = False
     if outside:
         deep &= depth < 0.999 * band  # beyond the band, values are a filler, not a distance
     if not deep.any():

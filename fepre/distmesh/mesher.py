@@ -261,10 +261,11 @@ def distmesh(
 
     from .lost_material import added_material, added_material_message, lost_material, lost_material_message
 
-    lost = lost_material(model, points, tets, h) if o.check_resolution else []
+    local = size if absolute else None
+    lost = lost_material(model, points, tets, h, local) if o.check_resolution else []
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, h)}", ResolutionWarning)
-    added = added_material(model, points, tets, h) if o.check_resolution else []
+    added = added_material(model, points, tets, h, local) if o.check_resolution else []
     if added:
         warn_user(f"distmesh: {added_material_message(added, h)}", ResolutionWarning)
     history = dict(loop.history)
