@@ -43,8 +43,10 @@ _LAZY: dict[str, str] = {
     "Comparison": "fepre.compare",
     "plot": "fepre.plotting",
     "plot_model": "fepre.plotting",
+    "size_field": "fepre.sizing",
+    "SizeField": "fepre.sizing",
 }
-_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus"}
+_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing"}
 
 __all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
 

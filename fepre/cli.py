@@ -183,7 +183,9 @@ def _run_surface(args: argparse.Namespace) -> int:
 def _configure_mesh(parser: argparse.ArgumentParser) -> None:
     _model_argument(parser)
     parser.add_argument("-o", "--output", required=True, help="solver file: .inp, .msh, .vtu, .xdmf, .bdf, .mesh, .med")
-    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h); with --hmax, the smallest")
+    parser.add_argument("--hmax", type=float, help="largest edge length: grade the mesh with the automatic size field from --h to this")
+    parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
@@ -207,9 +209,14 @@ def _run_mesh(args: argparse.Namespace) -> int:
     from .quality import summary
 
     output = _output_path(args.output, "--output", _mesh_suffixes())
+    size = _size_file(args.size) if args.size is not None else None
     part = load_model(args.model)
     part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
-    h = _edge_length(args, part)
+    h = _edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
+    if args.hmax is not None:
+        if h is None or not args.hmax > h:
+            raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h}")
+        h = (h, float(args.hmax))
     from .export.formats import resolve_format
     from .export.meshio_formats import require_module
 
@@ -219,9 +226,14 @@ def _run_mesh(args: argparse.Namespace) -> int:
     if fmt.backend is not None:
         require_module(*fmt.backend, fmt.name)
     say = (lambda message: None) if args.quiet else _say
-    say(f"fepre mesh: DistMesh h={h:g} ...")
+    if isinstance(h, tuple):
+        say(f"fepre mesh: DistMesh with the automatic size field, h from {h[0]:g} to {h[1]:g} ...")
+    elif size is not None:
+        say(f"fepre mesh: DistMesh with the sizes of {args.size} ...")
+    else:
+        say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
-    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, progress=not args.quiet, seed=args.seed,
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
                           features=not args.no_features)
     say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
     if not args.quiet:
@@ -243,6 +255,63 @@ def _run_mesh(args: argparse.Namespace) -> int:
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    return 0
+
+
+def _size_file(path: str):
+    """A size field from a file: an image of sizes (``fepre size``) or a background mesh."""
+    import pyvista as pv
+
+    from .sizing import SizeField
+
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f"--size {path}: no such file")
+    try:
+        data = pv.read(str(file))
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the user's file
+        raise ValueError(f"--size {path}: cannot read it ({exc})") from None
+    try:
+        return SizeField.from_image(data) if isinstance(data, pv.ImageData) else data
+    except ValueError as exc:
+        raise ValueError(f"--size {path}: {exc}") from None
+
+
+def _configure_size(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("-o", "--output", required=True, help="write the size field here (.vti)")
+    parser.add_argument("--h", type=float, help="smallest edge length (default: the model file's h)")
+    parser.add_argument("--hmax", type=float, required=True, help="largest edge length")
+    parser.add_argument("--elements-across", type=float, default=3.0, help="elements through every wall (default 3)")
+    parser.add_argument("--chord-tolerance", type=float, help="largest chord error on curved faces (default h/10)")
+    parser.add_argument("--gradation", type=float, default=1.3, help="largest ratio of neighbouring sizes (default 1.3)")
+    parser.add_argument("--no-features", action="store_true", help="do not refine where sharp edges face each other closely")
+
+
+@command("size", "the automatic size field of a model file: write it as an image (.vti) to look at or edit")(_configure_size)
+def _run_size(args: argparse.Namespace) -> int:
+    from .modelfile import load_model
+    from .sizing import size_field
+    from .sizing.estimate import estimated_cells
+
+    output = _output_path(args.output, "--output", (".vti",))
+    part = load_model(args.model)
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in part.domain_bounds())
+    h = _edge_length(args, part)
+    if not args.hmax > h:
+        raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h:g}")
+    _say(f"fepre size: sizes from {h:g} to {args.hmax:g} ...")
+    field = size_field(part.model, h, args.hmax, elements_across=args.elements_across,
+                       chord_tolerance=args.chord_tolerance, gradation=args.gradation,
+                       features=not args.no_features, bounds=part.bounds)
+    graded = estimated_cells(part.model, field, field.hmin, lower, upper, True)
+    uniform = estimated_cells(part.model, None, h, lower, upper, False)
+    print(f"size field: {field.shape[0]} x {field.shape[1]} x {field.shape[2]} nodes at spacing {float(field.spacing[0]):.4g}, "
+          f"sizes {field.hmin:.4g} to {field.hmax:.4g}, built in {field.seconds:.1f} s")
+    print(f"estimated cells: {graded:,.0f} graded, {uniform:,.0f} uniform at h={h:g} ({graded / max(uniform, 1):.1%})")
+    image = field.to_image()
+    _write_atomically(lambda path: image.save(str(path)), output)
+    print(f"wrote {output}")
     return 0
 
 

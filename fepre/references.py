@@ -149,8 +149,10 @@ def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
     return _positive_tets(np.asarray(grid.points, dtype=np.float64), tets)
 
 
-def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool):
-    """One gmsh run on the STL ``path``; returns (points, tets) of the volume mesh."""
+def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool, hmin: float = 0.0, curvature: int = 0):
+    """One gmsh run on the STL ``path``; returns (points, tets) of the volume mesh. With
+    ``curvature`` > 0, sizes come from the surface's curvature (that many elements per 2 pi),
+    between ``hmin`` and ``h``."""
     import gmsh
 
     gmsh.model.add("fepre-reference")
@@ -164,9 +166,9 @@ def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool):
         loop = gmsh.model.geo.addSurfaceLoop(surfaces)
         gmsh.model.geo.addVolume([loop])
         gmsh.model.geo.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMin", h if remesh else 0.0)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", hmin if curvature else (h if remesh else 0.0))
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", int(curvature))
         for name, value in GMSH_OPTIONS.items():
             gmsh.option.setNumber(name, value)
         gmsh.model.mesh.generate(3)
@@ -182,7 +184,7 @@ def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool):
         gmsh.model.remove()
 
 
-def _gmsh_in_child(path: str, h: float, seed: int) -> tuple[np.ndarray, np.ndarray, str | None, float]:
+def _gmsh_in_child(path: str, h: float, seed: int, hmin: float = 0.0, curvature: int = 0) -> tuple[np.ndarray, np.ndarray, str | None, float]:
     """Run in a child process: gmsh on the STL ``path``, remeshed, else with the surface kept."""
     import gmsh
 
@@ -192,27 +194,28 @@ def _gmsh_in_child(path: str, h: float, seed: int) -> tuple[np.ndarray, np.ndarr
     note = None
     try:
         try:
-            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=True)
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=True, hmin=hmin, curvature=curvature)
         except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
             note = f"surface kept as sampled (gmsh could not remesh it: {str(exc).strip()[:120]})"
             gmsh.finalize()  # a failed generate() can leave state behind: start afresh
             gmsh.initialize(interruptible=False)
             gmsh.option.setNumber("General.Terminal", 0)
-            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=False)
+            points, tets = _gmsh_tetrahedra(path, h, seed, remesh=False, hmin=hmin, curvature=curvature)
     finally:
         gmsh.finalize()
     return points, tets, note, time.perf_counter() - start
 
 
 def gmsh_worker(arguments: list[str]) -> int:
-    """``python -m fepre.references STL OUT.npz H SEED``: mesh the STL with gmsh into OUT.npz.
+    """``python -m fepre.references STL OUT.npz H SEED [HMIN CURVATURE]``: mesh the STL with gmsh into OUT.npz.
 
     A fresh interpreter, not a multiprocessing child: a spawned child imports the parent's
     ``__main__``, which re-runs a user's script that has no ``if __name__ == "__main__"`` guard.
     """
     path, out, h, seed = arguments[0], arguments[1], float(arguments[2]), int(arguments[3])
+    hmin, curvature = (float(arguments[4]), int(arguments[5])) if len(arguments) > 5 else (0.0, 0)
     try:
-        points, tets, note, seconds = _gmsh_in_child(path, h, seed)
+        points, tets, note, seconds = _gmsh_in_child(path, h, seed, hmin, curvature)
     except Exception as exc:  # noqa: BLE001 - reported to the parent as text
         with open(out + ".error", "w", encoding="utf-8") as handle:
             handle.write(f"{type(exc).__name__}: {exc}")
@@ -221,7 +224,8 @@ def gmsh_worker(arguments: list[str]) -> int:
     return 0
 
 
-def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
+def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0, hmin: float | None = None,
+              curvature: int = 0):
     """Tetrahedralise ``surface`` with gmsh: the surface is remeshed at size ``h``, then meshed in 3D.
 
     The triangles are classified into patches (``classifySurfaces``, 40 degree feature angle),
@@ -236,6 +240,9 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
     initial partitioning") or never returns; either is reported as a :class:`MeshingError` (the
     process is stopped after ``timeout`` seconds). The time gmsh itself took is stored in field
     data ``"reference_seconds"``.
+
+    ``curvature`` > 0 sizes the mesh from the surface's curvature as gmsh users grade a mesh
+    (``Mesh.MeshSizeFromCurvature``: that many elements per 2 pi), between ``hmin`` and ``h``.
     """
     import subprocess
     import sys
@@ -247,6 +254,8 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0):
         out = os.path.join(scratch, "mesh.npz")
         surface.save(path, binary=True)
         command = [sys.executable, "-m", "fepre.references", path, out, repr(float(h)), str(int(seed))]
+        if curvature:
+            command += [repr(float(positive_float(hmin, "hmin") if hmin is not None else 0.0)), str(int(curvature))]
         try:
             done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
         except subprocess.TimeoutExpired:

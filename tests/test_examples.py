@@ -26,3 +26,17 @@ def test_cube_with_hole_surface_is_closed_with_the_right_volume(tmp_path):
     assert check.watertight and check.manifold and check.oriented
     assert check.genus == 1
     assert check.volume == pytest.approx(125 - 5 * 3.141592653589793, rel=5e-3)
+
+
+def test_adaptive_remeshing_beats_uniform_refinement_per_cell(tmp_path):
+    """Issue 14: on the L-block's singular edge the energy error falls faster per cell when each
+    mesh is the background size of the next (from a Zienkiewicz-Zhu estimate) than uniformly."""
+    pytest.importorskip("skfem")
+    namespace = runpy.run_path(str(EXAMPLES[[p.stem for p in EXAMPLES].index("adaptive_remeshing")]))
+    uniform, adaptive = namespace["main"](str(tmp_path))
+    rate = namespace["rate"]
+    # uniform refinement: the singularity's rate, (2/3) / 3 per cell in 3D
+    assert rate(uniform) == pytest.approx(-2 / 9, abs=0.06)
+    assert rate(adaptive) < rate(uniform) - 0.1
+    # fewer cells, smaller error than the finest uniform mesh
+    assert adaptive[-1][0] < 0.5 * uniform[-1][0] and adaptive[-1][1] < uniform[-1][1]

@@ -49,6 +49,8 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
 
     projected = model.project(candidates, iterations=8, tol=1e-6 * h, warn=False)
     projected = projected[np.abs(model(projected)) < 1e-3 * h]
+    if len(projected) == 0:
+        return projected
     side = 1.1 * h
     cells = np.floor((projected - lower) / side).astype(np.int64)
     cells -= cells.min(axis=0)
@@ -70,6 +72,31 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
     return surface[keep]
 
 
+def _graded_points(model, lower, upper, h, distribution, geps, jitter, field, rng, boundary_layer) -> np.ndarray:
+    """Initial points for a size field: an octave lattice (:mod:`.graded_lattice`) thinned to
+    density ``1 / size^3``; with ``boundary_layer``, surface points per octave at density
+    ``1 / size^2`` and lattice points deeper than half the local size."""
+    from .graded_lattice import graded_lattice
+
+    points, octave, at = graded_lattice(field, lower, upper, h, _CELL[distribution], _BASIS[distribution])
+    if jitter > 0 and len(points):
+        points = points + rng.uniform(-jitter, jitter, size=points.shape) * octave[:, None]
+    values = model(points) if len(points) else np.zeros(0)
+    if not boundary_layer:
+        keep = (values < geps) & (rng.random(len(points)) < (octave / at) ** 3)
+        return points[keep]
+    chunks = []
+    for size in np.unique(octave):
+        mine = (octave == size) & (np.abs(values) < size)
+        surface = surface_points(model, points[mine], lower, size)
+        if len(surface):
+            local = field(surface)
+            chunks.append(surface[rng.random(len(surface)) < np.minimum(1.0, (size / local) ** 2)])
+    deep = (values < -0.5 * octave) & (rng.random(len(points)) < (octave / at) ** 3)
+    chunks.append(points[deep])
+    return np.concatenate(chunks)
+
+
 def initial_points(
     model,
     lower: np.ndarray,
@@ -82,30 +109,39 @@ def initial_points(
     fixed: np.ndarray,
     rng: np.random.Generator,
     boundary_layer: bool = False,
+    absolute: bool = False,
 ) -> np.ndarray:
     """Fixed points followed by lattice points with sdf < ``geps``, thinned by ``size``.
 
     With a size function a lattice point is kept with probability ``min(size)^3 / size^3``
-    (Persson's rejection), so the edge length where ``size`` is smallest is ``h``. Lattice points
+    (Persson's rejection), so the edge length where ``size`` is smallest is ``h``; with
+    ``absolute`` (a size field in world units, never below ``h``) with probability
+    ``h^3 / size^3``, so edges are about ``size`` everywhere. Lattice points
     closer than ``h/2`` to a fixed point are dropped. With ``boundary_layer`` the lattice keeps
     only points deeper than ``h/2`` and the surface gets its own points (:func:`surface_points`).
     """
+    from ..sizing import SizeField
+
     margin = h if boundary_layer else 0.0
-    points = lattice(lower - margin, upper + margin, h, distribution)
-    if jitter > 0:
-        points = points + rng.uniform(-jitter * h, jitter * h, size=points.shape)
-    values = model(points) if len(points) else np.zeros(0)
-    if boundary_layer:
-        surface = surface_points(model, points[np.abs(values) < h], lower, h)
-        points = np.concatenate([surface, points[values < -0.5 * h]])
-        dimension = np.concatenate([np.full(len(surface), 2.0), np.full(len(points) - len(surface), 3.0)])
+    if absolute and isinstance(size, SizeField):
+        points = _graded_points(model, lower - margin, upper + margin, h, distribution, geps, jitter, size, rng,
+                                boundary_layer)
     else:
-        points = points[values < geps]
-        dimension = np.full(len(points), 3.0)
-    if size is not None and len(points):
-        r0 = evaluate_size(size, points)
-        keep = rng.random(len(points)) < (r0.min() / r0) ** dimension
-        points = points[keep]
+        points = lattice(lower - margin, upper + margin, h, distribution)
+        if jitter > 0:
+            points = points + rng.uniform(-jitter * h, jitter * h, size=points.shape)
+        values = model(points) if len(points) else np.zeros(0)
+        if boundary_layer:
+            surface = surface_points(model, points[np.abs(values) < h], lower, h)
+            points = np.concatenate([surface, points[values < -0.5 * h]])
+            dimension = np.concatenate([np.full(len(surface), 2.0), np.full(len(points) - len(surface), 3.0)])
+        else:
+            points = points[values < geps]
+            dimension = np.full(len(points), 3.0)
+        if size is not None and len(points):
+            r0 = evaluate_size(size, points)
+            keep = rng.random(len(points)) < ((h if absolute else r0.min()) / r0) ** dimension
+            points = points[keep]
     if len(fixed) and len(points):
         from scipy.spatial import cKDTree
 

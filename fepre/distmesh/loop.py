@@ -159,12 +159,15 @@ def iterate(
     progress: bool = False,
     callback: Callable[[DistMeshState], object] | None = None,
     protect: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
+    local_size: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> LoopResult:
     """Run the DistMesh loop from ``points``; returns the final positions and the history.
 
     ``protect(points, movable)`` moves points in place after each step (the feature
     neighbourhoods, :class:`~fepre.distmesh.feature_protection.FeatureProtection`) and returns
-    the moved indices and distances.
+    the moved indices and distances. ``local_size(points)`` (a size field's edge lengths) makes
+    the retriangulation and convergence tests relative to the local size instead of ``h``:
+    large elements of a graded mesh move further per step than small ones.
     """
     start = time.perf_counter()
     o = options
@@ -183,12 +186,13 @@ def iterate(
     last_print = 0.0
     tets = delaunay_tets = np.zeros((0, 4), np.int64)
     iteration = 0
+    scale: np.ndarray | float = h
 
     for iteration in range(1, o.maxiter + 1):
         # -- retriangulate when points moved far enough (or move averaging asks for it)
         retriangulate = p_triangulated is None
         if not retriangulate:
-            moved = np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)).max()
+            moved = (np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h
             retriangulate = moved > ttol
             if o.retriangulation == "move_average" and len(recent_moves) > o.move_average_window:
                 window = recent_moves[-o.move_average_window - 1 : -1]
@@ -198,6 +202,7 @@ def iterate(
             if o.sort == "hilbert" and triangulations % o.sort_interval == 0:
                 order = hilbert_order(p)
                 p, bound, fixed = p[order], bound[order], fixed[order]
+            scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
             delaunay_tets = tetrahedralize(p, o.delaunay, h)
             tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
             t1 = time.perf_counter()
@@ -247,7 +252,7 @@ def iterate(
         timings["model"] += time.perf_counter() - t2
 
         interior = bound < -geps
-        max_dp = float(step[interior].max()) / h if interior.any() else 0.0
+        max_dp = float((step / scale)[interior].max()) if interior.any() else 0.0
         max_move = float(step.max())
         recent_moves.append(max_move)
         history["max_move"].append(max_move)
@@ -286,5 +291,5 @@ def iterate(
         triangulations=triangulations,
         timings=timings,
         delaunay_tets=delaunay_tets,
-        moved_since_delaunay=float(np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)).max()),
+        moved_since_delaunay=float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h),
     )

@@ -30,6 +30,12 @@ _MIN_NODES = 8
 #: regions are reported when they hold this volume together (times h^3): less is the size of a
 #: few elements (the acute corners where a lattice's sheet meets its shell, filled by chords)
 _MIN_VOLUME = 2.0
+#: ... or this share of the mesh's own volume (a small part's whole wedge tip)
+_MIN_SHARE = 0.01
+#: shallower lost nodes count too where the material through them is thinner than h: the tip of
+#: an acute wedge is lost everywhere less than 0.1 h deep (chord sag, also shallow, lies on
+#: material far thicker than h)
+_THIN = 1.0
 #: largest number of grid nodes sampled; coarser spacing beyond it
 _MAX_NODES = 16_000_000
 
@@ -53,7 +59,7 @@ class LostRegion:
     volume: float
 
 
-def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> list[LostRegion]:
     """The regions of ``model`` (deeper than ``0.1 h``) that no tetrahedron covers, largest first.
 
     Examples
@@ -68,10 +74,10 @@ def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list
     >>> round(region.thickness, 2)
     0.3
     """
-    return _uncovered_regions(model, points, tets, h, outside=False)
+    return _uncovered_regions(model, points, tets, h, outside=False, size=size)
 
 
-def added_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+def added_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> list[LostRegion]:
     """The regions outside ``model`` (farther than ``0.15 h``) that tetrahedra cover, largest first.
 
     The mirror image of :func:`lost_material`: a gap narrower than about ``h`` bridged by cells,
@@ -91,12 +97,14 @@ def added_material(model, points: np.ndarray, tets: np.ndarray, h: float) -> lis
     >>> round(region.thickness, 1)
     0.4
     """
-    return _uncovered_regions(model, points, tets, h, outside=True)
+    return _uncovered_regions(model, points, tets, h, outside=True, size=size)
 
 
-def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool) -> list[LostRegion]:
+def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None) -> list[LostRegion]:
     """Regions of the model's inside not covered by the cells (``outside=False``), or of its
-    outside covered by them (``outside=True``)."""
+    outside covered by them (``outside=True``). With ``size`` (a graded mesh's edge lengths, at
+    least ``h``) the depth tests are relative to the local size: a coarse element's chord sags
+    further from a curved face than ``h`` allows."""
     import pyvista as pv
     from scipy import ndimage
 
@@ -123,7 +131,13 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     spacing_mean = float(np.cbrt(np.prod(step)))
     weight = np.clip(0.5 + depth / spacing_mean, 0.0, 1.0)
     side = weight > 0.0
-    deep = depth > (_OUTSIDE_DEPTH if outside else _DEPTH) * h
+    factor = _OUTSIDE_DEPTH if outside else _DEPTH
+    deep = depth > factor * h
+    if size is not None and deep.any():
+        k, j, i = np.nonzero(deep)
+        local = np.maximum(np.asarray(size(origin + np.column_stack([i, j, k]) * step), dtype=np.float64), h)
+        shallow = depth[k, j, i] <= factor * local
+        deep[k[shallow], j[shallow], i[shallow]] = False
     if outside:
         deep &= depth < 0.999 * band  # beyond the band, values are a filler, not a distance
     if not deep.any():
@@ -142,6 +156,8 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
         result[k[bad], j[bad], i[bad]] = True
         return result
 
+    if not outside:
+        deep |= _thin(model, depth, side & ~deep, origin, step, h)
     wrong_deep = wrong(deep)
     if wrong_deep.sum() < _MIN_NODES:
         return []
@@ -161,11 +177,34 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     deepest = np.zeros(count + 1)
     np.maximum.at(deepest, label, depth.ravel()[picked])
     keep = np.flatnonzero(deep_nodes >= _MIN_NODES)
-    if volume[keep].sum() < _MIN_VOLUME * h**3:
+    corners = points[np.asarray(tets, dtype=np.int64)]
+    own = float(np.abs(np.linalg.det(corners[:, 1:] - corners[:, :1])).sum() / 6.0) if len(tets) else 0.0
+    if volume[keep].sum() < min(_MIN_VOLUME * h**3, _MIN_SHARE * own):
         return []
     regions = [LostRegion(tuple(float(c) for c in centre[r]), 2.0 * float(deepest[r]), float(volume[r])) for r in keep]
     regions.sort(key=lambda region: -region.volume)
     return regions
+
+
+def _thin(model, depth: np.ndarray, candidates: np.ndarray, origin: np.ndarray, step: np.ndarray, h: float) -> np.ndarray:
+    """The ``candidates`` nodes (inside, shallower than the depth test) where the material
+    through them, along the inward normal, is thinner than ``_THIN * h``."""
+    from ..sizing.rays import ray_lengths
+
+    candidates = candidates & (depth > 0.02 * h)
+    result = np.zeros_like(candidates)
+    if not candidates.any():
+        return result
+    k, j, i = np.nonzero(candidates)
+    points = origin + np.column_stack([i, j, k]) * step
+    _, gradient = model.value_and_gradient(points)
+    norm = np.linalg.norm(gradient, axis=1)
+    usable = norm > 1e-9
+    inward = -gradient[usable] / norm[usable, None]
+    length = ray_lengths(model, points[usable], inward, True, _THIN * h, h / 16.0)
+    thin = depth[k[usable], j[usable], i[usable]] + length < _THIN * h
+    result[k[usable][thin], j[usable][thin], i[usable][thin]] = True
+    return result
 
 
 def _summary(regions: list[LostRegion], describe: str) -> tuple[float, str, float]:

@@ -19,7 +19,16 @@ from .loop import DistMeshState, iterate
 from .options import DistMeshOptions, resolve_options
 from .output import to_grid
 
-__all__ = ["distmesh"]
+__all__ = ["distmesh", "MAX_CELLS"]
+
+#: largest mesh (estimated cells) fepre.distmesh starts on; a 24 GB machine holds about 17M
+MAX_CELLS = 20_000_000
+
+
+def _is_dataset(value: Any) -> bool:
+    import pyvista as pv
+
+    return isinstance(value, pv.DataSet)
 
 
 def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
@@ -33,12 +42,57 @@ def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) ->
     raise ValueError(f"h={h!r} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
 
 
+def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any):
+    """``(h, size, absolute)``: the smallest edge length, the size callable and whether its
+    values are edge lengths (a size field) rather than relative sizes."""
+    import pyvista as pv
+
+    from ..sizing import SizeField, size_field
+
+    if isinstance(h, (tuple, list, np.ndarray)):
+        pair = np.asarray(h, dtype=object).reshape(-1)
+        if pair.size != 2:
+            raise ValueError(f"h must be a number or a pair (hmin, hmax); got {h!r}")
+        field = size_field(model, pair[0], pair[1], bounds=bounds)
+        if size is not None:
+            field = field.minimum(_as_field(size, model, bounds) if isinstance(size, pv.DataSet) else size)
+        return field.hmin, field, True
+    if isinstance(size, pv.DataSet):
+        size = _as_field(size, model, bounds)
+    if isinstance(size, SizeField):
+        if h is not None:
+            size = size.clip(positive_float(h, "h"), max(size.hmax, positive_float(h, "h")))
+        return size.hmin, size, True
+    if h is None:
+        raise ValueError("h is required (a number, or a pair (hmin, hmax) for an automatic size field) unless size is a SizeField or a background mesh")
+    return positive_float(h, "h"), size, False
+
+
+def _as_field(mesh, model: SDF, bounds: Any):
+    """A background mesh as a size field, checked to cover the part."""
+    from ..sizing import SizeField
+
+    field = SizeField.from_mesh(mesh)
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
+    axes = [np.linspace(lower[k], upper[k], 24) for k in range(3)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = grid[model(grid) < 0]
+    uncovered = field.coverage.uncovered(inside) if len(inside) else np.zeros(0, bool)
+    if uncovered.any():
+        raise ValueError(
+            f"the background mesh (size=) does not cover the part: {int(uncovered.sum())} of {len(inside)} probe "
+            f"points inside the part lie outside it, e.g. {np.round(inside[uncovered][0], 6).tolist()}; "
+            "give a mesh of the whole part"
+        )
+    return field
+
+
 def distmesh(
     model: SDF,
-    h: float,
+    h: Any = None,
     *,
     bounds: Any = None,
-    size: Callable[[np.ndarray], np.ndarray] | None = None,
+    size: Any = None,
     fixed: Any = None,
     options: DistMeshOptions | None = None,
     progress: bool = False,
@@ -51,13 +105,19 @@ def distmesh(
     ----------
     model : fepre.sdf.SDF
         The solid (negative inside).
-    h : float
-        Target edge length (where ``size`` is smallest, for graded meshes).
+    h : float or (hmin, hmax)
+        Target edge length (where ``size`` is smallest, for graded meshes); a pair meshes with
+        the automatic size field :func:`fepre.size_field` ``(model, hmin, hmax)`` (fine at thin
+        walls, gaps, small holes and curvature, up to ``hmax`` elsewhere). Optional when
+        ``size`` is a size field or a background mesh (then it clamps the sizes from below).
     bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
         Box holding the solid; defaults to ``model.bounds``.
-    size : callable, optional
-        Relative edge length ``size(points (N, 3)) -> (N,)`` (the reference's ``fh``): edges are
-        about ``h * size(x) / min(size)``.
+    size : callable, fepre.SizeField or pyvista.DataSet, optional
+        A callable ``size(points (N, 3)) -> (N,)`` gives relative edge lengths (the reference's
+        ``fh``): edges are about ``h * size(x) / min(size)``. A :class:`fepre.SizeField`, or a
+        background mesh with one point or cell array of sizes (e.g. from a solver's error
+        estimate; it must cover the part), gives edge lengths in world units. With
+        ``h=(hmin, hmax)`` it is combined with the automatic field by the smaller size.
     fixed : (M, 3) array, optional
         Points kept in the mesh that never move; they must lie in the solid (sdf <= 1e-3 h).
         They combine with the detected features (``features=True``): feature nodes closer
@@ -98,14 +158,14 @@ def distmesh(
     start = time.perf_counter()
     if not isinstance(model, SDF) or model.dim != 3:
         raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
-    h = positive_float(h, "h")
     o = resolve_options(options, overrides)
+    if size is not None and not callable(size) and not _is_dataset(size):
+        raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
+    h, size, absolute = _resolve_sizes(model, h, size, bounds)
     lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
     extent = float((upper - lower).max())
     if h >= extent:
         raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
-    if size is not None and not callable(size):
-        raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
     if callback is not None and not callable(callback):
         raise TypeError(f"callback must be a callable or None; got {type(callback).__name__}")
     if fixed is None:
@@ -123,6 +183,15 @@ def distmesh(
             raise ValueError("fixed must not contain duplicate points")
     if size is not None:
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
+    from ..sizing.estimate import estimated_cells
+
+    expected = estimated_cells(model, size, h, lower, upper, absolute, ceiling=MAX_CELLS)
+    if expected > MAX_CELLS:
+        advice = "a larger hmin or hmax" if absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
+        raise ValueError(
+            f"the mesh would have about {expected:,.0f} cells, more than fepre.distmesh.mesher.MAX_CELLS = "
+            f"{MAX_CELLS:,} (about 1.4 KB of memory each); use {advice}, or raise MAX_CELLS if the machine has the memory"
+        )
 
     t0 = time.perf_counter()
     found, protection, feature_nodes = None, None, 0
@@ -144,7 +213,8 @@ def distmesh(
 
     rng = np.random.default_rng(o.seed)
     points = initial_points(
-        model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng, o.boundary_layer
+        model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng, o.boundary_layer,
+        absolute=absolute,
     )
     if protection is not None:
         free = np.arange(len(points)) >= len(fixed_points)
@@ -155,7 +225,7 @@ def distmesh(
     fixed_mask[: len(fixed_points)] = True
 
     loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
-                   protect=None if protection is None else protection.push)
+                   protect=None if protection is None else protection.push, local_size=size if absolute else None)
     previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
     points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
     loop_seconds = time.perf_counter() - start
@@ -191,10 +261,11 @@ def distmesh(
 
     from .lost_material import added_material, added_material_message, lost_material, lost_material_message
 
-    lost = lost_material(model, points, tets, h) if o.check_resolution else []
+    local = size if absolute else None
+    lost = lost_material(model, points, tets, h, local) if o.check_resolution else []
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, h)}", ResolutionWarning)
-    added = added_material(model, points, tets, h) if o.check_resolution else []
+    added = added_material(model, points, tets, h, local) if o.check_resolution else []
     if added:
         warn_user(f"distmesh: {added_material_message(added, h)}", ResolutionWarning)
     history = dict(loop.history)

@@ -1,0 +1,69 @@
+"""Sizes at sharp feature curves that face each other closely: a shallow step, a thin rib's top.
+
+Neither ray of :mod:`fepre.sizing.rays` sees a step ``s`` high on a flat face (both rays run
+along the face's normal), yet its two edges are ``s`` apart and the mesh needs nodes on both.
+For each node of a feature curve, the nearest nodes of the other curves count when the line
+to them is across both curves (at more than 60 degrees to each tangent): two edges of one
+corner meet at their common end and are not across each other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["feature_sizes"]
+
+#: |cos| between the line joining two curve nodes and each curve's tangent, at most
+ACROSS = 0.5
+#: neighbours looked at per curve node
+NEIGHBOURS = 12
+
+
+def _tangents(points: np.ndarray, closed: bool) -> np.ndarray:
+    if len(points) < 2:
+        return np.zeros_like(points)
+    if closed:
+        forward, backward = np.roll(points, -1, axis=0), np.roll(points, 1, axis=0)
+    else:
+        forward = np.concatenate([points[1:], points[-1:]])
+        backward = np.concatenate([points[:1], points[:-1]])
+    tangent = forward - backward
+    norm = np.linalg.norm(tangent, axis=1)
+    return tangent / np.where(norm > 0, norm, 1.0)[:, None]
+
+
+def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """Curve nodes and the distance to the nearest curve across from them (below ``hmax``).
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> step = sdf.box((4.0, 4.0, 1.0)) | sdf.box((2.0, 4.0, 1.2), center=(1.0, 0.0, 0.1))
+    >>> points, sizes = feature_sizes(step, 0.25, 2.0, ((-2.5, -2.5, -1.0), (2.5, 2.5, 1.0)))
+    >>> round(float(sizes.min()), 2)   # the step is 0.2 high
+    0.2
+    """
+    from scipy.spatial import cKDTree
+
+    from ..features import features
+
+    found = features(model, hmin, spacing=hmin / 2.0, bounds=bounds, warn=False)
+    if len(found.curves) < 2:
+        return np.zeros((0, 3)), np.zeros(0)
+    points = np.concatenate([c.points for c in found.curves])
+    tangents = np.concatenate([_tangents(c.points, c.closed) for c in found.curves])
+    curve = np.repeat(np.arange(len(found.curves)), [len(c.points) for c in found.curves])
+    k = min(NEIGHBOURS, len(points))
+    distance, neighbour = cKDTree(points).query(points, k=k, distance_upper_bound=hmax)
+    found_mask = np.isfinite(distance)
+    neighbour = np.where(found_mask, neighbour, 0)
+    line = points[neighbour] - points[:, None, :]
+    length = np.linalg.norm(line, axis=2)
+    unit = line / np.where(length > 0, length, 1.0)[..., None]
+    across = (np.abs(np.einsum("nkj,nj->nk", unit, tangents)) < ACROSS) & (
+        np.abs(np.einsum("nkj,nkj->nk", unit, tangents[neighbour])) < ACROSS
+    )
+    counted = found_mask & across & (curve[neighbour] != curve[:, None]) & (length > 0)
+    nearest = np.where(counted, length, np.inf).min(axis=1)
+    keep = np.isfinite(nearest)
+    return points[keep], nearest[keep]

@@ -1,0 +1,229 @@
+"""Automatic size fields (issue 14): rays, curvature, gradation, the SizeField type, graded meshes."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import pyvista as pv
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import fepre
+from fepre import sdf
+from fepre.quality import tet_quality
+from fepre.sizing import SizeField, size_field
+from fepre.sizing.curvature import max_curvature
+from fepre.sizing.gradation import LEVEL_RATIO, graded_sizes
+from fepre.sizing.rays import ray_lengths
+
+
+# ---------------------------------------------------------------------------------------- rays
+def test_rays_measure_wall_thickness_and_gap_width():
+    two_plates = sdf.box((10.0, 10.0, 0.4), center=(0, 0, -0.5)) | sdf.box((10.0, 10.0, 0.7), center=(0, 0, 0.35))
+    down = np.array([[0.0, 0.0, -1.0]])
+    top_of_lower = np.array([[1.0, 2.0, -0.3]])
+    assert ray_lengths(two_plates, top_of_lower, down, True, 5.0, 0.01)[0] == pytest.approx(0.4, abs=2e-4)
+    # the gap above it is 0.3 wide; the upper plate 0.7 thick
+    assert ray_lengths(two_plates, top_of_lower, -down, False, 5.0, 0.01)[0] == pytest.approx(0.3, abs=2e-4)
+    assert ray_lengths(two_plates, np.array([[0.0, 0.0, 0.7]]), down, True, 5.0, 0.01)[0] == pytest.approx(0.7, abs=2e-4)
+    # nothing within the limit, and a ray sliding down a hole's wall from its rim, count as no crossing
+    assert np.isinf(ray_lengths(two_plates, np.array([[0.0, 0.0, 0.7]]), -down, False, 5.0, 0.01)[0])
+    holed = sdf.box((10.0, 10.0, 2.0)) - sdf.cylinder(1.0, 3.0)
+    rim = np.array([[0.9999, 0.0, 1.0]])
+    assert np.isinf(ray_lengths(holed, rim, down, True, 5.0, 0.01)[0])
+
+
+def test_curvature_of_smooth_pieces_even_next_to_sharp_edges():
+    box_with_hole = sdf.box((4.0, 4.0, 4.0)) - sdf.cylinder(0.5, 6.0)
+    points = np.array([[0.5, 0.0, 1.99], [2.0, 1.99, 1.99], [0.0, 0.0, 2.0], [1.0, 1.0, 2.0]])
+    assert max_curvature(box_with_hole, points, 1e-3) == pytest.approx([2.0, 0.0, 0.0, 0.0], abs=1e-3)
+    ball, torus = sdf.sphere(2.0), sdf.torus(3.0, 0.5)
+    assert max_curvature(ball, np.array([[0.0, 2.0, 0.0]]), 1e-3)[0] == pytest.approx(0.5, rel=1e-4)
+    assert max_curvature(torus, np.array([[3.5, 0.0, 0.0]]), 1e-3)[0] == pytest.approx(2.0, rel=1e-4)
+
+
+# ----------------------------------------------------------------------------------- gradation
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_graded_sizes_are_the_lower_envelope_of_the_cones(seed):
+    rng = np.random.default_rng(seed)
+    shape = (7, 9, 11)
+    spacing = np.array([0.5, 0.4, 0.3])
+    count = int(rng.integers(1, 12))
+    nodes = rng.choice(np.prod(shape), count, replace=False)
+    sizes = rng.uniform(0.2, 3.0, count)
+    slope, largest = float(rng.uniform(0.1, 0.8)), 2.5
+    result = graded_sizes(shape, spacing, nodes, sizes, slope, largest)
+    k, j, i = np.unravel_index(nodes, shape)
+    seeds = np.stack([i, j, k], axis=1) * spacing
+    z, y, x = np.meshgrid(*(np.arange(n) for n in shape), indexing="ij")
+    grid = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1) * spacing
+    distance = np.linalg.norm(grid[:, None, :] - seeds[None, :, :], axis=2)
+    exact = np.minimum(largest, (sizes[None, :] + slope * distance).min(axis=1)).reshape(shape)
+    # never above the envelope; below it by at most a level (sizes rounded down)
+    assert np.all(result <= exact + 1e-9)
+    assert np.all(result >= exact / LEVEL_RATIO - 1e-9)
+
+
+# --------------------------------------------------------------------------------- size fields
+def test_a_size_field_interpolates_combines_and_round_trips_through_an_image():
+    values = np.arange(24, dtype=float).reshape(2, 3, 4) + 1.0
+    field = SizeField((1.0, 2.0, 3.0), (0.5, 1.0, 2.0), values)
+    # trilinear: exact on a linear function of the indices
+    point = np.array([[1.0 + 0.5 * 1.5, 2.0 + 1.0 * 0.25, 3.0 + 2.0 * 0.5]])
+    assert field(point)[0] == pytest.approx(1.0 + 1.5 + 4 * 0.25 + 12 * 0.5)
+    assert field([[-100.0, -100.0, -100.0]])[0] == 1.0  # the nearest node outside
+    combined = field.minimum(5.0, lambda p: np.where(p[:, 0] > 2.0, 0.5, 99.0))
+    assert combined.values.max() == 5.0 and combined([[2.5, 2.0, 3.0]])[0] == pytest.approx(0.5)
+    again = SizeField.from_image(field.to_image())
+    assert np.array_equal(again.values, field.values) and np.allclose(again.origin, field.origin)
+    assert field.clip(3.0, 10.0).hmin == 3.0
+    with pytest.raises(ValueError, match="sizes must be finite and > 0"):
+        SizeField((0, 0, 0), (1, 1, 1), np.zeros((2, 2, 2)))
+    with pytest.raises(ValueError, match="spacing must be 3 positive numbers"):
+        SizeField((0, 0, 0), (1, 0, 1), np.ones((2, 2, 2)))
+    with pytest.raises(TypeError, match="minimum"):
+        field.minimum("small")
+
+
+def test_a_background_mesh_with_cell_or_point_sizes_becomes_a_field():
+    grid = pv.ImageData(dimensions=(6, 6, 6), spacing=(1.0, 1.0, 1.0)).cast_to_unstructured_grid()
+    centers = np.asarray(grid.cell_centers().points)
+    grid.cell_data["h"] = np.where(centers[:, 0] < 2.5, 0.25, 1.0)
+    field = SizeField.from_mesh(grid)
+    assert field([[1.0, 2.5, 2.5], [4.0, 2.5, 2.5]]) == pytest.approx([0.25, 1.0])
+    points = grid.copy()
+    points.clear_data()
+    points.point_data["size"] = 0.5 + 0.1 * np.asarray(points.points)[:, 1]
+    from_points = SizeField.from_mesh(points)
+    assert from_points([[2.0, 3.3, 1.0]])[0] == pytest.approx(0.83, abs=1e-9)
+    with pytest.raises(ValueError, match="name the point or cell array"):
+        grid.point_data["other"] = np.ones(grid.n_points)
+        SizeField.from_mesh(grid)
+
+
+def test_size_field_arguments_are_checked():
+    plate = sdf.box((4.0, 4.0, 1.0))
+    with pytest.raises(ValueError, match="hmin must be smaller than hmax; got hmin=1, hmax=0.5"):
+        size_field(plate, 1.0, 0.5)
+    with pytest.raises(ValueError, match="hmin must be > 0"):
+        size_field(plate, 0.0, 0.5)
+    with pytest.raises(ValueError, match="gradation must be > 1"):
+        size_field(plate, 0.1, 0.5, gradation=1.0)
+    with pytest.raises(ValueError, match="elements_across must be > 0"):
+        size_field(plate, 0.1, 0.5, elements_across=0)
+    with pytest.raises(ValueError, match="the model is empty"):
+        size_field(sdf.sphere(1.0).translate((50, 0, 0)), 0.1, 0.5, bounds=((-2, -2, -2), (2, 2, 2)))
+
+
+def test_the_field_follows_thickness_gaps_curvature_and_close_edges():
+    hmin, hmax = 0.1, 3.0
+    part = (
+        sdf.box((16.0, 16.0, 4.0))
+        - sdf.box((0.5, 20.0, 3.0), center=(-4.0, 0.0, 1.5))       # a slot 0.5 wide
+        - sdf.cylinder(1.0, 6.0).translate((4.0, 4.0, 0.0))        # a hole of radius 1
+        | sdf.box((6.0, 6.0, 4.24), center=(4.0, -4.0, 0.12))      # a step 0.24 high on top
+    )
+    field = size_field(part, hmin, hmax)
+    # the step's 0.24 is the finest need, nothing is below hmin or above hmax
+    assert field.hmin == pytest.approx(0.24, rel=0.1) and field.hmax <= hmax
+    assert field([[-4.4, 0.0, 1.5]])[0] <= 0.25 * 1.1  # two elements across the slot
+    chord = np.sqrt(8 * (hmin / 10) * 1.0)
+    assert field([[5.05, 4.0, 0.0]])[0] == pytest.approx(chord, rel=0.15)
+    assert field([[1.0, -4.0, 2.1]])[0] <= 0.24 * 1.2  # the step's two edges are 0.24 apart
+    # bulk: the block is 4 thick, so 4/3 there (more in the middle, as graded from both faces)
+    assert field([[-7.9, 7.9, 1.9]])[0] == pytest.approx(4.0 / 3.0, rel=0.15)
+    # neighbouring nodes differ by at most (gradation - 1) * their distance (and a level's rounding)
+    v = field.values
+    step = float(field.spacing[0])
+    for axis in range(3):
+        assert np.abs(np.diff(v, axis=axis)).max() <= 0.3 * step * LEVEL_RATIO + 0.1 * hmin
+
+
+# ------------------------------------------------------------------------------- graded meshes
+def _targets(mesh):
+    q = tet_quality(np.asarray(mesh.points, dtype=float), mesh.cells_dict[pv.CellType.TETRA])
+    return q["min_dihedral_angle"].min(), q["max_dihedral_angle"].max(), q["radius_ratio"].min()
+
+
+def test_a_graded_mesh_of_a_plate_with_a_small_hole_meets_the_targets_with_few_cells():
+    plate = sdf.box((20.0, 20.0, 2.0)) - sdf.cylinder(0.5, 3.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mesh = fepre.distmesh(plate, (0.1, 4.0))
+    worst, largest, ratio = _targets(mesh)
+    assert worst >= 25.0 and largest <= 150.0 and ratio >= 0.25
+    assert mesh.volume == pytest.approx(800.0 - np.pi * 0.25 * 2.0, rel=5e-3)
+    from fepre.sizing.estimate import estimated_cells
+
+    uniform = estimated_cells(plate, None, 0.1, np.array([-10.0, -10, -1]), np.array([10.0, 10, 1]), False)
+    assert mesh.n_cells < 0.05 * uniform
+    # edges at the hole near the chord size, in the bulk near a third of the thickness
+    points = np.asarray(mesh.points)
+    tets = mesh.cells_dict[pv.CellType.TETRA]
+    edges = np.concatenate([tets[:, [a, b]] for a in range(4) for b in range(a + 1, 4)])
+    length = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+    middle = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
+    radius = np.linalg.norm(middle[:, :2], axis=1)
+    assert np.median(length[radius < 0.8]) == pytest.approx(np.sqrt(8 * 0.01 * 0.5), rel=0.3)
+    assert np.median(length[radius > 6.0]) == pytest.approx(2.0 / 3.0, rel=0.3)
+
+
+def test_a_thin_tube_gets_three_elements_through_its_wall():
+    tube = sdf.cylinder(2.0, 4.0) - sdf.cylinder(1.4, 5.0)  # a wall 0.6 thick
+    mesh = fepre.distmesh(tube, (0.1, 2.0))
+    worst, largest, ratio = _targets(mesh)
+    assert worst >= 25.0 and largest <= 150.0 and ratio >= 0.25
+    points = np.asarray(mesh.points)
+    depth = -tube(points)
+    # nodes at a third and two thirds through the wall, not only on its faces
+    assert np.count_nonzero(np.abs(depth - 0.2) < 0.05) > 0.15 * len(points)
+    assert mesh.volume == pytest.approx(np.pi * (4.0 - 1.96) * 4.0, rel=0.01)
+
+
+def test_distmesh_takes_a_background_mesh_and_checks_that_it_covers_the_part():
+    block = sdf.box((4.0, 4.0, 2.0))
+    background = pv.ImageData(dimensions=(6, 6, 4), spacing=(1.0, 1.0, 1.0), origin=(-2.5, -2.5, -1.5)).cast_to_unstructured_grid()
+    centers = np.asarray(background.cell_centers().points)
+    background.cell_data["size"] = np.where(centers[:, 0] < 0, 0.25, 0.6)
+    mesh = fepre.distmesh(block, size=background)
+    points = np.asarray(mesh.points)
+    tets = mesh.cells_dict[pv.CellType.TETRA]
+    centre = points[tets].mean(axis=1)
+    volume = tet_quality(points, tets)["volume"]
+    left, right = volume[centre[:, 0] < -0.8], volume[centre[:, 0] > 0.8]
+    assert np.median(right) / np.median(left) == pytest.approx((0.6 / 0.25) ** 3, rel=0.5)
+    small = pv.ImageData(dimensions=(3, 3, 3), spacing=(1.0, 1.0, 1.0), origin=(-1.0, -1.0, -1.0)).cast_to_unstructured_grid()
+    small.cell_data["size"] = np.full(small.n_cells, 0.5)
+    with pytest.raises(ValueError, match="does not cover the part"):
+        fepre.distmesh(block, size=small)
+
+
+def test_meshes_too_big_for_the_machine_are_refused_before_any_work():
+    with pytest.raises(ValueError, match=r"would have about [\d,]+ cells, more than .*MAX_CELLS"):
+        fepre.distmesh(sdf.box(100.0), 0.1)
+    with pytest.raises(ValueError, match="h must be a number or a pair"):
+        fepre.distmesh(sdf.box(1.0), (0.1, 0.2, 0.3))
+    with pytest.raises(ValueError, match="h is required"):
+        fepre.distmesh(sdf.box(1.0))
+
+
+def test_the_cli_writes_a_size_field_and_meshes_with_it(tmp_path, capsys):
+    from fepre.cli import main
+
+    model = tmp_path / "plate.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.box((12, 12, 2)) - sdf.cylinder(0.5, 3)\nh = 0.15\n")
+    assert main(["size", str(model), "--hmax", "2", "-o", str(tmp_path / "size.vti")]) == 0
+    out = capsys.readouterr().out
+    assert "estimated cells" in out and (tmp_path / "size.vti").is_file()
+    image = pv.read(str(tmp_path / "size.vti"))
+    assert float(np.min(image["size"])) == pytest.approx(np.sqrt(8 * 0.015 * 0.5), rel=0.1)
+    assert main(["mesh", str(model), "--size", str(tmp_path / "size.vti"), "-o", str(tmp_path / "a.vtu"), "--quiet"]) == 0
+    assert main(["mesh", str(model), "--hmax", "2", "-o", str(tmp_path / "b.vtu"), "--quiet"]) == 0
+    a, b = pv.read(str(tmp_path / "a.vtu")), pv.read(str(tmp_path / "b.vtu"))
+    assert a.n_cells == b.n_cells < 30_000
+    assert main(["mesh", str(model), "--hmax", "0.1", "-o", str(tmp_path / "c.vtu")]) == 1
+    assert "--hmax must be larger than --h" in capsys.readouterr().err
+    assert main(["size", str(model), "--hmax", "2", "-o", str(tmp_path / "size.txt")]) == 1
