@@ -194,7 +194,9 @@ def size_field(
         points += extra
         sizes_at += extra_sizes
     points, wanted = np.concatenate(points), np.concatenate(sizes_at)
-    fine = max(min(spacing, 2.0 * float(wanted.min())), float(np.cbrt(np.prod(upper - lower) / MAX_NODES)))
+    # finer than hmin where walls or gaps need it, but not below hmin / 2 (8 times the nodes):
+    # one acute edge's tip would otherwise refine the whole grid
+    fine = max(min(spacing, 2.0 * float(wanted.min())), 0.5 * hmin, float(np.cbrt(np.prod(upper - lower) / MAX_NODES)))
     if fine < spacing:
         spacing = fine
         counts = np.ceil((upper - lower) / spacing - 1e-9).astype(np.int64) + 1
