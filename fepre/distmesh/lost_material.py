@@ -218,23 +218,27 @@ def _summary(regions: list[LostRegion], describe: str) -> tuple[float, str, floa
     return sum(r.volume for r in regions), shown + more, 0.5 * min(r.thickness for r in regions[:3])
 
 
-def lost_material_message(regions: list[LostRegion], h: float) -> str:
+def _resolving(h: float | None) -> str:
+    return f"h = {h:g} resolves" if h is not None else "the mesh's sizes resolve"
+
+
+def lost_material_message(regions: list[LostRegion], h: float | None) -> str:
     """One line naming the largest lost regions and the ``h`` that would mesh them (half the
     thinnest: two elements across; at one element a 0.6 fin's base corners were still cut)."""
     total, shown, fine = _summary(regions, "{:.3g} thick")
     return (
         f"the mesh leaves out about {total:.3g} (volume) of the model where it is thinner than "
-        f"h = {h:g} resolves: {shown}; mesh with h <= {fine:.2g} (or a size field that "
+        f"{_resolving(h)}: {shown}; mesh with h <= {fine:.2g} (or a size field that "
         "is that fine there) to keep it"
     )
 
 
-def added_material_message(regions: list[LostRegion], h: float) -> str:
+def added_material_message(regions: list[LostRegion], h: float | None) -> str:
     """One line naming the largest regions of added material and the ``h`` that would keep them open."""
     total, shown, fine = _summary(regions, "a gap {:.3g} wide")
     return (
         f"the mesh adds about {total:.3g} (volume) outside the model, where its surfaces come closer "
-        f"than h = {h:g} resolves (a narrow gap, or parts touching along an edge or at a point): "
+        f"than {_resolving(h)} (a narrow gap, or parts touching along an edge or at a point): "
         f"{shown}; mesh with h <= {fine:.2g} to keep a gap open (parts that only touch "
         "stay joined)"
     )

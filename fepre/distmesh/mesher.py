@@ -264,10 +264,10 @@ def distmesh(
     local = size if absolute else None
     lost = lost_material(model, points, tets, h, local) if o.check_resolution else []
     if lost:
-        warn_user(f"distmesh: {lost_material_message(lost, h)}", ResolutionWarning)
+        warn_user(f"distmesh: {lost_material_message(lost, None if absolute else h)}", ResolutionWarning)
     added = added_material(model, points, tets, h, local) if o.check_resolution else []
     if added:
-        warn_user(f"distmesh: {added_material_message(added, h)}", ResolutionWarning)
+        warn_user(f"distmesh: {added_material_message(added, None if absolute else h)}", ResolutionWarning)
     history = dict(loop.history)
     history.update(
         iterations=np.array([loop.iterations]),
