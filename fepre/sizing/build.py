@@ -11,7 +11,7 @@ within a spacing of the surface, projected onto it). Each seed gets the smallest
   principal curvature of the smooth piece of surface there, :mod:`fepre.sizing.curvature`)
   whose sagitta is ``chord_tolerance``;
 - with ``features``, the distance to the nearest feature curve facing it (two sharp edges
-  closer than the size, e.g. a shallow step or a thin rib's top),
+  closer than the size, e.g. a shallow step, a narrow ledge or a thin rib's top; below hmin too),
 
 clamped to ``[hmin, hmax]`` (walls and gaps: to ``[WALL_FLOOR * hmin, hmax]``). The field on the grid is the lower envelope of the cones
 ``size + (gradation - 1) * distance`` over the seeds (:mod:`fepre.sizing.gradation`), capped at
@@ -180,7 +180,8 @@ def size_field(
 
         feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, (lower, upper))
         points.append(feature_seeds)
-        sizes_at.append(np.clip(feature_wanted, hmin, hmax))
+        # two sharp edges closer than hmin (a narrow ledge) need elements that small between them
+        sizes_at.append(np.clip(feature_wanted, WALL_FLOOR * hmin, hmax))
     # walls under hmin: seeds as dense as their size along the wall, on a grid that fine
     below = np.flatnonzero(thin & (wall < hmin))
     if below.size:

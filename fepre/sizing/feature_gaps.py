@@ -47,7 +47,9 @@ def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, 
 
     from ..features import features
 
-    found = features(model, hmin, spacing=hmin / 2.0, bounds=bounds, warn=False)
+    # sampled at hmin / 4: features closer than half the sampling are merged, and a ledge a
+    # quarter of hmin wide must still show as two curves
+    found = features(model, hmin / 4.0, spacing=hmin / 4.0, bounds=bounds, warn=False)
     if len(found.curves) < 2:
         return np.zeros((0, 3)), np.zeros(0)
     points = np.concatenate([c.points for c in found.curves])
