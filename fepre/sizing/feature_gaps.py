@@ -55,17 +55,22 @@ def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, 
     points = np.concatenate([c.points for c in found.curves])
     tangents = np.concatenate([_tangents(c.points, c.closed) for c in found.curves])
     curve = np.repeat(np.arange(len(found.curves)), [len(c.points) for c in found.curves])
-    k = min(NEIGHBOURS, len(points))
-    distance, neighbour = cKDTree(points).query(points, k=k, distance_upper_bound=hmax)
-    found_mask = np.isfinite(distance)
-    neighbour = np.where(found_mask, neighbour, 0)
-    line = points[neighbour] - points[:, None, :]
-    length = np.linalg.norm(line, axis=2)
-    unit = line / np.where(length > 0, length, 1.0)[..., None]
-    across = (np.abs(np.einsum("nkj,nj->nk", unit, tangents)) < ACROSS) & (
-        np.abs(np.einsum("nkj,nkj->nk", unit, tangents[neighbour])) < ACROSS
-    )
-    counted = found_mask & across & (curve[neighbour] != curve[:, None]) & (length > 0)
-    nearest = np.where(counted, length, np.inf).min(axis=1)
+    nearest = np.full(len(points), np.inf)
+    for index in range(len(found.curves)):  # a tree of the other curves' nodes for each curve
+        mine = np.flatnonzero(curve == index)
+        others = np.flatnonzero(curve != index)
+        k = min(NEIGHBOURS, others.size)
+        distance, neighbour = cKDTree(points[others]).query(points[mine], k=k, distance_upper_bound=hmax)
+        distance, neighbour = distance.reshape(len(mine), k), neighbour.reshape(len(mine), k)
+        found_mask = np.isfinite(distance)
+        target = others[np.where(found_mask, neighbour, 0)]
+        line = points[target] - points[mine][:, None, :]
+        length = np.linalg.norm(line, axis=2)
+        unit = line / np.where(length > 0, length, 1.0)[..., None]
+        across = (np.abs(np.einsum("nkj,nj->nk", unit, tangents[mine])) < ACROSS) & (
+            np.abs(np.einsum("nkj,nkj->nk", unit, tangents[target])) < ACROSS
+        )
+        counted = found_mask & across & (length > 0)
+        nearest[mine] = np.where(counted, length, np.inf).min(axis=1)
     keep = np.isfinite(nearest)
     return points[keep], nearest[keep]
