@@ -139,7 +139,6 @@ def main(argv: list[str]) -> int:
     print(f"fepre bench sizing: {len(chosen)} parts, fepre.distmesh(model, h=(hmin, hmax)) at default options; "
           + ("gmsh on the hmin/4 reference surface, MeshSizeFromCurvature=20 between hmin and hmax, Delaunay + optimiser + Netgen"
              if not args.no_gmsh else "no peer"))
-    rows = []
     for part in chosen:
         lower, upper = (np.asarray(v, float) for v in part.model.bounds)
         volume = part.volume
@@ -163,7 +162,6 @@ def main(argv: list[str]) -> int:
                 peer.update(seconds=gmsh_seconds, volume=peer["check"].volume / volume - 1)
             else:
                 peer = dict(error=error, seconds=gmsh_seconds)
-        rows.append((part, uniform, ours, peer))
         _print_row(part, uniform, ours, peer)
     return 0
 

@@ -20,21 +20,32 @@ __all__ = ["graded_lattice"]
 BLOCK = 6
 
 
-def _block_ranges(field, lower: np.ndarray, side: float, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest size of the field over each block (a node's margin around it)."""
-    from scipy.ndimage import maximum_filter, minimum_filter
+def _per_block(values: np.ndarray, axes: list[np.ndarray], lower: np.ndarray, side: float, count: np.ndarray,
+               reduce: np.ufunc, empty: float) -> np.ndarray:
+    """``reduce`` (min or max) of the (nz, ny, nx) node ``values`` over each block, axis by axis
+    (blocks are boxes, so three ``reduceat`` passes); ``empty`` where a block holds no node."""
+    result = values
+    for axis, (coords, n) in enumerate(zip(axes, count)):
+        block = np.clip(np.floor((coords - lower[axis]) / side).astype(np.int64), 0, n - 1)
+        present, starts = np.unique(block, return_index=True)
+        reduced = reduce.reduceat(result, starts, axis=2 - axis)
+        shape = list(result.shape)
+        shape[2 - axis] = int(n)
+        full = np.full(shape, empty)
+        index = [slice(None)] * 3
+        index[2 - axis] = present
+        full[tuple(index)] = reduced
+        result = full
+    return result.transpose(2, 1, 0).reshape(-1)  # x slowest, as np.ravel_multi_index over (cx, cy, cz)
 
-    values = field.values  # (nz, ny, nx)
-    low = minimum_filter(values, size=3, mode="nearest")
-    high = maximum_filter(values, size=3, mode="nearest")
-    nodes = field.nodes()
-    block = np.floor((nodes - lower) / side).astype(np.int64)
-    inside = np.all((block >= 0) & (block < count), axis=1)
-    flat = np.ravel_multi_index(tuple(block[inside].T), tuple(count))
-    smallest = np.full(int(np.prod(count)), np.inf)
-    largest = np.full(int(np.prod(count)), -np.inf)
-    np.minimum.at(smallest, flat, low.reshape(-1)[inside])
-    np.maximum.at(largest, flat, high.reshape(-1)[inside])
+
+def _block_ranges(field, low: np.ndarray, high: np.ndarray, lower: np.ndarray, side: float,
+                  count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest size of the field over each block; ``low``/``high`` are the node
+    values filtered over a node's neighbours (a margin for the interpolation)."""
+    axes = [field.origin[k] + field.spacing[k] * np.arange(n) for k, n in enumerate(field.shape)]
+    smallest = _per_block(low, axes, lower, side, count, np.minimum, np.inf)
+    largest = _per_block(high, axes, lower, side, count, np.maximum, -np.inf)
     # blocks holding no field node (blocks smaller than the field's spacing) take their centre's size
     empty = ~np.isfinite(smallest)
     if empty.any():
@@ -54,7 +65,11 @@ def graded_lattice(field, lower: np.ndarray, upper: np.ndarray, h: float, cell: 
     ``cell`` is the lattice constant per unit size and ``basis`` the lattice's points per cell
     (as :func:`fepre.distmesh.initial_points.lattice`).
     """
+    from scipy.ndimage import maximum_filter, minimum_filter
+
     extent = upper - lower
+    low = minimum_filter(field.values, size=3, mode="nearest")
+    high = maximum_filter(field.values, size=3, mode="nearest")
     top = max(float(field.hmax), h)
     octaves = max(1, int(np.ceil(np.log2(top / h) + 1e-9)) + 1)
     steps = np.arange(BLOCK)
@@ -65,13 +80,15 @@ def graded_lattice(field, lower: np.ndarray, upper: np.ndarray, h: float, cell: 
         a = cell * size
         side = BLOCK * a
         count = np.maximum(np.ceil(extent / side - 1e-9).astype(np.int64), 1)
-        smallest, largest = _block_ranges(field, lower, side, count)
+        smallest, largest = _block_ranges(field, low, high, lower, side, count)
         last = k == octaves - 1
-        wanted = largest >= size / 1.05
+        # blocks with sizes of this octave: not all below it (the first takes everything
+        # smaller), not all above it (the last takes everything larger)
+        wanted = np.ones(smallest.size, bool)
+        if k > 0:
+            wanted &= largest >= size / 1.05
         if not last:
             wanted &= smallest < 2.0 * size * 1.05
-        if k == 0:
-            wanted = smallest < 2.0 * size * 1.05 if not last else np.ones_like(wanted)
         active = np.flatnonzero(wanted)
         if active.size == 0:
             continue

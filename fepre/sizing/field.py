@@ -54,6 +54,10 @@ class SizeField:
         if bad.any():
             raise ValueError(f"sizes must be finite and > 0; got {values[bad].ravel()[0]!r}")
         self.origin, self.spacing, self.values = origin, spacing, values
+        #: seconds :func:`fepre.size_field` took to build the field (None for other fields)
+        self.seconds: float | None = None
+        #: for a field from a background mesh, which points that mesh covers
+        self.coverage: _Coverage | None = None
 
     # ------------------------------------------------------------------ the field
     @property
