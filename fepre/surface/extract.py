@@ -14,7 +14,7 @@ from .dual_contouring import dual_contouring
 from .flying_edges import flying_edges
 from .marching_cubes import marching_cubes
 from .weld import weld
-from .zero_area import collapse_coincident, flip_zero_area
+from .zero_area import remove_zero_area
 from .marching_tetrahedra import marching_tetrahedra
 from .surface_nets import surface_nets
 
@@ -184,8 +184,7 @@ def isosurface(
     if len(triangles) and method in _COLLINEAR_METHODS:
         # corners on one line (dual contouring along a crease, marching tetrahedra through an
         # edge): flipped away, the surface unchanged
-        points, triangles = collapse_coincident(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
-        triangles = flip_zero_area(np.asarray(points, dtype=np.float64), np.asarray(triangles))
+        points, triangles = remove_zero_area(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
     surface = triangle_polydata(points, triangles)
     if surface.n_points == 0:
         low, high = float(values.min()), float(values.max())

@@ -18,24 +18,47 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["collapse_coincident", "flip_zero_area"]
+__all__ = ["collapse_coincident", "flip_zero_area", "remove_zero_area"]
 
-#: a triangle has zero area when twice its area is at most this times its longest side squared
-#: (far from the origin rounding leaves corners on a crease about 1e-12 off their line)
-ZERO_AREA = 1e-10
+#: a triangle has zero area when twice its area is at most this times the larger of its longest
+#: side squared and the surface's mean side squared (the second is ``check_surface``'s test: far
+#: from the origin, rounding leaves corners on a crease about 1e-12 off their line)
+ZERO_AREA = 1e-12
 #: rounds of flips (each round flips triangles that share no edge)
 _ROUNDS = 8
 
 
-def _zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def _measures(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Squared double areas, squared longest sides and the mean side length, in one pass."""
     p = points[triangles]
-    double_area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    longest = np.max([np.einsum("ij,ij->i", p[:, k] - p[:, (k + 1) % 3], p[:, k] - p[:, (k + 1) % 3]) for k in range(3)], axis=0)
+    e0, e1 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 1]
+    e2 = -(e0 + e1)
+    squared = [np.einsum("ij,ij->i", e, e) for e in (e0, e1, e2)]
+    cross = np.cross(e0, e1)
+    mean = float(sum(np.sqrt(q).sum() for q in squared) / (3 * len(p))) if len(p) else 0.0
+    return np.einsum("ij,ij->i", cross, cross), np.maximum.reduce(squared), mean
+
+
+def _zero_area(points: np.ndarray, triangles: np.ndarray, scale: float | None = None) -> tuple[np.ndarray, float]:
+    """Zero-area triangles (three distinct corners) and the scale used (the mean side)."""
+    double_area2, longest2, mean = _measures(points, triangles)
+    scale = mean if scale is None else scale
     distinct = (triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2]) & (triangles[:, 0] != triangles[:, 2])
-    return distinct & (double_area <= ZERO_AREA * longest)
+    return distinct & (double_area2 <= (ZERO_AREA * np.maximum(longest2, scale * scale)) ** 2), scale
 
 
-def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def remove_zero_area(points: np.ndarray, triangles: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Collapse zero-length edges (:func:`collapse_coincident`), then flip zero-area triangles
+    away (:func:`flip_zero_area`); one pass over the triangles when there are none."""
+    zero, scale = _zero_area(np.asarray(points, dtype=np.float64), triangles)
+    bad = np.flatnonzero(zero)
+    if bad.size == 0:
+        return points, triangles
+    points, triangles = collapse_coincident(points, triangles, tolerance, candidates=bad)
+    return points, flip_zero_area(np.asarray(points, dtype=np.float64), triangles, scale)
+
+
+def flip_zero_area(points: np.ndarray, triangles: np.ndarray, scale: float | None = None) -> np.ndarray:
     """``triangles`` with the zero-area ones flipped away where a flip can do it (see the module).
 
     Examples
@@ -48,7 +71,8 @@ def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """
     triangles = np.array(triangles, dtype=np.int64, copy=True)
     for _ in range(_ROUNDS):
-        bad = np.flatnonzero(_zero_area(points, triangles))
+        zero, scale = _zero_area(points, triangles, scale)
+        bad = np.flatnonzero(zero)
         if bad.size == 0:
             break
         n = int(points.shape[0])
@@ -94,8 +118,12 @@ def flip_zero_area(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return triangles
 
 
-def collapse_coincident(points: np.ndarray, triangles: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+def collapse_coincident(points: np.ndarray, triangles: np.ndarray, tolerance: float,
+                        candidates: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Collapse triangle edges no longer than ``tolerance`` where the link condition holds.
+
+    ``candidates`` (indices of triangles, e.g. the zero-area ones) limits where short edges
+    are looked for; a short edge makes both its triangles zero-area.
 
     Returns the used points and the renumbered triangles (unchanged when no edge is that short).
 
@@ -110,9 +138,11 @@ def collapse_coincident(points: np.ndarray, triangles: np.ndarray, tolerance: fl
     (5, 6)
     """
     triangles = np.asarray(triangles, dtype=np.int64)
-    p = points[triangles]
+    looked = np.arange(len(triangles)) if candidates is None else np.asarray(candidates, dtype=np.int64)
+    p = points[triangles[looked]]
     short = np.stack([np.einsum("ij,ij->i", p[:, (k + 1) % 3] - p[:, k], p[:, (k + 1) % 3] - p[:, k]) for k in range(3)], axis=1)
     rows, first = np.nonzero(short <= tolerance * tolerance)
+    rows = looked[rows]
     if rows.size == 0:
         return points, triangles
     ends = np.sort(np.stack([triangles[rows, first], triangles[rows, (first + 1) % 3]], axis=1), axis=1)
