@@ -103,7 +103,9 @@ def _mesh_suffixes() -> tuple[str, ...]:
 
 
 def _model_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("model", metavar="MODEL.py", help="Python file defining `model` (and optionally h, bounds, boundaries)")
+    parser.add_argument("model", metavar="MODEL",
+                        help="Python file defining `model` (and optionally h, bounds, boundaries), "
+                             "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
 
 
 def _default_spacing(part) -> float:

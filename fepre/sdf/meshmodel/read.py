@@ -29,12 +29,17 @@ def _as_polydata(source: Any, name: str):
             raise MeshInputError(f"mesh file {path} does not exist")
         if path.is_dir():
             raise MeshInputError(f"mesh file {path} is a directory; give an STL, OBJ, PLY or other surface file")
-        try:
-            data = pv.read(path)
-        except Exception as exc:  # readers raise anything from ValueError to VTK errors
-            raise MeshInputError(f"mesh file {path} could not be read ({type(exc).__name__}: {exc})") from None
-        if data is None:
-            raise MeshInputError(f"mesh file {path} could not be read (no reader returned a mesh)")
+        import warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                data = pv.read(path)
+            except Exception as exc:  # readers raise anything from ValueError to VTK errors
+                raise MeshInputError(f"mesh file {path} could not be read ({type(exc).__name__}: {exc})") from None
+        failed = [w for w in caught if "error" in str(w.message).lower() or "fail" in str(w.message).lower()]
+        if data is None or (failed and data.n_points == 0):
+            raise MeshInputError(f"mesh file {path} could not be read (the reader failed: not a valid {path.suffix} file?)")
     elif isinstance(source, pv.DataSet):
         data = source
     else:
