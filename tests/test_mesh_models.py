@@ -285,3 +285,40 @@ def test_cli_meshes_and_surfaces_mesh_files(tmp_path, cad_box_with_hole):
     result = run("mesh", str(bad), "--h", "0.1", "-o", str(tmp_path / "sheet.inp"))
     assert result.returncode == 1 and "sheet.stl has no inside" in result.stderr
     assert not (tmp_path / "sheet.inp").exists()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tree_on_triangle_soup_against_brute_force(seed):
+    """Random, overlapping, thin and degenerate triangles: the tree finds the nearest one."""
+    from fepre.sdf.meshmodel.bvh import TriangleTree
+
+    rng = np.random.default_rng(seed)
+    count = 300
+    vertices = rng.uniform(-1, 1, (3 * count, 3)) * rng.uniform(0.01, 1.0, (3 * count, 1))
+    faces = np.arange(3 * count).reshape(-1, 3)
+    faces[:10, 2] = faces[:10, 1]  # zero-area triangles (two corners equal)
+    vertices[faces[10:20, 2]] = vertices[faces[10:20, 0]] * 0.5 + vertices[faces[10:20, 1]] * 0.5  # collinear
+    points = rng.uniform(-1.5, 1.5, (500, 3))
+    squared, face, closest, _ = TriangleTree(vertices, faces).query(points)
+    expected = brute_distance(points, vertices, faces[20:])  # the brute force skips degenerate ones
+    expected = np.minimum(expected, _degenerate_distance(points, vertices, faces[:20]))
+    assert np.allclose(np.sqrt(squared), expected, rtol=1e-12, atol=1e-14)
+    assert np.allclose(np.linalg.norm(points - closest, axis=1), np.sqrt(squared), rtol=1e-12, atol=1e-14)
+    # the reported triangle holds the closest point
+    assert np.allclose(brute_distance_pairs(closest, vertices, faces[face]), 0.0, atol=1e-12)
+
+
+def _degenerate_distance(points, vertices, faces):
+    a, b, c = (vertices[faces[:, k]][None] for k in range(3))
+    p = points[:, None, :]
+    return np.minimum(np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)), _segment_distance(p, c, a)).min(axis=1)
+
+
+def brute_distance_pairs(points, vertices, faces):
+    """Distance from point i to triangle i (degenerate triangles by their sides)."""
+    out = np.empty(len(points))
+    for i in range(len(points)):  # a test reference: clarity over speed
+        tri = faces[i : i + 1]
+        area = np.linalg.norm(np.cross(*(vertices[tri[:, 1:]] - vertices[tri[:, :1]]).transpose(1, 0, 2)))
+        out[i] = (brute_distance if area > 1e-14 else _degenerate_distance)(points[i : i + 1], vertices, tri)[0]
+    return out

@@ -1,7 +1,7 @@
 """Exact distance to a triangle surface and its sign.
 
-The closest point comes from libigl's axis-aligned bounding-box tree (exact point-triangle
-distances in double precision). The sign comes from one of two rules:
+The closest point comes from fepre's bounding-volume hierarchy (:mod:`.bvh`: exact
+point-triangle distances in double precision). The sign comes from one of two rules:
 
 * **pseudonormals** (Baerentzen and Aanaes 2005): the sign of ``(p - c) . n`` where ``n`` is the
   normal of the face, the edge (sum of its two faces' normals) or the vertex (angle-weighted sum
@@ -17,13 +17,10 @@ import threading
 
 import numpy as np
 
+from .bvh import REGION_FACE, TriangleTree
 from .repair import edge_table, face_normals, winding_numbers
 
 __all__ = ["TriangleDistance"]
-
-#: Barycentric coordinates below this count as zero when placing the closest point on an edge
-#: or a vertex of its triangle.
-_ON_FEATURE = 1e-9
 
 
 class TriangleDistance:
@@ -63,53 +60,46 @@ class TriangleDistance:
         self._lock = threading.Lock()
 
     @property
-    def tree(self):
-        """The libigl AABB tree, built on first use."""
+    def tree(self) -> TriangleTree:
+        """The bounding-volume hierarchy, built on first use."""
         if self._tree is None:
             with self._lock:
                 if self._tree is None:
-                    import igl
-
-                    tree = igl.AABB()
-                    tree.init(self.vertices, self.faces)
-                    self._tree = tree
+                    self._tree = TriangleTree(self.vertices, self.faces)
         return self._tree
+
+    def _query(self, points: np.ndarray):
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        squared, face, closest, region = self.tree.query(points)
+        return np.sqrt(squared), face, closest, region
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unsigned distances (N,), closest triangles (N,) and closest points (N, 3)."""
-        points = np.ascontiguousarray(points, dtype=np.float64)
-        if len(points) == 0:
-            return np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 3))
-        squared, face, closest = self.tree.squared_distance(self.vertices, self.faces, points)
-        return np.sqrt(squared), np.asarray(face, dtype=np.int64), np.asarray(closest)
+        distance, face, closest, _ = self._query(points)
+        return distance, face, closest
 
-    def surface_normals(self, face: np.ndarray, closest: np.ndarray) -> np.ndarray:
-        """Outward normals at closest points: the pseudonormal of the face, edge or vertex they
-        lie on (with ``pseudonormal``), else the face's normal."""
+    def surface_normals(self, face: np.ndarray, region: np.ndarray) -> np.ndarray:
+        """Outward normals at closest points: the pseudonormal of the face, side or corner of
+        triangle ``face`` that they lie on (``region``, see :data:`.bvh.REGION_FACE`) with
+        ``pseudonormal``, else the face's normal."""
+        normal = self.normals[face]
         if not self.pseudonormal:
-            return self.normals[face]
-        corners = self.vertices[self.faces[face]]
-        weights = _barycentric(corners, closest)
-        zero = weights < _ON_FEATURE
-        normal = self.normals[face].copy()
-        on_edge = zero.sum(axis=1) == 1
-        if on_edge.any():
-            # the side opposite the vertex whose weight vanishes: side k joins corners k, k+1
-            opposite = np.argmax(zero[on_edge], axis=1)
-            side = (opposite + 1) % 3
-            normal[on_edge] = self._edge_normals[self._face_edge[face[on_edge], side]]
-        on_vertex = zero.sum(axis=1) >= 2
-        if on_vertex.any():
-            corner = np.argmax(weights[on_vertex], axis=1)
-            normal[on_vertex] = self._vertex_normals[self.faces[face[on_vertex], corner]]
+            return normal
+        corner = region < 3
+        if corner.any():
+            normal[corner] = self._vertex_normals[self.faces[face[corner], region[corner]]]
+        side = (region >= 3) & (region < REGION_FACE)
+        if side.any():
+            normal[side] = self._edge_normals[self._face_edge[face[side], region[side] - 3]]
         return normal
 
     def signed(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Signed distances (N,), closest triangles, closest points and outward unit directions
         (the gradient: ``(p - c) / |p - c|`` signed, the surface normal on the surface)."""
-        distance, face, closest = self.closest(points)
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        distance, face, closest, region = self._query(points)
         offset = points - closest
-        normal = self.surface_normals(face, closest)
+        normal = self.surface_normals(face, region)
         if self.pseudonormal:
             inside = np.einsum("ij,ij->i", offset, normal) < 0
         else:
@@ -125,22 +115,6 @@ class TriangleDistance:
 def _unit(vectors: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(vectors, axis=1, keepdims=True)
     return np.divide(vectors, length, out=np.zeros_like(vectors), where=length > 0)
-
-
-def _barycentric(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Barycentric weights (N, 3) of points in the plane of triangles (N, 3, 3)."""
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    v0, v1, v2 = b - a, c - a, points - a
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    d20 = np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    denominator = d00 * d11 - d01 * d01
-    denominator = np.where(denominator > 0, denominator, 1.0)
-    v = (d11 * d20 - d01 * d21) / denominator
-    w = (d00 * d21 - d01 * d20) / denominator
-    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def _angle_weighted_normals(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from .bvh import TriangleTree
 from .repair import edge_table
 
 __all__ = ["segment_patches", "PatchPlanes"]
@@ -78,12 +79,8 @@ class PatchPlanes:
     def _tree(self, label: int):
         tree = self._trees.get(label)
         if tree is None:
-            import igl
-
             with self._lock:
-                tree = igl.AABB()
-                tree.init(self.vertices, np.ascontiguousarray(self.faces[self._members(label)]))
-                self._trees[label] = tree
+                tree = self._trees[label] = TriangleTree(self.vertices, self.faces[self._members(label)])
         return tree
 
     def values(self, labels: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -91,10 +88,7 @@ class PatchPlanes:
         result = np.empty(len(points))
         for label in np.unique(labels):  # one query per patch, not per point
             rows = np.flatnonzero(labels == label)
-            members = self._members(int(label))
-            _, local, _ = self._tree(int(label)).squared_distance(
-                self.vertices, np.ascontiguousarray(self.faces[members]), np.ascontiguousarray(points[rows])
-            )
-            face = members[np.asarray(local, dtype=np.int64)]
+            _, local, _, _ = self._tree(int(label)).query(points[rows])
+            face = self._members(int(label))[local]
             result[rows] = np.einsum("ij,ij->i", points[rows] - self.vertices[self.faces[face, 0]], self.normals[face])
         return result

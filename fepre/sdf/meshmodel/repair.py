@@ -13,7 +13,8 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    centroid;
 4. drop triangles that do not separate inside from outside: where the generalised winding number
    is on the same side of 1/2 just in front of and just behind a triangle (the inner parts of
-   overlapping shells, sheets hanging in or out of the solid).
+   overlapping shells, sheets hanging in or out of the solid). A surface that is one closed,
+   consistently oriented piece skips this step.
 
 The result records what was changed, for the model's summary and its ``exact`` flag.
 """
@@ -110,7 +111,9 @@ def edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
     forward = directed[:, 0] < directed[:, 1]
     keys = np.sort(directed, axis=1)
-    edges, inverse = np.unique(keys, axis=0, return_inverse=True)
+    stride = np.int64(int(faces.max()) + 1 if faces.size else 1)
+    packed, inverse = np.unique(keys[:, 0] * stride + keys[:, 1], return_inverse=True)
+    edges = np.column_stack([packed // stride, packed % stride])
     return edges, inverse.reshape(-1, 3), forward.reshape(-1, 3)
 
 
@@ -128,17 +131,25 @@ def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray)
 
 def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     used = np.unique(faces)
-    unique, inverse = np.unique(vertices[used], axis=0, return_inverse=True)
+    points = vertices[used]
+    order = np.lexsort(points.T[::-1])
+    ordered = points[order]
+    new = np.ones(len(order), dtype=bool)
+    new[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    rank = np.cumsum(new) - 1
     remap = np.zeros(len(vertices), dtype=np.int64)
-    remap[used] = inverse.reshape(-1)
-    return unique, remap[faces], int(len(used) - len(unique))
+    remap[used[order]] = rank
+    return ordered[new], remap[faces], int(len(used) - int(new.sum()))
 
 
 def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int, int]:
     repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
     faces = faces[~repeated]
-    _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
-    first.sort()
+    ordered = np.sort(faces, axis=1)
+    order = np.lexsort(ordered.T[::-1])
+    new = np.ones(len(order), dtype=bool)
+    new[1:] = np.any(ordered[order[1:]] != ordered[order[:-1]], axis=1)
+    first = np.sort(order[new])
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
 
 
@@ -264,6 +275,14 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     return faces[separating], int((~separating).sum()), int(backwards.sum())
 
 
+def _pieces(faces: np.ndarray) -> int:
+    """Number of edge-connected pieces."""
+    edges, face_edge, _ = edge_table(faces)
+    owners = np.repeat(np.arange(len(faces)), 3)
+    incidence = sparse.coo_matrix((np.ones(len(owners)), (owners, face_edge.reshape(-1))), shape=(len(faces), len(edges)))
+    return int(csgraph.connected_components((incidence @ incidence.T).tocsr(), directed=False)[0])
+
+
 def _is_closed(faces: np.ndarray) -> bool:
     if len(faces) == 0:
         return False
@@ -294,7 +313,10 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
     vertices, faces, holes, hole_area, open_loops = _fill_holes(vertices, faces)
-    faces, internal, backwards = _drop_internal(vertices, faces)
+    if _is_closed(faces) and _pieces(faces) == 1:
+        internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
+    else:
+        faces, internal, backwards = _drop_internal(vertices, faces)
     return Repair(
         vertices=vertices,
         faces=faces,
