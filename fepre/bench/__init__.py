@@ -28,6 +28,7 @@ def available() -> dict[str, str]:
 def run(name: str, argv: list[str]) -> int:
     """Run benchmark ``name`` with its own command-line arguments."""
     names = available()
+    name = name.replace("-", "_")
     if name not in names:
         raise ValueError(f"unknown benchmark {name!r}; available: {', '.join(sorted(names))}")
     module = importlib.import_module(f"{__name__}.{name}")

@@ -18,7 +18,7 @@ import threading
 import numpy as np
 
 from .bvh import REGION_FACE, TriangleTree
-from .repair import edge_table, face_normals, winding_numbers
+from .tables import edge_table, face_normals, winding_numbers
 
 __all__ = ["TriangleDistance"]
 

@@ -12,7 +12,8 @@ from ..core import SDF, Coords
 from .distance import TriangleDistance
 from .patches import PatchPlanes, segment_patches
 from .read import MeshInputError, read_triangles
-from .repair import MAX_HOLE_FRACTION, Repair, face_normals, repair
+from .repair import MAX_HOLE_FRACTION, Repair, repair
+from .tables import face_normals
 
 __all__ = ["MeshModel", "mesh"]
 
@@ -37,7 +38,7 @@ class MeshModel(SDF):
         self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal)
         normals = self._distance.normals
         if features > 0:
-            self._face_patch, self._patch_count = segment_patches(faces, normals, features)
+            self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas)
         else:
             self._face_patch, self._patch_count = np.zeros(len(faces), np.int64), 1
         self._planes = PatchPlanes(vertices, faces, normals, self._face_patch)
@@ -180,7 +181,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
     >>> from fepre import sdf
     >>> ball = sdf.mesh(pv.Sphere(radius=1.0, theta_resolution=64, phi_resolution=64))
     >>> round(float(ball([0.0, 0.0, 0.0])), 3), ball.exact
-    (-0.999, True)
+    (-0.998, True)
     >>> part = ball - sdf.cylinder(radius=0.3, height=3.0)   # combines with CSG
     >>> float(part([0.0, 0.0, 0.0]))
     0.3

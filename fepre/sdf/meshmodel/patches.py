@@ -16,16 +16,24 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .bvh import TriangleTree
-from .repair import edge_table
+from .tables import edge_table
 
 __all__ = ["segment_patches", "PatchPlanes"]
 
 
-def segment_patches(faces: np.ndarray, normals: np.ndarray, angle: float) -> tuple[np.ndarray, int]:
+#: Patches of fewer triangles than this, holding under ``SMALL_PATCH_AREA`` of the surface's
+#: area, join the neighbour they meet at the smallest angle: marching-cubes surfaces hold
+#: slivers whose normals are off by more than the crease angle from all their neighbours.
+SMALL_PATCH_TRIANGLES = 8
+SMALL_PATCH_AREA = 1e-3
+
+
+def segment_patches(faces: np.ndarray, normals: np.ndarray, angle: float, areas: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Patch label of each triangle (F,) and the number of patches.
 
     Two triangles sharing an edge (and only those two) belong to one patch when their normals
-    differ by at most ``angle`` degrees. Zero-area triangles join their neighbours.
+    differ by at most ``angle`` degrees. Zero-area triangles join their neighbours, and so do
+    small patches (see ``SMALL_PATCH_TRIANGLES``) when ``areas`` are given.
     """
     count = len(faces)
     if count == 0:
@@ -44,7 +52,33 @@ def segment_patches(faces: np.ndarray, normals: np.ndarray, angle: float) -> tup
     smooth = (cosine >= np.cos(np.radians(angle))) | degenerate
     graph = sparse.coo_matrix((np.ones(int(smooth.sum())), (a[smooth], b[smooth])), shape=(count, count))
     patches, labels = csgraph.connected_components(graph.tocsr(), directed=False)
+    if areas is not None and patches > 1:
+        labels, patches = _absorb_small(labels, patches, a, b, cosine, areas)
     return labels.astype(np.int64), int(patches)
+
+
+def _absorb_small(labels, patches, a, b, cosine, areas):
+    """Join each small patch to the neighbouring patch across its flattest edge."""
+    sizes = np.bincount(labels, minlength=patches)
+    patch_area = np.bincount(labels, weights=areas, minlength=patches)
+    small = (sizes < SMALL_PATCH_TRIANGLES) & (patch_area < SMALL_PATCH_AREA * areas.sum())
+    la, lb = labels[a], labels[b]
+    across = la != lb
+    # each crossing edge seen from both sides: (patch, neighbour, cosine)
+    own = np.concatenate([la[across], lb[across]])
+    other = np.concatenate([lb[across], la[across]])
+    flat = np.concatenate([cosine[across], cosine[across]])
+    pick = small[own]
+    own, other, flat = own[pick], other[pick], flat[pick]
+    if len(own) == 0:
+        return labels, patches
+    order = np.lexsort((-flat, own))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = own[order][1:] != own[order][:-1]
+    chosen = order[first]
+    links = sparse.coo_matrix((np.ones(len(chosen)), (own[chosen], other[chosen])), shape=(patches, patches))
+    merged, group = csgraph.connected_components(links.tocsr(), directed=False)
+    return group[labels], int(merged)
 
 
 class PatchPlanes:

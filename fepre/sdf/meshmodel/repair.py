@@ -9,8 +9,8 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
    material lies outside it) the right way;
-3. close holes: every boundary loop that is a simple cycle gets a fan of triangles around its
-   centroid;
+3. close holes: every boundary loop that is a simple cycle gets a smooth patch
+   (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
    is on the same side of 1/2 just in front of and just behind a triangle (the inner parts of
    overlapping shells, sheets hanging in or out of the solid). A surface that is one closed,
@@ -27,7 +27,10 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-__all__ = ["Repair", "repair", "edge_table", "face_normals", "winding_numbers"]
+from .hole_fill import fill_holes
+from .tables import edge_table, face_normals, winding_numbers
+
+__all__ = ["Repair", "repair"]
 
 #: Holes (boundary loops) are closed only while their fans' total area is below this fraction
 #: of the surface's area; more than that and the input is a sheet, not a solid with holes.
@@ -85,48 +88,6 @@ class Repair:
             if count:
                 parts.append(f"{count} {text}")
         return ", ".join(parts)
-
-
-def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit normals (F, 3) (zero for zero-area triangles) and areas (F,)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    cross = np.cross(b - a, c - a)
-    twice = np.linalg.norm(cross, axis=1)
-    normals = np.divide(cross, twice[:, None], out=np.zeros_like(cross), where=twice[:, None] > 0)
-    return normals, 0.5 * twice
-
-
-def edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Undirected edges of the triangles.
-
-    Returns
-    -------
-    edges : (E, 2) int64
-        Each edge once, smaller vertex first.
-    face_edge : (F, 3) int64
-        Edge of each triangle's sides (v0v1, v1v2, v2v0).
-    forward : (F, 3) bool
-        True where the triangle traverses its side from the smaller vertex to the larger.
-    """
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    forward = directed[:, 0] < directed[:, 1]
-    keys = np.sort(directed, axis=1)
-    stride = np.int64(int(faces.max()) + 1 if faces.size else 1)
-    packed, inverse = np.unique(keys[:, 0] * stride + keys[:, 1], return_inverse=True)
-    edges = np.column_stack([packed // stride, packed % stride])
-    return edges, inverse.reshape(-1, 3), forward.reshape(-1, 3)
-
-
-def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Generalised winding numbers of the triangles at ``points`` (libigl's fast approximation,
-    exact near the triangles)."""
-    import igl
-
-    if len(points) == 0 or len(faces) == 0:
-        return np.zeros(len(points))
-    return np.asarray(
-        igl.fast_winding_number(np.ascontiguousarray(vertices), np.ascontiguousarray(faces), np.ascontiguousarray(points))
-    )
 
 
 def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -228,47 +189,31 @@ def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
     return faces, flipped
 
 
-def _fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
-    """Fan-fill every boundary loop that is a simple cycle."""
-    edges, face_edge, forward = edge_table(faces)
-    counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
-    boundary = counts.reshape(-1)[face_edge.reshape(-1)] == 1
-    if not boundary.any():
-        return vertices, faces, 0, 0.0, 0
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)[boundary]
-    n = len(vertices)
-    graph = sparse.coo_matrix((np.ones(len(directed)), (directed[:, 0], directed[:, 1])), shape=(n, n)).tocsr()
-    _, label = csgraph.connected_components(graph, directed=False)
-    loop = label[directed[:, 0]]
-    out_degree = np.bincount(directed[:, 0], minlength=n)
-    in_degree = np.bincount(directed[:, 1], minlength=n)
-    bad_vertex = (out_degree != in_degree) | (out_degree > 1)
-    bad_loop = np.zeros(label.max() + 1, dtype=bool)
-    bad_loop[label[bad_vertex & (out_degree + in_degree > 0)]] = True
-    simple = ~bad_loop[loop]
-    loops, index = np.unique(loop[simple], return_inverse=True)
-    open_loops = int(len(np.unique(loop[~simple])))
-    if len(loops) == 0:
-        return vertices, faces, 0, 0.0, open_loops
-    kept = directed[simple]
-    sums = np.zeros((len(loops), 3))
-    np.add.at(sums, index, vertices[kept[:, 0]])
-    centroid = sums / np.bincount(index, minlength=len(loops))[:, None]
-    centre = n + index
-    fan = np.stack([kept[:, 1], kept[:, 0], centre], axis=1)
-    vertices = np.concatenate([vertices, centroid])
-    area = float(face_normals(vertices, fan)[1].sum())
-    return vertices, np.concatenate([faces, fan]), int(len(loops)), area, open_loops
+#: Triangles whose two sides' fast winding numbers differ by less than 1/2 are checked again with
+#: the exact winding number, smallest first, up to this many (the fast approximation errs at
+#: tiny slivers; the inner walls of overlapping shells are the rest).
+EXACT_RECHECK = 1000
 
 
 def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, int]:
     """Drop triangles with the same side of the solid in front and behind; turn over those with
     the solid in front."""
     normals, areas = face_normals(vertices, faces)
-    centroid = vertices[faces].mean(axis=1)
-    step = 1e-3 * np.sqrt(np.maximum(areas, 1e-300))[:, None] * normals
-    w = winding_numbers(vertices, faces, np.concatenate([centroid + step, centroid - step]))
-    front, back = w[: len(faces)] > 0.5, w[len(faces) :] > 0.5
+    corners = vertices[faces]
+    centroid = corners.mean(axis=1)
+    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    step = 1e-3 * longest[:, None] * normals
+    probes = np.concatenate([centroid + step, centroid - step])
+    w = winding_numbers(vertices, faces, probes)
+    count = len(faces)
+    doubtful = np.flatnonzero(np.abs(w[:count] - w[count:]) < 0.5)
+    if len(doubtful):
+        import igl
+
+        doubtful = doubtful[np.argsort(areas[doubtful], kind="stable")[:EXACT_RECHECK]]
+        exact = np.asarray(igl.winding_number(vertices, faces, np.concatenate([probes[doubtful], probes[count + doubtful]])))
+        w[doubtful], w[count + doubtful] = exact[: len(doubtful)], exact[len(doubtful) :]
+    front, back = w[:count] > 0.5, w[count:] > 0.5
     separating = (front != back) | (areas == 0)
     backwards = front & ~back
     faces = np.where(backwards[:, None], faces[:, ::-1], faces)
@@ -312,7 +257,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     vertices, faces, merged = _merge_vertices(vertices, faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
-    vertices, faces, holes, hole_area, open_loops = _fill_holes(vertices, faces)
+    vertices, faces, holes, hole_area, open_loops = fill_holes(vertices, faces)
     if _is_closed(faces) and _pieces(faces) == 1:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
     else:
