@@ -197,7 +197,11 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
 def _edge_length(args: argparse.Namespace, part) -> float:
     h = args.h if args.h is not None else part.h
     if h is None:
-        raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+        if part.path.suffix == ".py":
+            raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+        lower, upper = part.domain_bounds()
+        extent = max(b - a for a, b in zip(lower, upper))
+        raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} gives a coarse mesh)")
     if not h > 0:
         raise ValueError(f"--h must be > 0; got {h}")
     return float(h)

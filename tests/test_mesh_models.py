@@ -322,3 +322,31 @@ def brute_distance_pairs(points, vertices, faces):
         area = np.linalg.norm(np.cross(*(vertices[tri[:, 1:]] - vertices[tri[:, :1]]).transpose(1, 0, 2)))
         out[i] = (brute_distance if area > 1e-14 else _degenerate_distance)(points[i : i + 1], vertices, tri)[0]
     return out
+
+
+# ---------------------------------------------------------------------------- the corpus of dirty inputs
+@pytest.mark.parametrize(
+    "name",
+    ["occ-box-hole+holes", "occ-bracket+duplicates", "occ-box-hole+flipped", "occ-slotted-block+overlap",
+     "occ-tube+non-manifold", "blob-1+holes"],
+)
+def test_dirty_inputs_mesh_like_clean_ones(name, tmp_path):
+    """Each kind of dirt: a valid mesh at the quality targets, the volume of the part (the clean
+    input's winding-number volume where the part is the same, the dirty file's own otherwise)."""
+    from fepre.corpus import check_mesh
+    from fepre.corpus.meshes import mesh_inputs, winding_volume
+
+    (item,) = mesh_inputs(names=[name])
+    path = tmp_path / "input.stl"
+    item.to_polydata().save(path, binary=True)
+    model = sdf.mesh(path)
+    truth = item
+    if item.dirt in ("holes", "duplicates", "flipped"):
+        (truth,) = mesh_inputs(names=[name.split("+")[0]])
+    volume, error = winding_volume(truth.vertices, truth.faces, 400_000)
+    mesh = fepre.distmesh(model, h=item.h)
+    check = check_mesh(np.asarray(mesh.points), mesh.cells_dict[10], model, item.h)
+    assert check.valid, check.problems
+    # the quality stage's targets
+    assert check.min_dihedral >= 25.0 and check.max_dihedral <= 150.0 and check.min_radius_ratio >= 0.25
+    assert abs(check.volume / volume - 1) < 0.01 + 4 * error / volume

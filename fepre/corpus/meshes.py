@@ -119,7 +119,7 @@ def _bracket(o):
 def _slotted_block(o):
     block = o.addBox(0, 0, 0, 60, 30, 20)
     slot = o.addBox(10, 10, 8, 40, 10, 13)
-    pocket = o.addCylinder(15, 15, 5, 0, 0, 20, 4)
+    pocket = o.addCylinder(15, 15, 5, 0, 0, 20, 3)
     o.cut([(3, block)], [(3, slot), (3, pocket)])
 
 
@@ -155,10 +155,10 @@ def _rounded_plate(o):
 
 _CAD = {
     "occ-box-hole": (_box_hole, 3.0, 5.0),
-    "occ-flange": (_flange, 3.0, 4.0),
+    "occ-flange": (_flange, 3.0, 3.0),
     "occ-bracket": (_bracket, 3.0, 4.0),
     "occ-slotted-block": (_slotted_block, 2.0, 2.5),
-    "occ-shaft": (_shaft, 3.0, 4.0),
+    "occ-shaft": (_shaft, 3.0, 2.5),
     "occ-tube": (_tube, 2.0, 2.0),
     "occ-cone-on-box": (_cone_on_box, 2.5, 3.5),
     "occ-rounded-plate": (_rounded_plate, 2.0, 2.5),
@@ -275,7 +275,8 @@ def _punch_holes(base: MeshInput, rng, fraction: float = 0.02, holes: int = 3) -
 
 
 def _overlap(base: MeshInput) -> tuple[np.ndarray, np.ndarray]:
-    """The part plus a box poking through it, written as two overlapping shells."""
+    """The part plus a bar through its lower part, sticking out on both sides, written as two
+    overlapping shells."""
     import pyvista as pv
 
     lower, upper = base.vertices.min(axis=0), base.vertices.max(axis=0)
@@ -283,7 +284,7 @@ def _overlap(base: MeshInput) -> tuple[np.ndarray, np.ndarray]:
     extent = upper - lower
     box = pv.Box(bounds=(centre[0] - 0.15 * extent[0], centre[0] + 0.15 * extent[0],
                          centre[1] - 0.8 * extent[1], centre[1] + 0.8 * extent[1],
-                         lower[2] - 0.1 * extent[2], upper[2] - 0.3 * extent[2]), level=6).triangulate()
+                         lower[2] - 0.1 * extent[2], lower[2] + 0.3 * extent[2]), level=6).triangulate()
     faces = box.faces.reshape(-1, 4)[:, 1:] + len(base.vertices)
     return np.concatenate([base.vertices, np.asarray(box.points, float)]), np.concatenate([base.faces, faces])
 

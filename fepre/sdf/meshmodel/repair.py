@@ -13,8 +13,8 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
    is on the same side of 1/2 just in front of and just behind a triangle (the inner parts of
-   overlapping shells, sheets hanging in or out of the solid). A surface that is one closed,
-   consistently oriented piece skips this step.
+   overlapping shells, sheets hanging in or out of the solid), after splitting the triangles that
+   cross a seam. A surface that is one closed, consistently oriented piece skips this step.
 
 The result records what was changed, for the model's summary and its ``exact`` flag.
 """
@@ -47,8 +47,8 @@ class Repair:
         The surface, (V, 3) float64 and (F, 3) int64.
     merged, degenerate, duplicates, flipped, holes, internal : int
         Vertices merged, triangles dropped for a repeated vertex, duplicate triangles dropped,
-        triangles turned over, boundary loops closed and triangles dropped as not separating
-        inside from outside.
+        triangles turned over, boundary loops closed and triangles dropped, or split at a seam, as
+        not (wholly) separating inside from outside.
     hole_area : float
         Area of the triangles added to close holes.
     open_loops : int
@@ -195,29 +195,70 @@ def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
 EXACT_RECHECK = 1000
 
 
-def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, int]:
-    """Drop triangles with the same side of the solid in front and behind; turn over those with
-    the solid in front."""
-    normals, areas = face_normals(vertices, faces)
-    corners = vertices[faces]
-    centroid = corners.mean(axis=1)
-    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-    step = 1e-3 * longest[:, None] * normals
-    probes = np.concatenate([centroid + step, centroid - step])
+#: Triangles that cross another shell (their corners on different sides of it) are split this
+#: many times (4 pieces each time) and the pieces inside dropped: the kept surface then pokes
+#: into the solid by at most 1/16 of a triangle along the seams of overlapping shells.
+SEAM_LEVELS = 4
+
+
+def _sides(vertices, faces, centres, normals, sizes):
+    """Whether the solid (winding number above 1/2) is in front of and behind each centre."""
+    step = 1e-3 * sizes[:, None] * normals
+    probes = np.concatenate([centres + step, centres - step])
     w = winding_numbers(vertices, faces, probes)
-    count = len(faces)
+    count = len(centres)
     doubtful = np.flatnonzero(np.abs(w[:count] - w[count:]) < 0.5)
     if len(doubtful):
         import igl
 
-        doubtful = doubtful[np.argsort(areas[doubtful], kind="stable")[:EXACT_RECHECK]]
+        doubtful = doubtful[np.argsort(sizes[doubtful], kind="stable")[:EXACT_RECHECK]]
         exact = np.asarray(igl.winding_number(vertices, faces, np.concatenate([probes[doubtful], probes[count + doubtful]])))
         w[doubtful], w[count + doubtful] = exact[: len(doubtful)], exact[len(doubtful) :]
-    front, back = w[:count] > 0.5, w[count:] > 0.5
+    return w[:count] > 0.5, w[count:] > 0.5
+
+
+def _longest_side(corners: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(corners - np.roll(corners, 1, axis=-2), axis=-1).max(axis=-1)
+
+
+def _split(corners: np.ndarray, levels: int) -> np.ndarray:
+    """Each triangle (m, 3, 3) split into 4**levels by its side midpoints, orientation kept."""
+    for _ in range(levels):
+        a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+        ab, bc, ca = (a + b) / 2, (b + c) / 2, (c + a) / 2
+        corners = np.stack(
+            [np.stack(t, axis=1) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))], axis=1
+        ).reshape(-1, 3, 3)
+    return corners
+
+
+def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Drop triangles with the same side of the solid in front and behind (split those crossing
+    a seam first); turn over those with the solid in front."""
+    normals, areas = face_normals(vertices, faces)
+    corners = vertices[faces]
+    centroid = corners.mean(axis=1)
+    sizes = _longest_side(corners)
+    front, back = _sides(vertices, faces, centroid, normals, sizes)
     separating = (front != back) | (areas == 0)
     backwards = front & ~back
-    faces = np.where(backwards[:, None], faces[:, ::-1], faces)
-    return faces[separating], int((~separating).sum()), int(backwards.sum())
+    if separating.all():
+        return vertices, np.where(backwards[:, None], faces[:, ::-1], faces), 0, int(backwards.sum())
+    near_corner = (0.9 * corners + 0.1 * centroid[:, None]).reshape(-1, 3)
+    corner_front, corner_back = _sides(vertices, faces, near_corner, np.repeat(normals, 3, axis=0), np.repeat(sizes, 3))
+    corner_separating = (corner_front != corner_back).reshape(-1, 3)
+    straddle = (corner_separating != separating[:, None]).any(axis=1) & (areas > 0)
+    keep = separating & ~straddle
+    kept_faces = np.where(backwards[:, None], faces[:, ::-1], faces)[keep]
+    pieces = _split(corners[straddle], SEAM_LEVELS)
+    parent = np.repeat(np.flatnonzero(straddle), 4**SEAM_LEVELS)
+    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], _longest_side(pieces))
+    piece_keep = piece_front != piece_back
+    pieces = np.where((piece_front & ~piece_back)[:, None, None], pieces[:, ::-1], pieces)[piece_keep]
+    piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
+    vertices = np.concatenate([vertices, pieces.reshape(-1, 3)])
+    faces = np.concatenate([kept_faces, piece_faces])
+    return vertices, faces, int((~keep).sum()), int((backwards & keep).sum())
 
 
 def _pieces(faces: np.ndarray) -> int:
@@ -261,7 +302,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     if _is_closed(faces) and _pieces(faces) == 1:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
     else:
-        faces, internal, backwards = _drop_internal(vertices, faces)
+        vertices, faces, internal, backwards = _drop_internal(vertices, faces)
     return Repair(
         vertices=vertices,
         faces=faces,
