@@ -201,7 +201,7 @@ def _edge_length(args: argparse.Namespace, part) -> float:
             raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
         lower, upper = part.domain_bounds()
         extent = max(b - a for a, b in zip(lower, upper))
-        raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} gives a coarse mesh)")
+        raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} puts about 20 elements across it)")
     if not h > 0:
         raise ValueError(f"--h must be > 0; got {h}")
     return float(h)

@@ -85,9 +85,9 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
     if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
         parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, GYROID_BLOCK_VOLUME, {},
                               ("gmsh",), "2x2x1 block, 0.2 wall, gyroid sheet infill (period 1)"))
-    parts.append(DemoPart("imported_block", None, 3.0 if quick else 1.5, 0.5 * scale, None, {}, (),
+    parts.append(DemoPart("imported_block", None, 3.0 if quick else 2.0, 0.5 * scale, None, {}, (),
                           "a CAD block written as STL (OpenCASCADE via gmsh), read with sdf.mesh, "
-                          "gyroid core (period 15) under a 2.5 skin", build=_imported_block))
+                          "gyroid core (period 16) under a skin 3 thick", build=_imported_block))
     return parts
 
 

@@ -150,6 +150,6 @@ def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
 
 
 def imported_infill(path: Any) -> Any:
-    """The part in the STL file ``path`` with a gyroid core (period 15, sheet 2.5) under a solid
-    skin 2.5 thick: the nTop-style use of an existing part, for printing and for analysis."""
-    return sdf.infill(sdf.mesh(path), sdf.gyroid(period=15.0, thickness=2.5), wall=2.5)
+    """The part in the STL file ``path`` with a gyroid core (period 16, sheet 3) under a solid
+    skin 3 thick: the nTop-style use of an existing part, for printing and for analysis."""
+    return sdf.infill(sdf.mesh(path), sdf.gyroid(period=16.0, thickness=3.0), wall=3.0)
