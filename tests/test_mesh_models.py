@@ -350,3 +350,37 @@ def test_dirty_inputs_mesh_like_clean_ones(name, tmp_path):
     # the quality stage's targets
     assert check.min_dihedral >= 25.0 and check.max_dihedral <= 150.0 and check.min_radius_ratio >= 0.25
     assert abs(check.volume / volume - 1) < 0.01 + 4 * error / volume
+
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    size=st.tuples(*[st.floats(0.2, 5.0)] * 3),
+    angle=st.floats(-180.0, 180.0),
+    axis=st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: sum(x * x for x in v) > 0.01),
+    offset=st.tuples(*[st.floats(-100.0, 100.0)] * 3),
+    seed=st.integers(0, 2**16),
+)
+def test_a_placed_box_mesh_is_the_exact_box(size, angle, axis, offset, seed):
+    """Any box, turned and moved, read as triangles, has the analytic box's distance field."""
+    exact = sdf.box(size).rotate(angle, axis).translate(offset)
+    surface = pv.Box().triangulate()  # corners at +-1 in float32; exact float64 corners put in
+    surface.points = np.sign(np.asarray(surface.points, dtype=np.float64)) * np.asarray(size) / 2
+    surface = surface.rotate_vector(axis, angle, point=(0, 0, 0)).translate(offset)
+    model = sdf.mesh(surface)
+    rng = np.random.default_rng(seed)
+    points = np.asarray(offset) + rng.uniform(-4, 4, (300, 3))
+    scale = max(1.0, float(np.abs(offset).max()))
+    assert np.abs(model(points) - exact(points)).max() < 1e-9 * scale
+    assert model.exact and model.patch_count == 6
+    assert model.volume == pytest.approx(float(np.prod(size)), rel=1e-9)
+
+
+def test_offset_and_shell_of_a_mesh():
+    cube = sdf.mesh(pv.Cube())
+    assert cube.offset(0.25)([1.0, 0.0, 0.0]) == pytest.approx(0.25)
+    hollow = cube.shell(0.1)
+    assert hollow([0.0, 0.0, 0.0]) == pytest.approx(0.4) and hollow([0.45, 0.0, 0.0]) < 0

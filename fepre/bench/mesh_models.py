@@ -34,7 +34,7 @@ def _queries(seed: int = 0) -> None:
     from ..corpus.meshes import _flange, _occ
     from ..sdf import mesh
 
-    vertices, faces = _occ(_flange, 1.2)
+    vertices, faces = _occ(_flange, 0.8)
     model = mesh(_surface(vertices, faces))
     vertices, faces = model.vertices, model.faces
     rng = np.random.default_rng(seed)

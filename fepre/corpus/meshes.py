@@ -298,7 +298,7 @@ def _non_manifold(base: MeshInput) -> tuple[np.ndarray, np.ndarray]:
 
 def _million(name: str) -> tuple[np.ndarray, np.ndarray]:
     build, _, _ = _CAD[name]
-    return _occ(build, 0.35)
+    return _occ(build, 0.25)
 
 
 def _soup(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
