@@ -384,3 +384,18 @@ def test_offset_and_shell_of_a_mesh():
     assert cube.offset(0.25)([1.0, 0.0, 0.0]) == pytest.approx(0.25)
     hollow = cube.shell(0.1)
     assert hollow([0.0, 0.0, 0.0]) == pytest.approx(0.4) and hollow([0.45, 0.0, 0.0]) < 0
+
+
+def test_holes_touching_at_a_vertex_are_closed_as_two():
+    """Two triangles of one vertex's fan cut away: their rims meet at that vertex (a pinch)."""
+    surface = pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=24)
+    vertices, faces = arrays(surface)
+    vertex = int(np.argmax(np.bincount(faces.ravel()) == 6))  # an ordinary vertex with six triangles
+    fan = np.flatnonzero((faces == vertex).any(axis=1))
+    shared = lambda a, b: len(set(faces[a]) & set(faces[b]))
+    first = fan[0]
+    second = next(t for t in fan[1:] if shared(first, t) == 1)  # only the vertex in common
+    kept = np.delete(faces, [first, second], axis=0)
+    result = repair(vertices, kept)
+    assert result.holes == 2 and result.open_edges == 0 and result.closed
+    assert sdf.mesh(from_arrays(vertices, kept)).volume == pytest.approx(sdf.mesh(surface).volume, rel=1e-3)

@@ -23,10 +23,12 @@ MAX_RINGS = 30
 
 
 def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
-    """Directed boundary edges grouped into simple loops, each in order along its edges.
+    """Boundary edges (used by one triangle) split into simple loops, each in order along its
+    edges.
 
-    Returns the loops as a list of vertex arrays and the number of loops that are not simple
-    cycles (a vertex with two outgoing boundary edges).
+    A hole whose rim touches itself at a vertex (a pinch, common where triangles were cut away
+    around a point) is split there into simple loops. Returns the loops as vertex arrays and the
+    number of boundary edges left over (where the edges into and out of a vertex do not match).
     """
     edges, face_edge, _ = edge_table(faces)
     counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
@@ -35,42 +37,41 @@ def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
         return [], 0
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)[boundary]
     n = len(vertices)
-    graph = sparse.coo_matrix((np.ones(len(directed)), (directed[:, 0], directed[:, 1])), shape=(n, n)).tocsr()
-    _, label = csgraph.connected_components(graph, directed=False)
     out_degree = np.bincount(directed[:, 0], minlength=n)
     in_degree = np.bincount(directed[:, 1], minlength=n)
-    bad_vertex = ((out_degree != in_degree) | (out_degree > 1)) & (out_degree + in_degree > 0)
-    bad_loop = np.zeros(label.max() + 1, dtype=bool)
-    bad_loop[label[bad_vertex]] = True
-    loop_of_edge = label[directed[:, 0]]
-    simple = ~bad_loop[loop_of_edge]
-    open_loops = int(len(np.unique(loop_of_edge[~simple])))
-    kept = directed[simple]
-    if len(kept) == 0:
-        return [], open_loops
-    # rank every vertex along its loop by pointer jumping from the loop's smallest vertex
-    following = np.arange(n)
-    following[kept[:, 0]] = kept[:, 1]
-    loop = label[kept[:, 0]]
-    start = np.full(label.max() + 1, n)
-    np.minimum.at(start, loop, kept[:, 0])
-    before_start = kept[following[kept[:, 0]] == start[loop], 0]
-    following[before_start] = before_start
-    steps = np.zeros(n, dtype=np.int64)
-    steps[kept[:, 0]] = 1
-    steps[before_start] = 0
-    while True:
-        jump = following[following]
-        if np.array_equal(jump, following):
-            break
-        steps = steps + steps[following]
-        following = jump
-    size = np.bincount(loop, minlength=label.max() + 1)
-    position = size[loop] - 1 - steps[kept[:, 0]]
-    order = np.lexsort((position, loop))
-    members = kept[order, 0]
-    bounds = np.concatenate([[0], np.cumsum(np.bincount(loop[order])[np.unique(loop)])])
-    return [members[a:b] for a, b in zip(bounds[:-1], bounds[1:])], open_loops
+    balanced = out_degree == in_degree
+    usable = balanced[directed[:, 0]] & balanced[directed[:, 1]]
+    leftover = int((~usable).sum())
+    directed = directed[usable]
+    # walk the edges; a walk that comes back to a vertex already on it closes a simple loop
+    # (one step per boundary edge, and rims are a small part of a surface)
+    order = np.argsort(directed[:, 0], kind="stable")
+    starts = np.searchsorted(directed[order, 0], np.arange(n + 1))
+    outgoing = {int(v): list(directed[order[starts[v] : starts[v + 1]], 1]) for v in np.unique(directed[:, 0])}
+    loops: list[np.ndarray] = []
+    for first in list(outgoing):
+        while outgoing.get(first):
+            path, seen, vertex = [first], {first: 0}, first
+            while True:
+                following = outgoing[vertex].pop()
+                if following in seen:
+                    cut = seen[following]
+                    loops.append(np.asarray(path[cut:], dtype=np.int64))
+                    for dropped in path[cut + 1 :]:
+                        del seen[dropped]
+                    del path[cut + 1 :]
+                    vertex = following
+                    if not outgoing.get(vertex):
+                        break
+                    continue
+                seen[following] = len(path)
+                path.append(following)
+                vertex = following
+                if not outgoing.get(vertex):  # a dead end: unbalanced after all
+                    leftover += len(path) - 1
+                    break
+    loops = [loop for loop in loops if len(loop) >= 3]
+    return loops, leftover
 
 
 def _ring_patch(vertices: np.ndarray, rim: np.ndarray, first_new: int) -> tuple[np.ndarray, np.ndarray]:
@@ -129,8 +130,8 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
         Loops filled.
     area : float
         Area of the patches.
-    open_loops : int
-        Loops left open (not simple cycles).
+    open_edges : int
+        Boundary edges left open (where the edges into and out of a vertex do not match).
 
     Examples
     --------
@@ -142,9 +143,9 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
     >>> holes, round(float(filled[len(points):, 2].max()), 2)         # the patch bulges like the sphere
     (1, 0.47)
     """
-    loops, open_loops = _boundary_loops(vertices, faces)
+    loops, open_edges = _boundary_loops(vertices, faces)
     if not loops:
-        return vertices, faces, 0, 0.0, open_loops
+        return vertices, faces, 0, 0.0, open_edges
     new_points, new_faces = [], []
     first = len(vertices)
     for rim in loops:  # one patch per hole; each is built with array operations
@@ -158,4 +159,4 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
     faces = np.concatenate([faces, patches])
     vertices = _fair(vertices, faces, free)
     area = float(face_normals(vertices, patches)[1].sum())
-    return vertices, faces, len(loops), area, open_loops
+    return vertices, faces, len(loops), area, open_edges

@@ -51,8 +51,8 @@ class Repair:
         not (wholly) separating inside from outside.
     hole_area : float
         Area of the triangles added to close holes.
-    open_loops : int
-        Boundary loops left open (not simple cycles).
+    open_edges : int
+        Boundary edges left open (where the edges into and out of a vertex do not match).
     closed : bool
         Every edge is shared by exactly two triangles that traverse it in opposite directions.
     """
@@ -66,7 +66,7 @@ class Repair:
     holes: int
     hole_area: float
     internal: int
-    open_loops: int
+    open_edges: int
     closed: bool
 
     @property
@@ -83,7 +83,7 @@ class Repair:
             (self.flipped, "triangles turned over"),
             (self.holes, f"holes closed (area {self.hole_area:.4g})"),
             (self.internal, "triangles inside or outside the solid dropped"),
-            (self.open_loops, "boundary loops left open"),
+            (self.open_edges, "boundary edges left open"),
         ):
             if count:
                 parts.append(f"{count} {text}")
@@ -298,7 +298,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     vertices, faces, merged = _merge_vertices(vertices, faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
-    vertices, faces, holes, hole_area, open_loops = fill_holes(vertices, faces)
+    vertices, faces, holes, hole_area, open_edges = fill_holes(vertices, faces)
     if _is_closed(faces) and _pieces(faces) == 1:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
     else:
@@ -313,6 +313,6 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
         holes=holes,
         hole_area=hole_area,
         internal=internal,
-        open_loops=open_loops,
+        open_edges=open_edges,
         closed=_is_closed(faces),
     )
