@@ -189,8 +189,9 @@ def _csg_parts() -> dict[str, tuple[Callable, float, bool, str]]:
         return parts.gyroid_block()
 
     def schwarz():
-        box = sdf.box(2.0)
-        return sdf.infill(box, sdf.schwarz_p(period=1.0, thickness=0.12), wall=0.15)
+        # the skin's inner faces (x = +-1) are mirror planes of the lattice: it meets them square
+        box = sdf.box(2.2)
+        return sdf.infill(box, sdf.schwarz_p(period=1.0, thickness=0.12), wall=0.1)
 
     def blob(seed: int):
         def build():
@@ -225,9 +226,9 @@ _CSG_H = {
     "csg-slotted-box": 0.15,
     "lattice-gyroid-block": 0.05,
     "lattice-schwarz-cube": 0.06,
-    "blob-1": 0.15,
-    "blob-2": 0.15,
-    "blob-torus": 0.2,
+    "blob-1": 0.12,
+    "blob-2": 0.12,
+    "blob-torus": 0.14,
 }
 
 
