@@ -399,3 +399,16 @@ def test_holes_touching_at_a_vertex_are_closed_as_two():
     result = repair(vertices, kept)
     assert result.holes == 2 and result.open_edges == 0 and result.closed
     assert sdf.mesh(from_arrays(vertices, kept)).volume == pytest.approx(sdf.mesh(surface).volume, rel=1e-3)
+
+
+def test_nesting_decides_orientation_of_closed_shells():
+    """Shells inside shells alternate material and void (the even-odd rule of STL shells),
+    whichever way each was written: a cube, a spherical cavity, a ball inside the cavity."""
+    outer = pv.Cube(x_length=4, y_length=4, z_length=4).triangulate().flip_faces()  # inside out
+    cavity = pv.Sphere(radius=1.5, theta_resolution=32, phi_resolution=32)  # written outward
+    ball = pv.Sphere(radius=0.5, theta_resolution=16, phi_resolution=16).flip_faces()
+    model = sdf.mesh(outer + cavity + ball)
+    assert model([0.0, 0.0, 1.8]) < 0  # material between cube and cavity
+    assert model([0.0, 0.0, 1.0]) > 0  # the cavity
+    assert model([0.0, 0.0, 0.0]) < 0  # the ball in it
+    assert model.volume == pytest.approx(64.0 - cavity.volume + ball.volume, rel=1e-9)

@@ -159,6 +159,8 @@ def main(argv: list[str]) -> int:
                     error = f"{type(exc).__name__}: {exc}"
             seconds = time.perf_counter() - start
             samples = _sharp_samples(item, args.seed) if error is None and item.sharp else np.zeros((0, 3))
+            if len(samples):  # edges on the part's surface (not the inner walls of overlapping shells)
+                samples = samples[np.abs(model(samples)) <= 1e-6 * model.length_scale]
             row = f"{item.name:34s} {len(item.faces):8d} {item.h:5.3g} | "
             if error is None:
                 tets = grid.cells_dict[10].astype(np.int64)

@@ -168,25 +168,68 @@ def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
     faces = np.where(flip[:, None], faces[:, ::-1], faces)
     flipped = int(flip.sum())
 
-    # a piece enclosing negative volume is a cavity when it lies inside material, else a solid
-    # written inside out: look just behind its largest triangle
+    turn = _nesting_turns(vertices, faces, label, pieces)
+    faces = np.where(turn[:, None], faces[:, ::-1], faces)
+    flipped += int(turn.sum())
+    return faces, flipped
+
+
+#: Pieces whose nesting is worked out one by one (pieces x pieces winding-number queries);
+#: beyond this, only pieces enclosing negative volume outside all material are turned over.
+MAX_NESTED_PIECES = 64
+#: Points of each piece (area-weighted triangle centroids) that vote on which pieces enclose it.
+NESTING_SAMPLES = 15
+
+
+def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
+    """Triangles to turn over so that every piece faces out of the material.
+
+    Only closed pieces (every edge shared by two of their triangles) are turned or count as
+    enclosing: a piece enclosed by an even number of others bounds a solid (it encloses positive
+    volume); by an odd number, a cavity (negative volume). Enclosure is decided by most of a
+    piece's sample points, so shells that merely overlap (a union written as two shells) do
+    not count as nested. Open pieces (cut off by edges of three or more triangles) keep the
+    orientation most of their triangles had.
+    """
     normals, areas = face_normals(vertices, faces)
     a3, b3, c3 = (vertices[faces[:, k]] for k in range(3))
     volume = np.bincount(label, weights=np.einsum("ij,ij->i", a3, np.cross(b3, c3)) / 6.0, minlength=pieces)
-    negative = np.flatnonzero(volume < 0)
-    if len(negative):
+    edges, face_edge, _ = edge_table(faces)
+    shared_by_two = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) == 2)[face_edge].all(axis=1)
+    closed = np.bincount(label, weights=~shared_by_two, minlength=pieces) == 0
+    if pieces == 1:
+        return np.full(len(faces), bool(volume[0] < 0 and closed[0]))
+    if pieces > MAX_NESTED_PIECES:
+        # a negative piece is a cavity when it lies inside material (just behind its largest
+        # triangle), else a solid written inside out
+        negative = np.flatnonzero((volume < 0) & closed)
         largest = np.zeros(pieces, dtype=np.int64)
         order = np.lexsort((areas, label))
-        largest[label[order]] = order  # last write per label is its largest triangle
-        probe_face = largest[negative]
-        centroid = (a3[probe_face] + b3[probe_face] + c3[probe_face]) / 3.0
-        step = 1e-3 * np.sqrt(np.maximum(areas[probe_face], 1e-300))
-        behind = centroid - step[:, None] * normals[probe_face]
+        largest[label[order]] = order  # the last write per label is its largest triangle
+        probe = largest[negative]
+        step = 1e-3 * np.sqrt(np.maximum(areas[probe], 1e-300))
+        behind = (a3[probe] + b3[probe] + c3[probe]) / 3.0 - step[:, None] * normals[probe]
         inside_out = winding_numbers(vertices, faces, behind) < 0.5
-        turn = np.isin(label, negative[inside_out])
-        faces = np.where(turn[:, None], faces[:, ::-1], faces)
-        flipped += int(turn.sum())
-    return faces, flipped
+        return np.isin(label, negative[inside_out])
+    rng = np.random.default_rng(0)
+    centroid = (a3 + b3 + c3) / 3.0
+    samples, owner = [], []
+    for piece in range(pieces):  # one query per pair of pieces, not per triangle
+        members = np.flatnonzero(label == piece)
+        weights = areas[members] / max(float(areas[members].sum()), 1e-300)
+        chosen = rng.choice(members, NESTING_SAMPLES, p=weights) if weights.sum() > 0 else members[:NESTING_SAMPLES]
+        samples.append(centroid[chosen])
+        owner.append(np.full(len(chosen), piece))
+    samples, owner = np.concatenate(samples), np.concatenate(owner)
+    depth = np.zeros(pieces, dtype=np.int64)
+    for piece in np.flatnonzero(closed):
+        others = owner != piece
+        w = np.abs(winding_numbers(vertices, faces[label == piece], samples[others]))
+        votes = np.bincount(owner[others], weights=(w > 0.5).astype(float), minlength=pieces)
+        counts = np.bincount(owner[others], minlength=pieces)
+        depth += (votes > counts / 2).astype(np.int64)
+    want_outward = depth % 2 == 0
+    return (closed & ((volume > 0) != want_outward))[label]
 
 
 #: Triangles whose two sides' fast winding numbers differ by less than 1/2 are checked again with
