@@ -367,9 +367,13 @@ from hypothesis import strategies as st
 def test_a_placed_box_mesh_is_the_exact_box(size, angle, axis, offset, seed):
     """Any box, turned and moved, read as triangles, has the analytic box's distance field."""
     exact = sdf.box(size).rotate(angle, axis).translate(offset)
-    surface = pv.Box().triangulate()  # corners at +-1 in float32; exact float64 corners put in
-    surface.points = np.sign(np.asarray(surface.points, dtype=np.float64)) * np.asarray(size) / 2
-    surface = surface.rotate_vector(axis, angle, point=(0, 0, 0)).translate(offset)
+    from scipy.spatial.transform import Rotation
+
+    surface = pv.Box().triangulate()  # corners at +-1 in float32: float64 corners put in, turned
+    corners = np.sign(np.asarray(surface.points, dtype=np.float64)) * np.asarray(size) / 2
+    unit = np.asarray(axis) / np.linalg.norm(axis)
+    turned = Rotation.from_rotvec(np.radians(angle) * unit).apply(corners) + np.asarray(offset)
+    surface = pv.PolyData(turned, surface.faces)
     model = sdf.mesh(surface)
     rng = np.random.default_rng(seed)
     points = np.asarray(offset) + rng.uniform(-4, 4, (300, 3))
