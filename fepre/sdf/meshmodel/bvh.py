@@ -48,6 +48,27 @@ def _median_split_order(centroids: np.ndarray, boundaries: np.ndarray, depth: in
     return order
 
 
+#: Queries of more points than this are answered in Z-order: neighbours share tree nodes in the
+#: cache and start from each other's triangle (1.4x on points scattered along a surface).
+SORT_QUERIES = 2048
+
+
+def _z_order(points: np.ndarray) -> np.ndarray:
+    """Order of points along a Z-order (Morton) curve of 10 bits per axis."""
+    lower = points.min(axis=0)
+    extent = max(float((points.max(axis=0) - lower).max()), 1e-300)
+    cells = np.clip(((points - lower) / extent * 1023.0).astype(np.int64), 0, 1023).astype(np.uint32)
+    code = np.zeros(len(points), dtype=np.uint32)
+    for axis in range(3):
+        v = cells[:, axis]
+        v = (v | (v << np.uint32(16))) & np.uint32(0x030000FF)
+        v = (v | (v << np.uint32(8))) & np.uint32(0x0300F00F)
+        v = (v | (v << np.uint32(4))) & np.uint32(0x030C30C3)
+        v = (v | (v << np.uint32(2))) & np.uint32(0x09249249)
+        code |= v << np.uint32(axis)
+    return np.argsort(code, kind="stable")
+
+
 class TriangleTree:
     """Closest triangles, points and regions for query points.
 
@@ -100,6 +121,27 @@ class TriangleTree:
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Squared distances (N,), closest faces (N,) (indices into the input ``faces``),
         closest points (N, 3) and their regions (N,) (see ``REGION_FACE``)."""
+        from ._bvh_kernel import closest_points
+
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        count = len(points)
+        squared = np.empty(count)
+        face = np.empty(count, dtype=np.int64)
+        closest = np.empty((count, 3))
+        region = np.empty(count, dtype=np.int8)
+        if count > SORT_QUERIES and np.isfinite(points).all():
+            order = _z_order(points)
+            result = self.query_in_order(points[order])
+            for array, part in zip((squared, face, closest, region), result):
+                array[order] = part
+            return squared, face, closest, region
+        if count:
+            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.width, self.leaf_start,
+                           squared, face, closest, region)
+        return squared, self.order[face], closest, region
+
+    def query_in_order(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`query` without reordering the points (for points already in a coherent order)."""
         from ._bvh_kernel import closest_points
 
         points = np.ascontiguousarray(points, dtype=np.float64)
