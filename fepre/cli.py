@@ -103,7 +103,23 @@ def _mesh_suffixes() -> tuple[str, ...]:
 
 
 def _model_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("model", metavar="MODEL.py", help="Python file defining `model` (and optionally h, bounds, boundaries)")
+    parser.add_argument("model", metavar="MODEL",
+                        help="Python file defining `model` (and optionally h, bounds, boundaries), "
+                             "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
+
+
+def _load_part(args: argparse.Namespace):
+    """The model file (or mesh file) of ``args.model``; for a mesh file, say what was read and
+    repaired."""
+    from .modelfile import load_model
+    from .sdf import MeshModel
+
+    part = load_model(args.model)
+    if isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
+        repaired = part.model.repaired.summary()
+        _say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
+             + (f"; repaired: {repaired}" if repaired else "; closed and consistently oriented"))
+    return part
 
 
 def _default_spacing(part) -> float:
@@ -140,7 +156,7 @@ def _run_surface(args: argparse.Namespace) -> int:
         from .arguments import as_bounds
 
         bounds = as_bounds((args.bounds[:3], args.bounds[3:]), 3, "--bounds")
-    part = load_model(args.model)
+    part = _load_part(args)
     bounds = bounds if bounds is not None else part.bounds
     if args.spacing is not None:
         spacing = args.spacing
@@ -195,7 +211,11 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
 def _edge_length(args: argparse.Namespace, part) -> float:
     h = args.h if args.h is not None else part.h
     if h is None:
-        raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+        if part.path.suffix == ".py":
+            raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+        lower, upper = part.domain_bounds()
+        extent = max(b - a for a, b in zip(lower, upper))
+        raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} puts about 20 elements across it)")
     if not h > 0:
         raise ValueError(f"--h must be > 0; got {h}")
     return float(h)
@@ -210,7 +230,7 @@ def _run_mesh(args: argparse.Namespace) -> int:
 
     output = _output_path(args.output, "--output", _mesh_suffixes())
     size = _size_file(args.size) if args.size is not None else None
-    part = load_model(args.model)
+    part = _load_part(args)
     part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
     if args.hmax is not None:
@@ -295,7 +315,7 @@ def _run_size(args: argparse.Namespace) -> int:
     from .sizing.estimate import estimated_cells
 
     output = _output_path(args.output, "--output", (".vti",))
-    part = load_model(args.model)
+    part = _load_part(args)
     lower, upper = (np.asarray(v, dtype=np.float64) for v in part.domain_bounds())
     h = _edge_length(args, part)
     if not args.hmax > h:
@@ -329,7 +349,7 @@ def _run_features(args: argparse.Namespace) -> int:
     from .modelfile import load_model
 
     _output_path(args.output, "--output", (".vtp", ".vtk"))
-    part = load_model(args.model)
+    part = _load_part(args)
     part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part)
     found = fepre.features(part.model, h, angle=args.angle, bounds=part.bounds, warn=False)
@@ -360,7 +380,7 @@ def _run_compare(args: argparse.Namespace) -> int:
 
     _output_path(args.report, "--report", (".html", ".htm"))
     _output_path(args.json, "--json", (".json",))
-    part = load_model(args.model)
+    part = _load_part(args)
     part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     h = _edge_length(args, part)
     result = compare(part.model, h, references=tuple(args.references), surface_spacing=args.surface_spacing,

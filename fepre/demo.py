@@ -57,6 +57,9 @@ class DemoPart:
     boundaries: dict[str, Any] = field(default_factory=dict)
     references: tuple[str, ...] = ()
     description: str = ""
+    #: Writes the part's input file to the path it is given (``<name>_input.stl`` in the output
+    #: folder) and returns the model read from it (an imported part).
+    build: Callable[[Path], Any] | None = None
 
 
 def demo_parts(quick: bool = False) -> list[DemoPart]:
@@ -82,7 +85,16 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
     if hasattr(sdf, "infill") and hasattr(sdf, "gyroid"):
         parts.append(DemoPart("gyroid_block", gyroid_block(), 0.15 if quick else 0.1, 0.02 * scale, GYROID_BLOCK_VOLUME, {},
                               ("gmsh",), "2x2x1 block, 0.2 wall, gyroid sheet infill (period 1)"))
+    parts.append(DemoPart("imported_block", None, 3.0 if quick else 2.0, 0.5 * scale, None, {}, (),
+                          "a CAD block written as STL (OpenCASCADE via gmsh), read with sdf.mesh, "
+                          "gyroid core (period 16) under a skin 3 thick", build=_imported_block))
     return parts
+
+
+def _imported_block(path: Path):
+    from .parts import imported_infill, write_mounting_block_stl
+
+    return imported_infill(write_mounting_block_stl(path))
 
 
 @dataclass
@@ -204,6 +216,11 @@ def _run_part(part: DemoPart, outdir: Path, label: str, references: bool, say: C
 
     from .references import reference_surface
 
+    inputs = []
+    if part.build is not None:
+        inputs.append(outdir / f"{part.name}_input.stl")
+        say(f"{label}: writing and reading {inputs[0].name} ...")
+        part.model = part.build(inputs[0])
     say(f"{label}: surface (spacing {part.spacing:g}) ...")
     # dual contouring keeps sharp edges and corners; flying edges for smooth parts
     surface = reference_surface(part.model, part.spacing)
@@ -222,5 +239,5 @@ def _run_part(part: DemoPart, outdir: Path, label: str, references: bool, say: C
     # the references mesh a surface at spacing h/2: fine against h, and affordable for pytetwild
     comparison = compare(part.model, part.h, mesh=mesh, seconds=seconds, references=chosen, surface_spacing=part.h / 2,
                          exact_volume=part.exact_volume, progress=lambda message: say(f"{label}: {message}"))
-    return [stl, vtu, inp], comparison
+    return inputs + [stl, vtu, inp], comparison
 

@@ -28,7 +28,10 @@ from typing import Any
 from .arguments import as_bounds, positive_float
 from .sdf import SDF
 
-__all__ = ["ModelFile", "ModelFileError", "load_model"]
+__all__ = ["ModelFile", "ModelFileError", "load_model", "MESH_SUFFIXES"]
+
+#: Surface mesh files taken as models directly: ``fepre mesh part.stl`` meshes ``sdf.mesh("part.stl")``.
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk")
 
 
 class ModelFileError(ValueError):
@@ -94,7 +97,9 @@ def load_model(path: str | os.PathLike) -> ModelFile:
     Parameters
     ----------
     path : str or path-like
-        A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``.
+        A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; or a
+        surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK), whose model is
+        :func:`fepre.sdf.mesh` of it.
 
     Returns
     -------
@@ -119,8 +124,18 @@ def load_model(path: str | os.PathLike) -> ModelFile:
         raise ModelFileError(f"model file {path} does not exist")
     if path.is_dir():
         raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
+    if path.suffix.lower() in MESH_SUFFIXES:
+        from .sdf import mesh
+
+        try:
+            return ModelFile(path=path, model=mesh(path))
+        except ValueError as exc:
+            raise ModelFileError(str(exc)) from None
     if path.suffix != ".py":
-        raise ModelFileError(f"model file {path} must be a Python file ending in .py; got {path.suffix or 'no suffix'!r}")
+        raise ModelFileError(
+            f"model file {path} must be a Python file ending in .py or a surface mesh "
+            f"({', '.join(MESH_SUFFIXES)}); got {path.suffix or 'no suffix'!r}"
+        )
     resolved = path.resolve()
     folder = str(resolved.parent)
     sys.path.insert(0, folder)  # lets a model file import its neighbours

@@ -22,6 +22,8 @@ import numpy as np
 from . import sdf
 
 __all__ = [
+    "write_mounting_block_stl",
+    "imported_infill",
     "cube_with_hole",
     "CUBE_WITH_HOLE_VOLUME",
     "cube_with_hole_corners",
@@ -111,3 +113,43 @@ def gyroid_block() -> Any:
     """A 2 x 2 x 1 block: a shell of wall 0.2 filled with a gyroid sheet (period 1, thickness 0.15)."""
     block = sdf.box((2.0, 2.0, 1.0))
     return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
+
+
+def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
+    """Write a CAD part as a binary STL file, as a CAD system exports one, and return the path.
+
+    The part is a 40 x 30 x 20 mounting block (millimetres) with two bolt holes through it and a
+    slot across its top, built in OpenCASCADE and tessellated by gmsh (triangles about ``size``
+    long, finer on the holes).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = write_mounting_block_stl(pathlib.Path(tempfile.mkdtemp()) / "block.stl")
+    >>> from fepre import sdf
+    >>> block = sdf.mesh(path)
+    >>> block.bounds
+    ((0.0, 0.0, 0.0), (40.0, 30.0, 20.0))
+    """
+    from pathlib import Path
+
+    import pyvista as pv
+
+    from .corpus.meshes import _occ
+
+    def build(occ):
+        block = occ.addBox(0, 0, 0, 40, 30, 20)
+        holes = [(3, occ.addCylinder(x, 15, -1, 0, 0, 22, 4)) for x in (10, 30)]
+        slot = occ.addBox(-1, 11, 14, 42, 8, 7)
+        occ.cut([(3, block)], holes + [(3, slot)])
+
+    vertices, faces = _occ(build, size)
+    path = Path(path)
+    pv.PolyData(vertices, np.column_stack([np.full(len(faces), 3), faces]).ravel()).save(str(path), binary=True)
+    return path
+
+
+def imported_infill(path: Any) -> Any:
+    """The part in the STL file ``path`` with a gyroid core (period 16, sheet 3) under a solid
+    skin 3 thick: the nTop-style use of an existing part, for printing and for analysis."""
+    return sdf.infill(sdf.mesh(path), sdf.gyroid(period=16.0, thickness=3.0), wall=3.0)

@@ -21,7 +21,7 @@ def available() -> dict[str, str]:
         if info.name.startswith("_"):
             continue
         module = importlib.import_module(f"{__name__}.{info.name}")
-        names[info.name] = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
+        names[info.name.replace("_", "-")] = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
     return names
 
 
@@ -30,7 +30,7 @@ def run(name: str, argv: list[str]) -> int:
     names = available()
     if name not in names:
         raise ValueError(f"unknown benchmark {name!r}; available: {', '.join(sorted(names))}")
-    module = importlib.import_module(f"{__name__}.{name}")
+    module = importlib.import_module(f"{__name__}.{name.replace('-', '_')}")
     return int(module.main(argv) or 0)
 
 

@@ -20,10 +20,12 @@ from .transforms import *  # noqa: F401,F403
 from .deform import *  # noqa: F401,F403
 from .lattices import *  # noqa: F401,F403
 from .patterns import *  # noqa: F401,F403
+from .meshmodel import MeshModel, MeshInputError, mesh
+from . import meshmodel
 from . import booleans, deform, extrusions, lattices, patterns, shapes2d, solids, transforms
 
 __all__ = (
-    ["SDF"]
+    ["SDF", "mesh", "MeshModel", "MeshInputError"]
     + solids.__all__
     + shapes2d.__all__
     + extrusions.__all__

@@ -1,0 +1,162 @@
+"""Close the holes of a triangle surface with smooth patches.
+
+Every boundary loop that is a simple cycle is filled with rings of triangles shrinking to its
+centroid, about one rim edge apart, and the new vertices are then placed by a bi-Laplacian
+fairing (Liepa 2003): they solve ``L^2 x = 0`` with the rim and one ring of the surrounding surface
+held, so the patch continues the surface's slope across the rim instead of folding there. A flat
+fan would leave a crease along the rim that feature detection takes for a sharp edge.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
+from scipy.sparse.linalg import spsolve
+
+from .tables import edge_table, face_normals
+
+__all__ = ["fill_holes", "MAX_RINGS"]
+
+#: Most rings of triangles in one patch (a patch is about as many rim edges across).
+MAX_RINGS = 30
+
+
+def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
+    """Boundary edges (used by one triangle) split into simple loops, each in order along its
+    edges.
+
+    A hole whose rim touches itself at a vertex (a pinch, common where triangles were cut away
+    around a point) is split there into simple loops. Returns the loops as vertex arrays and the
+    number of boundary edges left over (where the edges into and out of a vertex do not match).
+    """
+    edges, face_edge, _ = edge_table(faces)
+    counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
+    boundary = counts[face_edge.reshape(-1)] == 1
+    if not boundary.any():
+        return [], 0
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)[boundary]
+    n = len(vertices)
+    out_degree = np.bincount(directed[:, 0], minlength=n)
+    in_degree = np.bincount(directed[:, 1], minlength=n)
+    balanced = out_degree == in_degree
+    usable = balanced[directed[:, 0]] & balanced[directed[:, 1]]
+    leftover = int((~usable).sum())
+    directed = directed[usable]
+    # walk the edges; a walk that comes back to a vertex already on it closes a simple loop
+    # (one step per boundary edge, and rims are a small part of a surface)
+    order = np.argsort(directed[:, 0], kind="stable")
+    starts = np.searchsorted(directed[order, 0], np.arange(n + 1))
+    outgoing = {int(v): list(directed[order[starts[v] : starts[v + 1]], 1]) for v in np.unique(directed[:, 0])}
+    loops: list[np.ndarray] = []
+    for first in list(outgoing):
+        while outgoing.get(first):
+            path, seen, vertex = [first], {first: 0}, first
+            while True:
+                following = outgoing[vertex].pop()
+                if following in seen:
+                    cut = seen[following]
+                    loops.append(np.asarray(path[cut:], dtype=np.int64))
+                    for dropped in path[cut + 1 :]:
+                        del seen[dropped]
+                    del path[cut + 1 :]
+                    vertex = following
+                    if not outgoing.get(vertex):
+                        break
+                    continue
+                seen[following] = len(path)
+                path.append(following)
+                vertex = following
+                if not outgoing.get(vertex):  # a dead end: unbalanced after all
+                    leftover += len(path) - 1
+                    break
+    loops = [loop for loop in loops if len(loop) >= 3]
+    return loops, leftover
+
+
+def _ring_patch(vertices: np.ndarray, rim: np.ndarray, first_new: int) -> tuple[np.ndarray, np.ndarray]:
+    """New vertices and triangles filling the loop ``rim`` (in the direction of its edges)."""
+    points = vertices[rim]
+    centre = points.mean(axis=0)
+    rim_edge = float(np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1).mean())
+    radius = float(np.linalg.norm(points - centre, axis=1).mean())
+    rings = int(np.clip(round(radius / max(rim_edge, 1e-300)), 1, MAX_RINGS))
+    count = len(rim)
+    t = 1.0 - np.arange(1, rings) / rings  # inner rings, outermost first
+    ring_points = centre + t[:, None, None] * (points - centre)[None]
+    new_points = np.concatenate([ring_points.reshape(-1, 3), centre[None]])
+    ids = np.concatenate([rim[None], first_new + np.arange((rings - 1) * count).reshape(rings - 1, count)])
+    apex = first_new + (rings - 1) * count
+    nxt = np.roll(np.arange(count), -1)
+    outer, inner = ids[:-1], ids[1:]
+    bands = np.concatenate(
+        [
+            np.stack([outer[:, nxt], outer, inner], axis=-1).reshape(-1, 3),
+            np.stack([outer[:, nxt], inner, inner[:, nxt]], axis=-1).reshape(-1, 3),
+        ]
+    )
+    last = ids[-1]
+    fan = np.stack([last[nxt], last, np.full(count, apex)], axis=1)
+    return new_points, np.concatenate([bands, fan])
+
+
+def _fair(vertices: np.ndarray, faces: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Solve ``(L^2 x)[free] = 0`` for the free vertices, the others held (uniform Laplacian)."""
+    n = len(vertices)
+    pairs = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    adjacency = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)).tocsr()
+    adjacency = ((adjacency + adjacency.T) > 0).astype(np.float64)
+    laplacian = sparse.diags(np.asarray(adjacency.sum(axis=1)).ravel()) - adjacency
+    rows = (laplacian[free] @ laplacian).tocsc()
+    is_free = np.zeros(n, dtype=bool)
+    is_free[free] = True
+    held = np.flatnonzero(~is_free)
+    system = rows[:, free].tocsc()
+    right = -(rows[:, held] @ vertices[held])
+    solved = spsolve(system, right)
+    result = vertices.copy()
+    result[free] = np.asarray(solved).reshape(-1, 3)
+    return result
+
+
+def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
+    """Fill every simple boundary loop with a faired patch.
+
+    Returns
+    -------
+    vertices, faces : ndarray
+        The surface with the patches.
+    holes : int
+        Loops filled.
+    area : float
+        Area of the patches.
+    open_edges : int
+        Boundary edges left open (where the edges into and out of a vertex do not match).
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> sphere = pv.Sphere(theta_resolution=64, phi_resolution=64)   # radius 0.5
+    >>> points, faces = np.asarray(sphere.points, float), sphere.faces.reshape(-1, 4)[:, 1:]
+    >>> cut = points[faces].mean(axis=1)[:, 2] < 0.4                  # a cap off: rim at z = 0.4
+    >>> filled, _, holes, _, _ = fill_holes(points, faces[cut])
+    >>> holes, round(float(filled[len(points):, 2].max()), 2)         # the patch bulges like the sphere
+    (1, 0.47)
+    """
+    loops, open_edges = _boundary_loops(vertices, faces)
+    if not loops:
+        return vertices, faces, 0, 0.0, open_edges
+    new_points, new_faces = [], []
+    first = len(vertices)
+    for rim in loops:  # one patch per hole; each is built with array operations
+        points, triangles = _ring_patch(vertices, rim, first)
+        new_points.append(points)
+        new_faces.append(triangles)
+        first += len(points)
+    free = np.arange(len(vertices), first)
+    vertices = np.concatenate([vertices] + new_points)
+    patches = np.concatenate(new_faces)
+    faces = np.concatenate([faces, patches])
+    vertices = _fair(vertices, faces, free)
+    area = float(face_normals(vertices, patches)[1].sum())
+    return vertices, faces, len(loops), area, open_edges

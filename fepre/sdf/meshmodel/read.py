@@ -1,0 +1,88 @@
+"""Read a triangle mesh (a file or a PyVista surface) into plain vertex and face arrays."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["read_triangles", "MeshInputError"]
+
+
+class MeshInputError(ValueError):
+    """A triangle mesh given as a model cannot be used: unreadable, empty, not finite, or with
+    no inside. The message names the file (or ``PolyData``) and the problem."""
+
+
+def _describe(source: Any) -> str:
+    return str(source) if isinstance(source, (str, os.PathLike)) else type(source).__name__
+
+
+def _as_polydata(source: Any, name: str):
+    import pyvista as pv
+
+    if isinstance(source, (str, os.PathLike)):
+        path = Path(source)
+        if not path.exists():
+            raise MeshInputError(f"mesh file {path} does not exist")
+        if path.is_dir():
+            raise MeshInputError(f"mesh file {path} is a directory; give an STL, OBJ, PLY or other surface file")
+        import warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                data = pv.read(path)
+            except Exception as exc:  # readers raise anything from ValueError to VTK errors
+                raise MeshInputError(f"mesh file {path} could not be read ({type(exc).__name__}: {exc})") from None
+        failed = [w for w in caught if "error" in str(w.message).lower() or "fail" in str(w.message).lower()]
+        if data is None or (failed and data.n_points == 0):
+            raise MeshInputError(f"mesh file {path} could not be read (the reader failed: not a valid {path.suffix} file?)")
+    elif isinstance(source, pv.DataSet):
+        data = source
+    else:
+        raise TypeError(
+            f"source must be a path to a surface mesh file or a pyvista.PolyData; got {type(source).__name__}"
+        )
+    if isinstance(data, pv.MultiBlock):
+        data = data.combine()
+    if not isinstance(data, pv.PolyData):
+        data = data.extract_surface()
+    return data
+
+
+def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
+    """Vertices (V, 3) float64, triangles (F, 3) int64 and a name for messages.
+
+    Polygons are triangulated; lines and vertices are ignored.
+
+    Raises
+    ------
+    MeshInputError
+        The file is missing or unreadable, holds no triangles, or has non-finite coordinates.
+    """
+    name = _describe(source)
+    data = _as_polydata(source, name)
+    if np.asarray(data.faces).size == 0:
+        raise MeshInputError(
+            f"{name} holds no surface faces (points {data.n_points}, cells {data.n_cells}, none of them polygons)"
+        )
+    if not data.is_all_triangles:
+        data = data.triangulate()
+    faces = np.asarray(data.faces)
+    faces = faces.reshape(-1, 4)
+    if not np.all(faces[:, 0] == 3):
+        raise MeshInputError(f"{name} could not be triangulated")
+    vertices = np.asarray(data.points, dtype=np.float64)
+    triangles = faces[:, 1:].astype(np.int64)
+    used = np.unique(triangles)
+    bad = ~np.isfinite(vertices[used]).all(axis=1)
+    if bad.any():
+        first = int(used[np.argmax(bad)])
+        raise MeshInputError(
+            f"{name} has {int(bad.sum())} vertices with non-finite coordinates (NaN or inf), "
+            f"for example vertex {first} at {vertices[first].tolist()}"
+        )
+    return vertices, triangles, name

@@ -1,0 +1,49 @@
+"""Tables of a triangle surface shared by the repair steps: normals, areas, edges, winding numbers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["face_normals", "edge_table", "winding_numbers"]
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (F, 3) (zero for zero-area triangles) and areas (F,)."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    cross = np.cross(b - a, c - a)
+    twice = np.linalg.norm(cross, axis=1)
+    normals = np.divide(cross, twice[:, None], out=np.zeros_like(cross), where=twice[:, None] > 0)
+    return normals, 0.5 * twice
+
+
+def edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Undirected edges of the triangles.
+
+    Returns
+    -------
+    edges : (E, 2) int64
+        Each edge once, smaller vertex first.
+    face_edge : (F, 3) int64
+        Edge of each triangle's sides (v0v1, v1v2, v2v0).
+    forward : (F, 3) bool
+        True where the triangle traverses its side from the smaller vertex to the larger.
+    """
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    forward = directed[:, 0] < directed[:, 1]
+    keys = np.sort(directed, axis=1)
+    stride = np.int64(int(faces.max()) + 1 if faces.size else 1)
+    packed, inverse = np.unique(keys[:, 0] * stride + keys[:, 1], return_inverse=True)
+    edges = np.column_stack([packed // stride, packed % stride])
+    return edges, inverse.reshape(-1, 3), forward.reshape(-1, 3)
+
+
+def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Generalised winding numbers of the triangles at ``points`` (libigl's fast approximation,
+    exact near the triangles)."""
+    import igl
+
+    if len(points) == 0 or len(faces) == 0:
+        return np.zeros(len(points))
+    return np.asarray(
+        igl.fast_winding_number(np.ascontiguousarray(vertices), np.ascontiguousarray(faces), np.ascontiguousarray(points))
+    )

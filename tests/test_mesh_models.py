@@ -1,0 +1,418 @@
+"""Triangle meshes as models (``sdf.mesh``): exact distance, sign, repair, features, bad input."""
+
+from __future__ import annotations
+
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import fepre
+from fepre import sdf
+from fepre.sdf.meshmodel import MeshInputError, repair
+
+
+# ---------------------------------------------------------------------------- independent references
+def _segment_distance(p, a, b):
+    ab = b - a
+    t = np.clip(np.einsum("...j,...j->...", p - a, ab) / np.maximum(np.einsum("...j,...j->...", ab, ab), 1e-300), 0, 1)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+
+
+def brute_distance(points, vertices, faces):
+    """Distance from every point to every triangle (plane inside, else the nearest side)."""
+    p = points[:, None, :]
+    a, b, c = (vertices[faces[:, k]][None] for k in range(3))
+    n = np.cross(b - a, c - a)
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    height = np.einsum("...j,...j->...", p - a, n)
+    foot = p - height[..., None] * n
+    inside = np.ones(height.shape, bool)
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("...j,...j->...", np.cross(v - u, foot - u), n) >= 0
+    sides = np.minimum(np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)), _segment_distance(p, c, a))
+    return np.where(inside, np.abs(height), sides).min(axis=1)
+
+
+def brute_winding(points, vertices, faces):
+    """Generalised winding number by the solid angles of the triangles (Van Oosterom–Strackee)."""
+    a, b, c = (vertices[faces[:, k]][None] - points[:, None, :] for k in range(3))
+    la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+    det = np.einsum("...j,...j->...", a, np.cross(b, c))
+    div = la * lb * lc + np.einsum("...j,...j->...", a, b) * lc + np.einsum("...j,...j->...", b, c) * la
+    div += np.einsum("...j,...j->...", c, a) * lb
+    return (2.0 * np.arctan2(det, div)).sum(axis=1) / (4.0 * np.pi)
+
+
+def arrays(surface: pv.PolyData):
+    surface = surface.triangulate().clean()
+    return np.asarray(surface.points, float), surface.faces.reshape(-1, 4)[:, 1:].astype(np.int64)
+
+
+def from_arrays(vertices, faces) -> pv.PolyData:
+    return pv.PolyData(np.asarray(vertices, float), np.column_stack([np.full(len(faces), 3), faces]).ravel())
+
+
+@pytest.fixture(scope="module")
+def cad_box_with_hole(tmp_path_factory):
+    """A 5 x 5 x 5 box minus a radius-1 cylinder, tessellated by gmsh's OpenCASCADE kernel."""
+    import gmsh
+
+    path = tmp_path_factory.mktemp("cad") / "box_hole.stl"
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("box_hole")
+        occ = gmsh.model.occ
+        box = occ.addBox(0, 0, 0, 5, 5, 5)
+        hole = occ.addCylinder(2.5, 2.5, -1, 0, 0, 7, 1.0)
+        occ.cut([(3, box)], [(3, hole)])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.4)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+# ---------------------------------------------------------------------------- distance and sign
+def test_distance_is_exact_against_brute_force(cad_box_with_hole):
+    model = sdf.mesh(cad_box_with_hole)
+    vertices, faces = model.vertices, model.faces
+    rng = np.random.default_rng(3)
+    points = np.concatenate(
+        [
+            rng.uniform(-2, 7, (400, 3)),  # all around
+            vertices[rng.integers(0, len(vertices), 100)] + rng.normal(0, 0.05, (100, 3)),  # close to the surface
+        ]
+    )
+    expected = brute_distance(points, vertices, faces)
+    values = model(points)
+    assert np.allclose(np.abs(values), expected, rtol=1e-12, atol=1e-12 * 5)
+    # sign: inside exactly where the winding number is 1
+    winding = brute_winding(points, vertices, faces)
+    assert np.all(np.abs(winding - np.round(winding)) < 1e-6)
+    assert np.array_equal(values < 0, winding > 0.5)
+    assert model.exact and model.repaired.closed and model.patch_count == 7
+
+
+def test_volume_bounds_gradient_and_projection():
+    surface = pv.Sphere(radius=2.0, theta_resolution=48, phi_resolution=48, center=(1.0, -2.0, 0.5))
+    model = sdf.mesh(surface)
+    assert model.volume == pytest.approx(surface.volume, rel=1e-12)
+    assert np.allclose(model.bounds, np.array(surface.bounds).reshape(3, 2).T)
+    rng = np.random.default_rng(0)
+    points = rng.uniform(-3, 4, (300, 3))
+    values, gradient = model.value_and_gradient(points)
+    assert np.allclose(np.linalg.norm(gradient, axis=1), 1.0)
+    # the gradient points along the segment to the closest point, whose distance is the value
+    projected = model.project(points)
+    assert np.allclose(points - values[:, None] * gradient, projected, atol=1e-10)
+    assert np.abs(model(projected)).max() < 1e-12
+    # central differences agree away from the medial axis (the centre)
+    far = np.linalg.norm(points - (1.0, -2.0, 0.5), axis=1) > 0.5
+    step = 1e-6
+    numeric = np.stack(
+        [(model(points[far] + step * e) - model(points[far] - step * e)) / (2 * step) for e in np.eye(3)], axis=1
+    )
+    assert np.abs(numeric - gradient[far]).max() < 1e-4
+
+
+def test_grid_sampling_matches_points():
+    model = sdf.mesh(pv.Cube(x_length=2.0, y_length=1.0, z_length=1.0))
+    axes = [np.linspace(-1.5, 1.5, 13), np.linspace(-1, 1, 9), np.linspace(-1, 1, 7)]
+    grid = model.values_on_axes(*axes, dtype=np.float64)
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    assert np.array_equal(grid.ravel(), model(points))
+    assert grid.ravel()[np.argmin(np.linalg.norm(points, axis=1))] == -0.5
+
+
+def test_combines_with_csg_infill_and_transforms():
+    ball = sdf.mesh(pv.Sphere(radius=1.0, theta_resolution=96, phi_resolution=96))
+    part = ball - sdf.cylinder(radius=0.3, height=3.0)
+    assert part([0.0, 0.0, 0.0]) == pytest.approx(0.3)
+    moved = ball.translate((5.0, 0.0, 0.0))
+    assert moved([5.0, 0.0, 0.0]) == pytest.approx(ball([0.0, 0.0, 0.0]))
+    filled = sdf.infill(ball, sdf.gyroid(period=0.5, thickness=0.05), wall=0.1)
+    # the skin is solid, the core is the lattice
+    assert filled([0.0, 0.0, 0.95]) < 0
+    mesh = fepre.sample(filled, spacing=0.02).fepre.isosurface()
+    assert 0.1 < mesh.volume / ball.volume < 0.7
+
+
+def test_pickles():
+    model = sdf.mesh(pv.Cube())
+    copy = pickle.loads(pickle.dumps(model))
+    points = np.random.default_rng(1).uniform(-1, 1, (50, 3))
+    assert np.array_equal(copy(points), model(points))
+
+
+# ---------------------------------------------------------------------------- repair
+def _cube():
+    return arrays(pv.Cube())
+
+
+def test_duplicated_and_flipped_triangles():
+    vertices, faces = _cube()
+    dirty = np.concatenate([faces, faces[:3], faces[4:5, ::-1]])
+    dirty[[1, 6, 9]] = dirty[[1, 6, 9], ::-1]
+    result = repair(vertices, dirty)
+    assert (result.duplicates, result.flipped, result.closed) == (4, 3, True)
+    model = sdf.mesh(from_arrays(vertices, dirty))
+    assert model.volume == pytest.approx(1.0) and model.exact
+    assert model([0.0, 0.0, 0.0]) == pytest.approx(-0.5)
+
+
+def test_inside_out_surface_is_turned():
+    vertices, faces = _cube()
+    model = sdf.mesh(from_arrays(vertices, faces[:, ::-1]))
+    assert model.volume == pytest.approx(1.0)
+    assert model([0.0, 0.0, 0.0]) == pytest.approx(-0.5)
+
+
+def test_cavity_stays_a_cavity():
+    outer = pv.Cube(x_length=4, y_length=4, z_length=4)
+    inner = pv.Sphere(radius=1.0, theta_resolution=32, phi_resolution=32).flip_faces()
+    model = sdf.mesh(outer + inner)
+    assert model([0.0, 0.0, 0.0]) > 0.99  # in the cavity: outside the solid
+    assert model([0.0, 0.0, 1.5]) < 0
+    assert model.volume == pytest.approx(64.0 - inner.volume, rel=1e-9)
+
+
+def test_holes_are_closed():
+    surface = pv.Sphere(radius=1.0, theta_resolution=64, phi_resolution=64)
+    vertices, faces = arrays(surface)
+    centroid = vertices[faces].mean(axis=1)
+    cut = centroid[:, 2] > 0.97  # a cap of about 1.5% of the area
+    result = repair(vertices, faces[~cut])
+    assert result.holes == 1 and result.closed
+    model = sdf.mesh(from_arrays(vertices, faces[~cut]))
+    assert model.volume == pytest.approx(surface.volume, rel=2e-3)
+    assert model([0.0, 0.0, 0.9]) < 0 < model([0.0, 0.0, 1.1])
+
+
+def test_overlapping_shells_are_united():
+    fine = lambda center: pv.Cube(center=center).triangulate().subdivide(4, "linear")  # sides 1/16
+    model = sdf.mesh(fine((0, 0, 0)) + fine((0.5, 0.5, 0.5)))
+    assert model.repaired.internal > 0 and not model.exact
+    # inside the overlap the solid goes on: the inner walls are gone. Triangles that cross the
+    # other shell are kept whole, so the distance is right to within a triangle near the seams:
+    # the nearest boundary of the union is the re-entrant edge x = 0.5, y = 0 at 0.354
+    assert model([0.25, 0.25, 0.25]) == pytest.approx(-np.sqrt(2) / 4, abs=np.sqrt(2) / 16)
+    assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.25, abs=1e-12)
+    assert model([0.9, 0.9, 0.9]) < 0 and model([-0.4, -0.4, -0.4]) < 0 and model([0.9, -0.4, 0.0]) > 0
+    grid = fepre.sample(model, spacing=0.02)
+    assert grid.fepre.isosurface().volume == pytest.approx(2.0 - 0.125, rel=0.01)
+
+
+def test_non_manifold_edge():
+    a = pv.Cube(center=(0, 0, 0))
+    b = pv.Cube(center=(1, 1, 0))  # shares the edge x = y = 0.5
+    model = sdf.mesh(a + b)
+    assert model([0.0, 0.0, 0.0]) == pytest.approx(-0.5)
+    assert model([1.0, 1.0, 0.0]) == pytest.approx(-0.5)
+    assert model([1.0, 0.0, 0.0]) == pytest.approx(0.5)
+    assert model.volume == pytest.approx(2.0)
+
+
+# ---------------------------------------------------------------------------- features and meshing
+def test_cad_features_and_distmesh(cad_box_with_hole):
+    model = sdf.mesh(cad_box_with_hole)
+    found = fepre.features(model, h=0.5)
+    assert len(found.corners) == 8 and len(found.curves) == 14 and sum(c.closed for c in found.curves) == 2
+    box_corners = np.array([[x, y, z] for x in (0, 5) for y in (0, 5) for z in (0, 5)], float)
+    assert np.abs(np.sort(found.corners, axis=0) - np.sort(box_corners, axis=0)).max() < 1e-9
+    mesh = fepre.distmesh(model, h=0.5)
+    points = np.asarray(mesh.points)
+    nearest = np.min(np.linalg.norm(points[None] - box_corners[:, None], axis=2), axis=1)
+    assert nearest.max() < 1e-9  # the box's corners are mesh nodes
+    assert mesh.volume == pytest.approx(model.volume, rel=0.01)
+    summary = mesh.fepre.summary()
+    assert summary["min_dihedral_angle"]["min"] >= 28.0 and summary["max_dihedral_angle"]["max"] <= 150.0
+
+
+# ---------------------------------------------------------------------------- bad input and the CLI
+def test_bad_input(tmp_path):
+    with pytest.raises(MeshInputError, match="does not exist"):
+        sdf.mesh(tmp_path / "missing.stl")
+    garbage = tmp_path / "garbage.stl"
+    garbage.write_bytes(b"\x00\x01 not an stl at all")
+    with pytest.raises(MeshInputError, match="garbage.stl"):
+        sdf.mesh(garbage)
+    with pytest.raises(MeshInputError, match="no surface faces"):
+        sdf.mesh(pv.PolyData(np.random.default_rng(0).random((5, 3))))
+    with pytest.raises(MeshInputError, match="no inside"):
+        sdf.mesh(pv.Plane())
+    with pytest.raises(MeshInputError, match="no inside"):
+        sdf.mesh(pv.Sphere().clip("z"))  # a bowl
+    vertices, faces = _cube()
+    vertices[2] = np.nan
+    with pytest.raises(MeshInputError, match="non-finite"):
+        sdf.mesh(from_arrays(vertices, faces))
+    with pytest.raises(ValueError, match="sign must be one of"):
+        sdf.mesh(pv.Cube(), sign="parity")
+    with pytest.raises(ValueError, match="features"):
+        sdf.mesh(pv.Cube(), features=200)
+    with pytest.raises(MeshInputError, match="pseudonormal"):
+        sdf.mesh(pv.Cube() + pv.Cube(center=(0.5, 0.5, 0.5)), sign="pseudonormal")
+    with pytest.raises(TypeError, match="source"):
+        sdf.mesh(42)
+
+
+def test_quads_are_triangulated():
+    model = sdf.mesh(pv.Cube())  # six quads
+    assert len(model.faces) == 12 and model.volume == pytest.approx(1.0)
+
+
+def test_cli_meshes_and_surfaces_mesh_files(tmp_path, cad_box_with_hole):
+    run = lambda *args: subprocess.run([sys.executable, "-m", "fepre", *args], capture_output=True, text=True)
+    out = tmp_path / "part.inp"
+    result = run("mesh", str(cad_box_with_hole), "--h", "0.6", "-o", str(out))
+    assert result.returncode == 0, result.stderr
+    mesh = pv.read(out)
+    assert mesh.volume == pytest.approx(125 - np.pi * 5, rel=0.02)
+    surface = tmp_path / "part.stl"
+    result = run("surface", str(cad_box_with_hole), "-o", str(surface), "--spacing", "0.1")
+    assert result.returncode == 0, result.stderr
+    assert pv.read(surface).volume == pytest.approx(125 - np.pi * 5, rel=0.01)
+    bad = tmp_path / "sheet.stl"
+    pv.Plane().triangulate().save(bad)
+    result = run("mesh", str(bad), "--h", "0.1", "-o", str(tmp_path / "sheet.inp"))
+    assert result.returncode == 1 and "sheet.stl has no inside" in result.stderr
+    assert not (tmp_path / "sheet.inp").exists()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tree_on_triangle_soup_against_brute_force(seed):
+    """Random, overlapping, thin and degenerate triangles: the tree finds the nearest one."""
+    from fepre.sdf.meshmodel.bvh import TriangleTree
+
+    rng = np.random.default_rng(seed)
+    count = 300
+    vertices = rng.uniform(-1, 1, (3 * count, 3)) * rng.uniform(0.01, 1.0, (3 * count, 1))
+    faces = np.arange(3 * count).reshape(-1, 3)
+    faces[:10, 2] = faces[:10, 1]  # zero-area triangles (two corners equal)
+    vertices[faces[10:20, 2]] = vertices[faces[10:20, 0]] * 0.5 + vertices[faces[10:20, 1]] * 0.5  # collinear
+    points = rng.uniform(-1.5, 1.5, (500, 3))
+    squared, face, closest, _ = TriangleTree(vertices, faces).query(points)
+    expected = brute_distance(points, vertices, faces[20:])  # the brute force skips degenerate ones
+    expected = np.minimum(expected, _degenerate_distance(points, vertices, faces[:20]))
+    assert np.allclose(np.sqrt(squared), expected, rtol=1e-12, atol=1e-14)
+    assert np.allclose(np.linalg.norm(points - closest, axis=1), np.sqrt(squared), rtol=1e-12, atol=1e-14)
+    # the reported triangle holds the closest point
+    assert np.allclose(brute_distance_pairs(closest, vertices, faces[face]), 0.0, atol=1e-12)
+
+
+def _degenerate_distance(points, vertices, faces):
+    a, b, c = (vertices[faces[:, k]][None] for k in range(3))
+    p = points[:, None, :]
+    return np.minimum(np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)), _segment_distance(p, c, a)).min(axis=1)
+
+
+def brute_distance_pairs(points, vertices, faces):
+    """Distance from point i to triangle i (degenerate triangles by their sides)."""
+    out = np.empty(len(points))
+    for i in range(len(points)):  # a test reference: clarity over speed
+        tri = faces[i : i + 1]
+        area = np.linalg.norm(np.cross(*(vertices[tri[:, 1:]] - vertices[tri[:, :1]]).transpose(1, 0, 2)))
+        out[i] = (brute_distance if area > 1e-14 else _degenerate_distance)(points[i : i + 1], vertices, tri)[0]
+    return out
+
+
+# ---------------------------------------------------------------------------- the corpus of dirty inputs
+@pytest.mark.parametrize(
+    "name",
+    ["occ-box-hole+holes", "occ-bracket+duplicates", "occ-box-hole+flipped", "occ-slotted-block+overlap",
+     "occ-tube+non-manifold", "blob-1+holes"],
+)
+def test_dirty_inputs_mesh_like_clean_ones(name, tmp_path):
+    """Each kind of dirt: a valid mesh at the quality targets, the volume of the part (the clean
+    input's winding-number volume where the part is the same, the dirty file's own otherwise)."""
+    from fepre.corpus import check_mesh
+    from fepre.corpus.meshes import mesh_inputs, winding_volume
+
+    (item,) = mesh_inputs(names=[name])
+    path = tmp_path / "input.stl"
+    item.to_polydata().save(path, binary=True)
+    model = sdf.mesh(path)
+    truth = item
+    if item.dirt in ("holes", "duplicates", "flipped"):
+        (truth,) = mesh_inputs(names=[name.split("+")[0]])
+    volume, error = winding_volume(truth.vertices, truth.faces, 400_000)
+    mesh = fepre.distmesh(model, h=item.h)
+    check = check_mesh(np.asarray(mesh.points), mesh.cells_dict[10], model, item.h)
+    assert check.valid, check.problems
+    # the quality stage's targets
+    assert check.min_dihedral >= 25.0 and check.max_dihedral <= 150.0 and check.min_radius_ratio >= 0.25
+    assert abs(check.volume / volume - 1) < 0.01 + 4 * error / volume
+
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    size=st.tuples(*[st.floats(0.2, 5.0)] * 3),
+    angle=st.floats(-180.0, 180.0),
+    axis=st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: sum(x * x for x in v) > 0.01),
+    offset=st.tuples(*[st.floats(-100.0, 100.0)] * 3),
+    seed=st.integers(0, 2**16),
+)
+def test_a_placed_box_mesh_is_the_exact_box(size, angle, axis, offset, seed):
+    """Any box, turned and moved, read as triangles, has the analytic box's distance field."""
+    exact = sdf.box(size).rotate(angle, axis).translate(offset)
+    from scipy.spatial.transform import Rotation
+
+    surface = pv.Box().triangulate()  # corners at +-1 in float32: float64 corners put in, turned
+    corners = np.sign(np.asarray(surface.points, dtype=np.float64)) * np.asarray(size) / 2
+    unit = np.asarray(axis) / np.linalg.norm(axis)
+    turned = Rotation.from_rotvec(np.radians(angle) * unit).apply(corners) + np.asarray(offset)
+    surface = pv.PolyData(turned, surface.faces)
+    model = sdf.mesh(surface)
+    rng = np.random.default_rng(seed)
+    points = np.asarray(offset) + rng.uniform(-4, 4, (300, 3))
+    scale = max(1.0, float(np.abs(offset).max()))
+    assert np.abs(model(points) - exact(points)).max() < 1e-9 * scale
+    assert model.exact and model.patch_count == 6
+    assert model.volume == pytest.approx(float(np.prod(size)), rel=1e-9)
+
+
+def test_offset_and_shell_of_a_mesh():
+    cube = sdf.mesh(pv.Cube())
+    assert cube.offset(0.25)([1.0, 0.0, 0.0]) == pytest.approx(0.25)
+    hollow = cube.shell(0.1)
+    assert hollow([0.0, 0.0, 0.0]) == pytest.approx(0.4) and hollow([0.45, 0.0, 0.0]) < 0
+
+
+def test_holes_touching_at_a_vertex_are_closed_as_two():
+    """Two triangles of one vertex's fan cut away: their rims meet at that vertex (a pinch)."""
+    surface = pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=24)
+    vertices, faces = arrays(surface)
+    vertex = int(np.argmax(np.bincount(faces.ravel()) == 6))  # an ordinary vertex with six triangles
+    fan = np.flatnonzero((faces == vertex).any(axis=1))
+    shared = lambda a, b: len(set(faces[a]) & set(faces[b]))
+    first = fan[0]
+    second = next(t for t in fan[1:] if shared(first, t) == 1)  # only the vertex in common
+    kept = np.delete(faces, [first, second], axis=0)
+    result = repair(vertices, kept)
+    assert result.holes == 2 and result.open_edges == 0 and result.closed
+    assert sdf.mesh(from_arrays(vertices, kept)).volume == pytest.approx(sdf.mesh(surface).volume, rel=1e-3)
+
+
+def test_nesting_decides_orientation_of_closed_shells():
+    """Shells inside shells alternate material and void (the even-odd rule of STL shells),
+    whichever way each was written: a cube, a spherical cavity, a ball inside the cavity."""
+    outer = pv.Cube(x_length=4, y_length=4, z_length=4).triangulate().flip_faces()  # inside out
+    cavity = pv.Sphere(radius=1.5, theta_resolution=32, phi_resolution=32)  # written outward
+    ball = pv.Sphere(radius=0.5, theta_resolution=16, phi_resolution=16).flip_faces()
+    model = sdf.mesh(outer + cavity + ball)
+    assert model([0.0, 0.0, 1.8]) < 0  # material between cube and cavity
+    assert model([0.0, 0.0, 1.0]) > 0  # the cavity
+    assert model([0.0, 0.0, 0.0]) < 0  # the ball in it
+    assert model.volume == pytest.approx(64.0 - cavity.volume + ball.volume, rel=1e-9)
