@@ -118,8 +118,8 @@ def gyroid_block() -> Any:
 def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
     """Write a CAD part as a binary STL file, as a CAD system exports one, and return the path.
 
-    The part is a 40 x 30 x 20 mounting block (millimetres) with two bolt holes through it and a
-    slot across its top, built in OpenCASCADE and tessellated by gmsh (triangles about ``size``
+    The part is a 40 x 30 x 20 mounting block (millimetres) with two bolt holes through it
+    (radius 4 at y = 10) and a slot across its top (y from 18 to 26, 6 deep), built in OpenCASCADE and tessellated by gmsh (triangles about ``size``
     long, finer on the holes).
 
     Examples
@@ -139,8 +139,8 @@ def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
 
     def build(occ):
         block = occ.addBox(0, 0, 0, 40, 30, 20)
-        holes = [(3, occ.addCylinder(x, 15, -1, 0, 0, 22, 4)) for x in (10, 30)]
-        slot = occ.addBox(-1, 11, 14, 42, 8, 7)
+        holes = [(3, occ.addCylinder(x, 10, -1, 0, 0, 22, 4)) for x in (10, 30)]
+        slot = occ.addBox(-1, 18, 14, 42, 8, 7)
         occ.cut([(3, block)], holes + [(3, slot)])
 
     vertices, faces = _occ(build, size)

@@ -380,7 +380,8 @@ def test_a_placed_box_mesh_is_the_exact_box(size, angle, axis, offset, seed):
     scale = max(1.0, float(np.abs(offset).max()))
     assert np.abs(model(points) - exact(points)).max() < 1e-9 * scale
     assert model.exact and model.patch_count == 6
-    assert model.volume == pytest.approx(float(np.prod(size)), rel=1e-9)
+    # the divergence theorem on corners far from the origin loses digits: |offset|^3 rounding
+    assert model.volume == pytest.approx(float(np.prod(size)), rel=1e-9, abs=1e-13 * scale**3)
 
 
 def test_offset_and_shell_of_a_mesh():

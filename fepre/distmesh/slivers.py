@@ -373,7 +373,10 @@ def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_bef
     n = points.shape[0]
     volumes = signed_volume(points[tets])
     if np.any(volumes <= 0) or np.any(quality <= 0):
-        raise MeshingError(f"the quality stage produced {int((volumes <= 0).sum())} non-positive cells")
+        raise MeshingError(
+            f"the quality stage produced {int(((volumes <= 0) | (quality <= 0)).sum())} cells of zero quality "
+            f"({int((volumes <= 0).sum())} of them of non-positive volume)"
+        )
     try:
         new_faces = faces_on_boundary(tets, face_neighbours(tets, n))
     except ValueError as exc:

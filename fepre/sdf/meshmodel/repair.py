@@ -184,19 +184,19 @@ NESTING_SAMPLES = 15
 def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
     """Triangles to turn over so that every piece faces out of the material.
 
-    Only closed pieces (every edge shared by two of their triangles) are turned or count as
-    enclosing: a piece enclosed by an even number of others bounds a solid (it encloses positive
+    Only unbranched pieces (no edge shared by three or more triangles; holes are fine, they are
+    closed later) are turned or count as enclosing: a piece enclosed by an even number of others bounds a solid (it encloses positive
     volume); by an odd number, a cavity (negative volume). Enclosure is decided by most of a
     piece's sample points, so shells that merely overlap (a union written as two shells) do
-    not count as nested. Open pieces (cut off by edges of three or more triangles) keep the
+    not count as nested. Branched pieces (cut off by edges of three or more triangles) keep the
     orientation most of their triangles had.
     """
     normals, areas = face_normals(vertices, faces)
     a3, b3, c3 = (vertices[faces[:, k]] for k in range(3))
     volume = np.bincount(label, weights=np.einsum("ij,ij->i", a3, np.cross(b3, c3)) / 6.0, minlength=pieces)
     edges, face_edge, _ = edge_table(faces)
-    shared_by_two = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) == 2)[face_edge].all(axis=1)
-    closed = np.bincount(label, weights=~shared_by_two, minlength=pieces) == 0
+    unbranched = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) <= 2)[face_edge].all(axis=1)
+    closed = np.bincount(label, weights=~unbranched, minlength=pieces) == 0
     if pieces == 1:
         return np.full(len(faces), bool(volume[0] < 0 and closed[0]))
     if pieces > MAX_NESTED_PIECES:
