@@ -417,3 +417,26 @@ def test_nesting_decides_orientation_of_closed_shells():
     assert model([0.0, 0.0, 1.0]) > 0  # the cavity
     assert model([0.0, 0.0, 0.0]) < 0  # the ball in it
     assert model.volume == pytest.approx(64.0 - cavity.volume + ball.volume, rel=1e-9)
+
+
+def test_hole_tangent_to_a_slot_wall_meshes(tmp_path):
+    """Bolt holes whose rims touch a slot's walls: the touching point, found along two feature
+    curves to ~1e-9, was two mesh nodes, and the quality stage refused cells of zero quality."""
+    import warnings
+
+    from fepre.corpus.meshes import _occ
+
+    def build(occ):
+        block = occ.addBox(0, 0, 0, 40, 30, 20)
+        holes = [(3, occ.addCylinder(x, 15, -1, 0, 0, 22, 4)) for x in (10, 30)]
+        occ.cut([(3, block)], holes + [(3, occ.addBox(-1, 11, 14, 42, 8, 7))])  # slot y 11..19
+
+    vertices, faces = _occ(build, 2.0)
+    model = sdf.mesh(from_arrays(vertices, faces))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.ConvergenceWarning)
+        mesh = fepre.distmesh(model, h=2.5)
+    assert mesh.fepre.summary()["min_dihedral_angle"]["min"] >= 25.0
+    nodes = fepre.features(model, h=2.5, warn=False).nodes
+    gaps = np.linalg.norm(nodes[:, None] - nodes[None], axis=2) + np.eye(len(nodes)) * 1e9
+    assert gaps.min() > 1e-3  # no two nodes at one point

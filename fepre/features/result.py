@@ -57,8 +57,15 @@ class Features:
         if not curve_points:
             return self.corners.copy()
         points = np.concatenate([self.corners] + curve_points)
-        _, first = np.unique(np.round(points / (1e-9 * max(self.h, 1e-300))), axis=0, return_index=True)
-        return points[np.sort(first)]
+        # the same point reached along two curves can differ: where a hole's rim touches a
+        # slot's edge tangentially, Newton's method finds it only to ~1e-9 h. Nodes within 1e-6 h
+        # are one node to any mesh (as two, they made cells of zero quality)
+        from scipy.spatial import cKDTree
+
+        pairs = cKDTree(points).query_pairs(1e-6 * max(self.h, 1e-300), output_type="ndarray")
+        keep = np.ones(len(points), dtype=bool)
+        keep[pairs.max(axis=1)] = False
+        return points[keep]
 
     @property
     def segments(self) -> np.ndarray:
