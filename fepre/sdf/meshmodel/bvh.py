@@ -121,24 +121,15 @@ class TriangleTree:
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Squared distances (N,), closest faces (N,) (indices into the input ``faces``),
         closest points (N, 3) and their regions (N,) (see ``REGION_FACE``)."""
-        from ._bvh_kernel import closest_points
-
         points = np.ascontiguousarray(points, dtype=np.float64)
-        count = len(points)
-        squared = np.empty(count)
-        face = np.empty(count, dtype=np.int64)
-        closest = np.empty((count, 3))
-        region = np.empty(count, dtype=np.int8)
-        if count > SORT_QUERIES and np.isfinite(points).all():
-            order = _z_order(points)
-            result = self.query_in_order(points[order])
-            for array, part in zip((squared, face, closest, region), result):
-                array[order] = part
-            return squared, face, closest, region
-        if count:
-            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.width, self.leaf_start,
-                           squared, face, closest, region)
-        return squared, self.order[face], closest, region
+        if len(points) <= SORT_QUERIES or not np.isfinite(points).all():
+            return self.query_in_order(points)
+        order = _z_order(points)
+        sorted_result = self.query_in_order(points[order])
+        result = tuple(np.empty_like(part) for part in sorted_result)
+        for array, part in zip(result, sorted_result):
+            array[order] = part
+        return result
 
     def query_in_order(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`query` without reordering the points (for points already in a coherent order)."""
