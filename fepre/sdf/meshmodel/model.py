@@ -38,7 +38,7 @@ class MeshModel(SDF):
         self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal)
         normals = self._distance.normals
         if features > 0:
-            self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas)
+            self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas, repaired.filled)
         else:
             self._face_patch, self._patch_count = np.zeros(len(faces), np.int64), 1
         self._planes = PatchPlanes(vertices, faces, normals, self._face_patch)
