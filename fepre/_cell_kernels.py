@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys"]
+__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds"]
 
 # faces opposite vertex 0..3 (outward for a positive cell); the two faces at edges 01 02 03 12 13 23
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -136,4 +136,81 @@ def packed_face_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
     out = np.empty(4 * len(tets), np.int64)
     if len(tets):
         _face_keys(np.ascontiguousarray(tets, np.int64), _FACES, np.int64(n_points), out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _canonical(points, tets, volumes):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        a, b, c, d = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
+        # sort four indices with five compare-swaps
+        if a > b:
+            a, b = b, a
+        if c > d:
+            c, d = d, c
+        if a > c:
+            a, c = c, a
+        if b > d:
+            b, d = d, b
+        if b > c:
+            b, c = c, b
+        ax, ay, az = points[b, 0] - points[a, 0], points[b, 1] - points[a, 1], points[b, 2] - points[a, 2]
+        bx, by, bz = points[c, 0] - points[a, 0], points[c, 1] - points[a, 1], points[c, 2] - points[a, 2]
+        cx, cy, cz = points[d, 0] - points[a, 0], points[d, 1] - points[a, 1], points[d, 2] - points[a, 2]
+        volume = ((ay * bz - az * by) * cx + (az * bx - ax * bz) * cy + (ax * by - ay * bx) * cz) / 6.0
+        if volume < 0.0:
+            c, d = d, c
+        tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3] = a, b, c, d
+        volumes[t] = volume
+
+
+def canonical_cells(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Put each cell (in place, int64 (M, 4)) in canonical form: corners sorted, then the last two
+    swapped where that makes the volume positive. Returns the signed volumes of the sorted
+    corners (M,) (their absolute values are the cells' volumes)."""
+    volumes = np.empty(len(tets))
+    if len(tets):
+        _canonical(np.ascontiguousarray(points, np.float64), tets, volumes)
+    return volumes
+
+
+@njit(cache=True, parallel=True)
+def _centroid_reach(points, tets, bound, centroids, reach):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for a in range(3):
+            centroids[t, a] = 0.25 * (points[tets[t, 0], a] + points[tets[t, 1], a] + points[tets[t, 2], a] + points[tets[t, 3], a])
+        smallest = np.inf
+        for v in range(4):
+            i = tets[t, v]
+            dx = points[i, 0] - centroids[t, 0]
+            dy = points[i, 1] - centroids[t, 1]
+            dz = points[i, 2] - centroids[t, 2]
+            smallest = min(smallest, math.sqrt(dx * dx + dy * dy + dz * dz) + bound[i])
+        reach[t] = smallest
+
+
+def centroid_bounds(points: np.ndarray, tets: np.ndarray, bound: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroids (M, 3) of the cells and an upper bound (M,) of a 1-Lipschitz function there,
+    ``min_i bound_i + |c - p_i|`` over the corners ``p_i`` (``bound`` per point)."""
+    centroids = np.empty((len(tets), 3))
+    reach = np.empty(len(tets))
+    if len(tets):
+        _centroid_reach(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64),
+                        np.ascontiguousarray(bound, np.float64), centroids, reach)
+    return centroids, reach
+
+
+@njit(cache=True, parallel=True)
+def _edge_keys(tets, edges, n, out):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for e in range(6):
+            a, b = tets[t, edges[e, 0]], tets[t, edges[e, 1]]
+            out[6 * t + e] = a * n + b if a < b else b * n + a
+
+
+def packed_edge_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """(6 M,) int64 keys ``lo n + hi`` of each cell's six edges."""
+    out = np.empty(6 * len(tets), np.int64)
+    if len(tets):
+        _edge_keys(np.ascontiguousarray(tets, np.int64), _EDGES, np.int64(n_points), out)
     return out

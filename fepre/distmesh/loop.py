@@ -109,10 +109,10 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
     ``sdf(c) <= bound_i + |c - p_i|`` for every corner ``i``: cells where that bound is already
     below ``limit`` are kept without evaluating the model.
     """
-    corners = points[tets]
-    centroids = corners.mean(axis=1)
-    reach = np.linalg.norm(corners - centroids[:, None, :], axis=2) + bound[tets]
-    sure = reach.min(axis=1) < limit
+    from .._cell_kernels import centroid_bounds
+
+    centroids, reach = centroid_bounds(points, tets, bound)
+    sure = reach < limit
     keep = sure.copy()
     unsure = np.flatnonzero(~sure)
     if len(unsure):
