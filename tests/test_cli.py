@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 import fepre
 from fepre.cli import main
 
@@ -36,3 +38,32 @@ def test_unknown_benchmark_is_a_user_error(capsys):
 def test_console_script_runs_as_a_module():
     result = subprocess.run([sys.executable, "-m", "fepre", "--version"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout.startswith("fepre ")
+
+
+def test_bench_scale_checks_its_arguments(capsys):
+    from fepre.bench import scale
+
+    with pytest.raises(SystemExit):
+        scale.main(["--cells", "10"])
+    assert "--cells must be a number of cells of at least 1000; got 10" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        scale.main(["--repeat", "0"])
+    assert "--repeat must be at least 1; got 0" in capsys.readouterr().err
+
+
+def test_bench_scale_parts_have_their_volumes():
+    """The benchmark's parts are what their descriptions say: volumes from the cell estimate's
+    grid against the analytic ones."""
+    import math
+
+    from fepre.bench.scale import _model
+    from fepre.sampling import sample
+
+    expected = {
+        "box-holes": 100 * 80 * 20 - 20 * math.pi * 16 * 20,
+        "flange": math.pi * (50**2 * 10 + 20**2 * 20 - 10**2 * 30 - 6 * 4**2 * 10),
+    }
+    for name, volume in expected.items():
+        grid = sample(_model(name), spacing=0.5)
+        measured = float((grid["sdf"] < 0).sum()) * 0.5**3
+        assert measured == pytest.approx(volume, rel=0.01), name
