@@ -116,6 +116,18 @@ class TriangleDistance:
             normal[side] = self._edge_normals[self._face_edge[face[side], region[side] - 3]]
         return normal
 
+    def values(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distances (N,) and closest triangles (N,), without the gradients of
+        :meth:`signed` (a third less work)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        distance, face, closest, region = self._query(points)
+        if self.pseudonormal:
+            normal = self.surface_normals(face, region)
+            inside = np.einsum("ij,ij->i", points - closest, normal) < 0
+        else:
+            inside = self.winding_numbers(points) > 0.5
+        return np.where(inside, -distance, distance), face
+
     def signed(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Signed distances (N,), closest triangles, closest points and outward unit directions
         (the gradient: ``(p - c) / |p - c|`` signed, the surface normal on the surface)."""

@@ -99,7 +99,7 @@ class MeshModel(SDF):
 
     def _values(self, x, y, z):
         points, shape, dtype = self._stack((np.asarray(x), np.asarray(y), np.asarray(z)))
-        values = self._distance.signed(points)[0]
+        values = self._distance.values(points)[0]
         return values.reshape(shape).astype(dtype, copy=False)
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
@@ -113,7 +113,7 @@ class MeshModel(SDF):
         return self._patch_count
 
     def _patch_labels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        values, face, _, _ = self._distance.signed(np.asarray(points, dtype=np.float64))
+        values, face = self._distance.values(np.asarray(points, dtype=np.float64))
         return values, self._face_patch[face]
 
     def _patch_values(self, labels: np.ndarray, points: np.ndarray) -> np.ndarray:
