@@ -84,41 +84,13 @@ def tet_quality(points: Any, tets: Any) -> dict[str, np.ndarray]:
     >>> round(float(q["radius_ratio"][0]), 6), round(float(q["min_dihedral_angle"][0]), 2)
     (1.0, 70.53)
     """
+    from ._cell_kernels import quality_arrays
+
     points, tets = _check(points, tets)
-    corners = points[tets]  # (M, 4, 3)
-    volume = signed_volumes(points, tets)
-
-    edge_vectors = corners[:, _EDGES[:, 1]] - corners[:, _EDGES[:, 0]]  # (M, 6, 3)
-    edge_lengths2 = np.einsum("mek,mek->me", edge_vectors, edge_vectors)
-    edge_lengths = np.sqrt(edge_lengths2)
-
-    # face area vectors, outward for positive cells
-    f = corners[:, _FACES]  # (M, 4, 3, 3)
-    normals = 0.5 * np.cross(f[:, :, 1] - f[:, :, 0], f[:, :, 2] - f[:, :, 0])
-    areas = np.linalg.norm(normals, axis=2)  # (M, 4)
-    dihedral = _dihedral_from_normals(normals, areas)
-    with np.errstate(divide="ignore", invalid="ignore"):
-
-        # inradius 3V/sum(A); circumradius sqrt(s(s-a)(s-b)(s-c))/(6V) with a, b, c the
-        # products of opposite edge lengths
-        a = edge_lengths[:, 0] * edge_lengths[:, 5]
-        b = edge_lengths[:, 1] * edge_lengths[:, 4]
-        c = edge_lengths[:, 2] * edge_lengths[:, 3]
-        s = 0.5 * (a + b + c)
-        heron = np.sqrt(np.maximum(s * (s - a) * (s - b) * (s - c), 0.0))
-        # 3 r_in / R = 3 (3V/sumA) / (heron / 6V) = 54 V^2 / (sumA * heron)
-        radius_ratio = np.sign(volume) * 54.0 * volume**2 / (areas.sum(axis=1) * heron)
-        radius_ratio = np.where(np.isfinite(radius_ratio), radius_ratio, 0.0)
-        l_rms = np.sqrt(edge_lengths2.mean(axis=1))
-        volume_edge = 6.0 * np.sqrt(2.0) * volume / l_rms**3
-        volume_edge = np.where(np.isfinite(volume_edge), volume_edge, 0.0)
-    return {
-        "min_dihedral_angle": dihedral.min(axis=1) if len(tets) else np.zeros(0),
-        "max_dihedral_angle": dihedral.max(axis=1) if len(tets) else np.zeros(0),
-        "radius_ratio": radius_ratio,
-        "volume_edge_ratio": volume_edge,
-        "volume": volume,
-    }
+    # one compiled pass over the cells on every core (the array form needs a dozen (M, 6, 3)
+    # temporaries: 1.3 s and 1 GB at 580k cells)
+    arrays = quality_arrays(points, tets)
+    return dict(zip(METRICS, arrays))
 
 
 def _tetra_connectivity(mesh: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 import fepre
 from fepre.cli import main
 
@@ -36,3 +38,36 @@ def test_unknown_benchmark_is_a_user_error(capsys):
 def test_console_script_runs_as_a_module():
     result = subprocess.run([sys.executable, "-m", "fepre", "--version"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout.startswith("fepre ")
+
+
+def test_bench_scale_checks_its_arguments(capsys):
+    from fepre.bench import scale
+
+    with pytest.raises(SystemExit):
+        scale.main(["--cells", "10"])
+    assert "--cells must be a number of cells of at least 1000; got 10" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        scale.main(["--repeat", "0"])
+    assert "--repeat must be at least 1; got 0" in capsys.readouterr().err
+
+
+def test_bench_scale_parts_have_their_volumes():
+    """The benchmark's parts are what their descriptions say: Monte Carlo volumes against the
+    analytic ones."""
+    import math
+
+    import numpy as np
+
+    from fepre.bench.scale import _model
+
+    expected = {
+        "box-holes": 100 * 80 * 20 - 20 * math.pi * 16 * 20,
+        "flange": math.pi * (50**2 * 10 + 20**2 * 20 - 10**2 * 30 - 6 * 4**2 * 10),
+    }
+    rng = np.random.default_rng(0)
+    for name, volume in expected.items():
+        model = _model(name)
+        lower, upper = (np.asarray(b, float) for b in model.bounds)
+        samples = rng.uniform(lower, upper, (400_000, 3))
+        measured = float((model(samples) < 0).mean() * np.prod(upper - lower))
+        assert measured == pytest.approx(volume, rel=0.01), name

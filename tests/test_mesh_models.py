@@ -440,3 +440,20 @@ def test_hole_tangent_to_a_slot_wall_meshes(tmp_path):
     nodes = fepre.features(model, h=2.5, warn=False).nodes
     gaps = np.linalg.norm(nodes[:, None] - nodes[None], axis=2) + np.eye(len(nodes)) * 1e9
     assert gaps.min() > 1e-3  # no two nodes at one point
+
+
+def test_hole_across_a_sharp_edge_keeps_the_edge():
+    """A hole cut across a cube's edge is filled by a faired patch smooth towards both faces; the
+    faces stay two patches (the filled triangles do not bridge them), so the edge stays a crease."""
+    cube = pv.Cube().triangulate().subdivide(4, "linear")  # sides 1/32
+    vertices, faces = arrays(cube)
+    centroid = vertices[faces].mean(axis=1)
+    cut = np.linalg.norm(centroid - [0.5, 0.5, 0.0], axis=1) < 0.2  # across the edge x = y = 0.5
+    model = sdf.mesh(from_arrays(vertices, faces[~cut]))
+    assert model.repaired.holes == 1 and model.repaired.filled.sum() > 0
+    assert model.patch_count >= 6
+    labels = model._patch_labels(np.array([[0.5, 0.2, 0.3], [0.2, 0.5, 0.3], [0.5, 0.2, -0.3], [0.2, 0.5, -0.3]]))[1]
+    assert labels[0] != labels[1] and labels[2] != labels[3]
+    nodes = fepre.features(model, 0.1).nodes
+    on_edge = nodes[np.linalg.norm(nodes[:, :2] - 0.5, axis=1) < 1e-6, 2]
+    assert ((on_edge > 0.25) & (on_edge < 0.45)).any() and ((on_edge > -0.45) & (on_edge < -0.25)).any()

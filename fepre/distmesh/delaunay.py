@@ -7,6 +7,7 @@ import functools
 import numpy as np
 
 from ..errors import MeshingError
+from .._cell_kernels import canonical_cells
 from ..quality import signed_volumes
 
 __all__ = ["tetrahedralize", "gmsh_available"]
@@ -118,10 +119,8 @@ def tetrahedralize(
     tets = _gmsh(points) if backend == "gmsh" else _scipy(points)
     # canonical form (sorted corners, then the orientation fixed by swapping the last two, rows
     # sorted): the result does not depend on the backend's output order
-    tets = np.sort(tets, axis=1)
-    volumes = signed_volumes(points, tets)
-    negative = volumes < 0
-    tets[negative] = tets[negative][:, [0, 1, 3, 2]]
+    tets = np.ascontiguousarray(tets, dtype=np.int64)
+    volumes = canonical_cells(points, tets)
     if not keep_flat:
         tets = tets[np.abs(volumes) > 1e-10 * scale**3]
     n = np.int64(len(points))

@@ -6,8 +6,6 @@ import numpy as np
 
 __all__ = ["bars_of", "bar_forces"]
 
-_TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
-
 
 def bars_of(tets: np.ndarray, n_points: int) -> np.ndarray:
     """Unique bars (E, 2) of ``tets``, first index < second.
@@ -20,10 +18,9 @@ def bars_of(tets: np.ndarray, n_points: int) -> np.ndarray:
     >>> bars_of(np.array([[0, 1, 2, 3], [1, 2, 3, 4]]), 5).shape
     (9, 2)
     """
-    pairs = tets[:, _TET_EDGES]  # (M, 6, 2)
-    lo = np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64)
-    hi = np.maximum(pairs[..., 0], pairs[..., 1]).astype(np.int64)
-    codes = np.sort((lo * n_points + hi).ravel())
+    from .._cell_kernels import packed_edge_keys
+
+    codes = np.sort(packed_edge_keys(tets, n_points))
     if len(codes):
         codes = codes[np.concatenate([[True], codes[1:] != codes[:-1]])]
     return np.stack([codes // n_points, codes % n_points], axis=1)

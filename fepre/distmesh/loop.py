@@ -73,21 +73,9 @@ class LoopResult:
 
 def volume_edge_ratio(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """``6 sqrt(2) V / l_rms^3`` of each tetrahedron (the loop's cheap quality measure)."""
-    p0 = points[tets[:, 0]]
-    a = points[tets[:, 1]] - p0
-    b = points[tets[:, 2]] - p0
-    c = points[tets[:, 3]] - p0
-    ax, ay, az = a.T
-    bx, by, bz = b.T
-    cx, cy, cz = c.T
-    volume = (ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)) / 6.0
-    l2 = (
-        ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz + cx * cx + cy * cy + cz * cz
-        + (bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2
-        + (cx - ax) ** 2 + (cy - ay) ** 2 + (cz - az) ** 2
-        + (cx - bx) ** 2 + (cy - by) ** 2 + (cz - bz) ** 2
-    ) / 6.0
-    return 6.0 * np.sqrt(2.0) * volume / (l2 * np.sqrt(l2))
+    from .._cell_kernels import volume_edge_ratios
+
+    return volume_edge_ratios(points, tets)
 
 
 def evaluate(model, points: np.ndarray, gradient: bool, deps: float | None, h: float):
@@ -121,10 +109,10 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
     ``sdf(c) <= bound_i + |c - p_i|`` for every corner ``i``: cells where that bound is already
     below ``limit`` are kept without evaluating the model.
     """
-    corners = points[tets]
-    centroids = corners.mean(axis=1)
-    reach = np.linalg.norm(corners - centroids[:, None, :], axis=2) + bound[tets]
-    sure = reach.min(axis=1) < limit
+    from .._cell_kernels import centroid_bounds
+
+    centroids, reach = centroid_bounds(points, tets, bound)
+    sure = reach < limit
     keep = sure.copy()
     unsure = np.flatnonzero(~sure)
     if len(unsure):

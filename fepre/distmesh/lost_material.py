@@ -3,9 +3,9 @@
 DistMesh keeps a cell when its centroid is inside, so a wall thinner than about ``h`` comes out
 thinner, perforated or not at all, without any error. :func:`lost_material` finds such places
 independently of how the mesh was made: it samples the model at ``h / 4`` near its surface
-(a narrow band), probes the mesh at the nodes clearly inside the model (deeper than ``0.1 h``, below
-the chord sag of a convex surface of radius ``h`` or more) with VTK's probe filter, and groups the
-nodes that no cell holds into connected regions. Each region reports where it is, how thick the
+(a narrow band), finds the nodes clearly inside the model (deeper than ``0.1 h``, below the chord
+sag of a convex surface of radius ``h`` or more) that no cell holds (:mod:`.coverage`), and groups
+them into connected regions. Each region reports where it is, how thick the
 material there is (twice the deepest value of the model in it: exact for an exact distance) and
 about how much volume is missing (the grid cells of its nodes, each counted by the share of it
 inside the model, from the node's value; the shallow nodes next to the region included).
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LostRegion", "lost_material", "added_material", "lost_material_message", "added_material_message"]
+__all__ = ["LostRegion", "lost_material", "added_material", "material_checks", "lost_material_message", "added_material_message"]
 
 #: nodes at least this deep (times h) must be in the mesh
 _DEPTH = 0.1
@@ -100,15 +100,20 @@ def added_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=N
     return _uncovered_regions(model, points, tets, h, outside=True, size=size)
 
 
-def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None) -> list[LostRegion]:
-    """Regions of the model's inside not covered by the cells (``outside=False``), or of its
-    outside covered by them (``outside=True``). With ``size`` (a graded mesh's edge lengths, at
-    least ``h``) the depth tests are relative to the local size: a coarse element's chord sags
-    further from a curved face than ``h`` allows."""
-    import pyvista as pv
-    from scipy import ndimage
+@dataclass
+class _Sampled:
+    """The model sampled near its surface around a mesh, and which grid nodes the mesh covers."""
 
+    values: np.ndarray  # (nz, ny, nx)
+    origin: np.ndarray
+    step: np.ndarray
+    band: float
+    covered: np.ndarray  # (nz, ny, nx) bool
+
+
+def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
     from ..sampling import sample
+    from .coverage import covered_nodes
 
     points = np.asarray(points, dtype=np.float64)
     lower, upper = points.min(axis=0) - h, points.max(axis=0) + h
@@ -121,10 +126,40 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     if count > _MAX_NODES:
         spacing *= float((count / _MAX_NODES) ** (1.0 / 3.0))
     grid = sample(model, spacing=spacing, bounds=(tuple(lower), tuple(upper)), dtype="float64", band=h)
-    values = np.asarray(grid["sdf"]).reshape(grid.dimensions[::-1])  # (nz, ny, nx)
-    band = float(grid.field_data["sdf_band"][0])
-    step = np.asarray(grid.spacing, float)
-    origin = np.asarray(grid.origin, float)
+    origin, step = np.asarray(grid.origin, float), np.asarray(grid.spacing, float)
+    return _Sampled(
+        values=np.asarray(grid["sdf"]).reshape(grid.dimensions[::-1]),
+        origin=origin,
+        step=step,
+        band=float(grid.field_data["sdf_band"][0]),
+        covered=covered_nodes(points, tets, origin, step, grid.dimensions, 1e-9 * h),
+    )
+
+
+def material_checks(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> tuple[list[LostRegion], list[LostRegion]]:
+    """:func:`lost_material` and :func:`added_material` from one sampled grid."""
+    if len(tets) == 0:
+        return [], []
+    sampled = _sampled(model, points, tets, h)
+    return (
+        _uncovered_regions(model, points, tets, h, False, size, sampled),
+        _uncovered_regions(model, points, tets, h, True, size, sampled),
+    )
+
+
+def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None,
+                       sampled: _Sampled | None = None) -> list[LostRegion]:
+    """Regions of the model's inside not covered by the cells (``outside=False``), or of its
+    outside covered by them (``outside=True``). With ``size`` (a graded mesh's edge lengths, at
+    least ``h``) the depth tests are relative to the local size: a coarse element's chord sag
+    further from a curved face than ``h`` allows."""
+    from scipy import ndimage
+
+    if len(tets) == 0:
+        return []
+    if sampled is None:
+        sampled = _sampled(model, points, tets, h)
+    values, band, step, origin = sampled.values, sampled.band, sampled.step, sampled.origin
     sign = 1.0 if outside else -1.0
     depth = sign * values  # how far on the side looked at
     # the share of each node's cell of the grid on that side, from its distance
@@ -143,18 +178,9 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     if not deep.any():
         return []
 
-    cells = pv.UnstructuredGrid({pv.CellType.TETRA: np.asarray(tets, dtype=np.int64)}, points)
-    cells.point_data["_probe"] = np.zeros(len(points))
-
     def wrong(mask: np.ndarray) -> np.ndarray:
         """The nodes of ``mask`` that are covered when they should not be, or the reverse."""
-        k, j, i = np.nonzero(mask)
-        probe = pv.PolyData(origin + np.column_stack([i, j, k]) * step)
-        covered = np.asarray(probe.sample(cells)["vtkValidPointMask"]).astype(bool)
-        bad = covered if outside else ~covered
-        result = np.zeros_like(mask)
-        result[k[bad], j[bad], i[bad]] = True
-        return result
+        return mask & (sampled.covered if outside else ~sampled.covered)
 
     if not outside:
         deep |= _thin(model, depth, side & ~deep, origin, step, h)

@@ -259,13 +259,12 @@ def distmesh(
             )
             sys.stderr.flush()
 
-    from .lost_material import added_material, added_material_message, lost_material, lost_material_message
+    from .lost_material import added_material_message, lost_material_message, material_checks
 
     local = size if absolute else None
-    lost = lost_material(model, points, tets, h, local) if o.check_resolution else []
+    lost, added = material_checks(model, points, tets, h, local) if o.check_resolution else ([], [])
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, None if absolute else h)}", ResolutionWarning)
-    added = added_material(model, points, tets, h, local) if o.check_resolution else []
     if added:
         warn_user(f"distmesh: {added_material_message(added, None if absolute else h)}", ResolutionWarning)
     history = dict(loop.history)

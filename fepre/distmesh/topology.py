@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .tet_topology import MAX_PACKED_POINTS, face_keys
+from .._cell_kernels import packed_face_keys
+from .tet_topology import MAX_PACKED_POINTS
 
 __all__ = ["tet_faces", "boundary_faces", "TopologyReport", "check_topology", "nonmanifold_items", "repair_selection"]
 
@@ -16,26 +17,29 @@ _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 
 def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unique faces of ``tets``: (sorted vertex triples (F, 3), use counts (F,), inverse (M*4,))."""
-    oriented = tets[:, _FACES].reshape(-1, 3)
-    keys = np.sort(oriented, axis=1).astype(np.int64)
-    n = int(keys.max()) + 1 if len(keys) else 1
+    n = int(tets.max()) + 1 if len(tets) else 1
     # one sort groups the copies of each face (np.unique(axis=0) on the triples is 9x slower):
     # of one int64 code while n^3 fits, else of two (s0 n + s1, s2)
     if n <= MAX_PACKED_POINTS:
-        codes = face_keys(keys, n)
-        order = np.argsort(codes, kind="stable")
+        codes = packed_face_keys(tets, n)
+        order = np.argsort(codes)
         sorted_codes = codes[order]
-        change = sorted_codes[1:] != sorted_codes[:-1]
+        starts = np.concatenate([[True], sorted_codes[1:] != sorted_codes[:-1]]) if len(codes) else np.zeros(0, bool)
+        unique = sorted_codes[starts]
+        square = np.int64(n) * n
+        keys = np.column_stack([unique // square, unique // n % n, unique % n])
     else:
-        high, low = keys[:, 0] * n + keys[:, 1], keys[:, 2]
+        triples = np.sort(tets[:, _FACES].reshape(-1, 3), axis=1).astype(np.int64)
+        high, low = triples[:, 0] * n + triples[:, 1], triples[:, 2]
         order = np.lexsort((low, high))
         change = (np.diff(high[order]) != 0) | (np.diff(low[order]) != 0)
-    starts = np.concatenate([[True], change]) if len(keys) else np.zeros(0, bool)
+        starts = np.concatenate([[True], change]) if len(triples) else np.zeros(0, bool)
+        keys = triples[order[starts]]
     group = np.cumsum(starts) - 1
-    inverse = np.empty(len(keys), np.int64)
+    inverse = np.empty(len(order), np.int64)
     inverse[order] = group
-    counts = np.bincount(group) if len(keys) else np.zeros(0, np.int64)
-    return keys[order[starts]], counts, inverse
+    counts = np.bincount(group) if len(order) else np.zeros(0, np.int64)
+    return keys, counts, inverse
 
 
 def boundary_faces(tets: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ import threading
 import numpy as np
 
 from .bvh import REGION_FACE, TriangleTree
-from .tables import edge_table, face_normals, winding_numbers
+from .tables import edge_table, face_normals
 
 __all__ = ["TriangleDistance"]
 
@@ -42,6 +42,7 @@ class TriangleDistance:
         self.normals, self.areas = face_normals(self.vertices, self.faces)
         self._lock = threading.Lock()
         self._tree = None
+        self._winding = None
         if self.pseudonormal:
             self._vertex_normals = _angle_weighted_normals(self.vertices, self.faces, self.normals)
             edges, self._face_edge, _ = edge_table(self.faces)
@@ -52,6 +53,7 @@ class TriangleDistance:
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_tree"] = None
+        state["_winding"] = None
         del state["_lock"]
         return state
 
@@ -67,6 +69,27 @@ class TriangleDistance:
                 if self._tree is None:
                     self._tree = TriangleTree(self.vertices, self.faces)
         return self._tree
+
+    @property
+    def winding_tree(self):
+        """libigl's fast winding number hierarchy of the triangles, built on first use (once,
+        not per query batch: rebuilding it costs about 1 us per triangle)."""
+        if self._winding is None:
+            with self._lock:
+                if self._winding is None:
+                    import igl
+
+                    winding = igl.FastWindingNumberBVH()
+                    winding.init(self.vertices, self.faces, 2)
+                    self._winding = winding
+        return self._winding
+
+    def winding_numbers(self, points: np.ndarray) -> np.ndarray:
+        """Generalised winding numbers of the triangles at ``points`` (N,)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0 or len(self.faces) == 0:
+            return np.zeros(len(points))
+        return np.asarray(self.winding_tree.winding_number(points, 2.0))
 
     def _query(self, points: np.ndarray):
         points = np.ascontiguousarray(points, dtype=np.float64)
@@ -93,6 +116,18 @@ class TriangleDistance:
             normal[side] = self._edge_normals[self._face_edge[face[side], region[side] - 3]]
         return normal
 
+    def values(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distances (N,) and closest triangles (N,), without the gradients of
+        :meth:`signed` (a third less work)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        distance, face, closest, region = self._query(points)
+        if self.pseudonormal:
+            normal = self.surface_normals(face, region)
+            inside = np.einsum("ij,ij->i", points - closest, normal) < 0
+        else:
+            inside = self.winding_numbers(points) > 0.5
+        return np.where(inside, -distance, distance), face
+
     def signed(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Signed distances (N,), closest triangles, closest points and outward unit directions
         (the gradient: ``(p - c) / |p - c|`` signed, the surface normal on the surface)."""
@@ -103,7 +138,7 @@ class TriangleDistance:
         if self.pseudonormal:
             inside = np.einsum("ij,ij->i", offset, normal) < 0
         else:
-            inside = winding_numbers(self.vertices, self.faces, points) > 0.5
+            inside = self.winding_numbers(points) > 0.5
         sign = np.where(inside, -1.0, 1.0)
         scale = max(float(np.abs(self.vertices).max()), 1e-300)
         on_surface = distance <= 1e-12 * scale

@@ -38,7 +38,7 @@ class MeshModel(SDF):
         self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal)
         normals = self._distance.normals
         if features > 0:
-            self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas)
+            self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas, repaired.filled)
         else:
             self._face_patch, self._patch_count = np.zeros(len(faces), np.int64), 1
         self._planes = PatchPlanes(vertices, faces, normals, self._face_patch)
@@ -99,7 +99,7 @@ class MeshModel(SDF):
 
     def _values(self, x, y, z):
         points, shape, dtype = self._stack((np.asarray(x), np.asarray(y), np.asarray(z)))
-        values = self._distance.signed(points)[0]
+        values = self._distance.values(points)[0]
         return values.reshape(shape).astype(dtype, copy=False)
 
     def _values_and_gradient(self, x, y, z) -> tuple[np.ndarray, Coords]:
@@ -113,7 +113,7 @@ class MeshModel(SDF):
         return self._patch_count
 
     def _patch_labels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        values, face, _, _ = self._distance.signed(np.asarray(points, dtype=np.float64))
+        values, face = self._distance.values(np.asarray(points, dtype=np.float64))
         return values, self._face_patch[face]
 
     def _patch_values(self, labels: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -28,12 +28,23 @@ SMALL_PATCH_TRIANGLES = 8
 SMALL_PATCH_AREA = 1e-3
 
 
-def segment_patches(faces: np.ndarray, normals: np.ndarray, angle: float, areas: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+def segment_patches(
+    faces: np.ndarray,
+    normals: np.ndarray,
+    angle: float,
+    areas: np.ndarray | None = None,
+    filled: np.ndarray | None = None,
+) -> tuple[np.ndarray, int]:
     """Patch label of each triangle (F,) and the number of patches.
 
     Two triangles sharing an edge (and only those two) belong to one patch when their normals
     differ by at most ``angle`` degrees. Zero-area triangles join their neighbours, and so do
     small patches (see ``SMALL_PATCH_TRIANGLES``) when ``areas`` are given.
+
+    ``filled`` (F,) bool marks triangles that close a hole. They never bridge two patches of the
+    input: a faired patch over a hole that cut a sharp edge is smooth towards both sides, and
+    joining them would erase the edge. A filled piece joins the one patch it meets smoothly, or
+    stays a patch of its own (so the sharp edge ends at its rim).
     """
     count = len(faces)
     if count == 0:
@@ -50,11 +61,28 @@ def segment_patches(faces: np.ndarray, normals: np.ndarray, angle: float, areas:
     cosine = np.einsum("ij,ij->i", normals[a], normals[b])
     degenerate = ~(np.any(normals[a] != 0, axis=1) & np.any(normals[b] != 0, axis=1))
     smooth = (cosine >= np.cos(np.radians(angle))) | degenerate
-    graph = sparse.coo_matrix((np.ones(int(smooth.sum())), (a[smooth], b[smooth])), shape=(count, count))
+    same = smooth if filled is None else smooth & (filled[a] == filled[b])
+    graph = sparse.coo_matrix((np.ones(int(same.sum())), (a[same], b[same])), shape=(count, count))
     patches, labels = csgraph.connected_components(graph.tocsr(), directed=False)
+    if filled is not None and filled.any():
+        labels, patches = _join_fills(labels, patches, a[smooth & ~same], b[smooth & ~same], filled)
     if areas is not None and patches > 1:
         labels, patches = _absorb_small(labels, patches, a, b, cosine, areas)
     return labels.astype(np.int64), int(patches)
+
+
+def _join_fills(labels, patches, a, b, filled):
+    """Relabel each filled piece to the one input patch it meets across the smooth edges
+    ``a``-``b`` (one filled, one input triangle), if it meets exactly one."""
+    fill = np.where(filled[a], labels[a], labels[b])
+    patch = np.where(filled[a], labels[b], labels[a])
+    pairs = np.unique(np.column_stack([fill, patch]), axis=0)
+    fills, counts = np.unique(pairs[:, 0], return_counts=True)
+    single = np.isin(pairs[:, 0], fills[counts == 1])
+    target = np.arange(patches)
+    target[pairs[single, 0]] = pairs[single, 1]
+    kept, labels = np.unique(target[labels], return_inverse=True)
+    return labels, len(kept)
 
 
 def _absorb_small(labels, patches, a, b, cosine, areas):

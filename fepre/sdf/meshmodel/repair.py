@@ -55,6 +55,8 @@ class Repair:
         Boundary edges left open (where the edges into and out of a vertex do not match).
     closed : bool
         Every edge is shared by exactly two triangles that traverse it in opposite directions.
+    filled : ndarray
+        (F,) bool: the triangles added to close holes.
     """
 
     vertices: np.ndarray = field(repr=False)
@@ -68,6 +70,7 @@ class Repair:
     internal: int
     open_edges: int
     closed: bool
+    filled: np.ndarray = field(repr=False)
 
     @property
     def changed(self) -> bool:
@@ -275,9 +278,10 @@ def _split(corners: np.ndarray, levels: int) -> np.ndarray:
     return corners
 
 
-def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, int]:
+def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
     """Drop triangles with the same side of the solid in front and behind (split those crossing
-    a seam first); turn over those with the solid in front."""
+    a seam first); turn over those with the solid in front. Also returns the input triangle each
+    output triangle comes from."""
     normals, areas = face_normals(vertices, faces)
     corners = vertices[faces]
     centroid = corners.mean(axis=1)
@@ -286,7 +290,8 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     separating = (front != back) | (areas == 0)
     backwards = front & ~back
     if separating.all():
-        return vertices, np.where(backwards[:, None], faces[:, ::-1], faces), 0, int(backwards.sum())
+        origin = np.arange(len(faces))
+        return vertices, np.where(backwards[:, None], faces[:, ::-1], faces), origin, 0, int(backwards.sum())
     near_corner = (0.9 * corners + 0.1 * centroid[:, None]).reshape(-1, 3)
     corner_front, corner_back = _sides(vertices, faces, near_corner, np.repeat(normals, 3, axis=0), np.repeat(sizes, 3))
     corner_separating = (corner_front != corner_back).reshape(-1, 3)
@@ -301,7 +306,8 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
     vertices = np.concatenate([vertices, pieces.reshape(-1, 3)])
     faces = np.concatenate([kept_faces, piece_faces])
-    return vertices, faces, int((~keep).sum()), int((backwards & keep).sum())
+    origin = np.concatenate([np.flatnonzero(keep), parent[piece_keep]])
+    return vertices, faces, origin, int((~keep).sum()), int((backwards & keep).sum())
 
 
 def _pieces(faces: np.ndarray) -> int:
@@ -341,11 +347,14 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     vertices, faces, merged = _merge_vertices(vertices, faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
+    original = len(faces)
     vertices, faces, holes, hole_area, open_edges = fill_holes(vertices, faces)
+    filled = np.arange(len(faces)) >= original
     if _is_closed(faces) and _pieces(faces) == 1:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
     else:
-        vertices, faces, internal, backwards = _drop_internal(vertices, faces)
+        vertices, faces, origin, internal, backwards = _drop_internal(vertices, faces)
+        filled = filled[origin]
     return Repair(
         vertices=vertices,
         faces=faces,
@@ -358,4 +367,5 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
         internal=internal,
         open_edges=open_edges,
         closed=_is_closed(faces),
+        filled=filled,
     )

@@ -1,0 +1,216 @@
+"""Per-cell kernels over tetrahedra, compiled and run on every core (numba, cached on disk).
+
+Each computes in one pass what the array form computes in a dozen (M, 6, 3) temporaries: the
+quality arrays of a mesh, the DistMesh loop's volume-edge ratio and the packed face keys that
+group a mesh's faces. The results equal the array forms' to rounding (tests compare them).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds"]
+
+# faces opposite vertex 0..3 (outward for a positive cell); the two faces at edges 01 02 03 12 13 23
+_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+_EDGE_FACES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]], dtype=np.int64)
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
+
+
+@njit(cache=True, parallel=True)
+def _quality(points, tets, faces, edge_faces, edges, out):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        c = np.empty((4, 3))
+        for v in range(4):
+            for a in range(3):
+                c[v, a] = points[tets[t, v], a]
+        ax, ay, az = c[1, 0] - c[0, 0], c[1, 1] - c[0, 1], c[1, 2] - c[0, 2]
+        bx, by, bz = c[2, 0] - c[0, 0], c[2, 1] - c[0, 1], c[2, 2] - c[0, 2]
+        cx, cy, cz = c[3, 0] - c[0, 0], c[3, 1] - c[0, 1], c[3, 2] - c[0, 2]
+        volume = ((ay * bz - az * by) * cx + (az * bx - ax * bz) * cy + (ax * by - ay * bx) * cz) / 6.0
+        lengths2 = np.empty(6)
+        total2 = 0.0
+        for e in range(6):
+            dx = c[edges[e, 1], 0] - c[edges[e, 0], 0]
+            dy = c[edges[e, 1], 1] - c[edges[e, 0], 1]
+            dz = c[edges[e, 1], 2] - c[edges[e, 0], 2]
+            lengths2[e] = dx * dx + dy * dy + dz * dz
+            total2 += lengths2[e]
+        normals = np.empty((4, 3))
+        areas = np.empty(4)
+        area_sum = 0.0
+        for f in range(4):
+            p, q, r = faces[f, 0], faces[f, 1], faces[f, 2]
+            ux, uy, uz = c[q, 0] - c[p, 0], c[q, 1] - c[p, 1], c[q, 2] - c[p, 2]
+            vx, vy, vz = c[r, 0] - c[p, 0], c[r, 1] - c[p, 1], c[r, 2] - c[p, 2]
+            nx = 0.5 * (uy * vz - uz * vy)
+            ny = 0.5 * (uz * vx - ux * vz)
+            nz = 0.5 * (ux * vy - uy * vx)
+            areas[f] = math.sqrt(nx * nx + ny * ny + nz * nz)
+            area_sum += areas[f]
+            normals[f, 0], normals[f, 1], normals[f, 2] = nx, ny, nz
+        smallest, largest = np.inf, -np.inf
+        for e in range(6):
+            f, g = edge_faces[e, 0], edge_faces[e, 1]
+            angle = 0.0
+            if areas[f] > 0.0 and areas[g] > 0.0:
+                cosine = -(normals[f, 0] * normals[g, 0] + normals[f, 1] * normals[g, 1] + normals[f, 2] * normals[g, 2])
+                cosine /= areas[f] * areas[g]
+                angle = math.degrees(math.acos(min(1.0, max(-1.0, cosine))))
+            smallest = min(smallest, angle)
+            largest = max(largest, angle)
+        a = math.sqrt(lengths2[0] * lengths2[5])
+        b = math.sqrt(lengths2[1] * lengths2[4])
+        d = math.sqrt(lengths2[2] * lengths2[3])
+        s = 0.5 * (a + b + d)
+        heron = math.sqrt(max(s * (s - a) * (s - b) * (s - d), 0.0))
+        denominator = area_sum * heron
+        radius_ratio = 0.0
+        if denominator > 0.0:
+            radius_ratio = math.copysign(54.0 * volume * volume / denominator, volume) if volume != 0.0 else 0.0
+        l_rms = math.sqrt(total2 / 6.0)
+        volume_edge = 6.0 * math.sqrt(2.0) * volume / (l_rms * l_rms * l_rms) if l_rms > 0.0 else 0.0
+        out[0, t] = smallest
+        out[1, t] = largest
+        out[2, t] = radius_ratio if math.isfinite(radius_ratio) else 0.0
+        out[3, t] = volume_edge if math.isfinite(volume_edge) else 0.0
+        out[4, t] = volume
+
+
+def quality_arrays(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """(5, M): worst and largest dihedral angle (degrees), radius ratio, volume-edge ratio and
+    signed volume of each cell (the formulas of :func:`fepre.quality.tet_quality`)."""
+    out = np.empty((5, len(tets)))
+    if len(tets):
+        _quality(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), _FACES, _EDGE_FACES, _EDGES, out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _volume_edge(points, tets, out):  # pragma: no cover - compiled
+    factor = 6.0 * math.sqrt(2.0)
+    for t in prange(tets.shape[0]):
+        i0, i1, i2, i3 = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
+        ax, ay, az = points[i1, 0] - points[i0, 0], points[i1, 1] - points[i0, 1], points[i1, 2] - points[i0, 2]
+        bx, by, bz = points[i2, 0] - points[i0, 0], points[i2, 1] - points[i0, 1], points[i2, 2] - points[i0, 2]
+        cx, cy, cz = points[i3, 0] - points[i0, 0], points[i3, 1] - points[i0, 1], points[i3, 2] - points[i0, 2]
+        volume = (ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)) / 6.0
+        l2 = (
+            ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz + cx * cx + cy * cy + cz * cz
+            + (bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2
+            + (cx - ax) ** 2 + (cy - ay) ** 2 + (cz - az) ** 2
+            + (cx - bx) ** 2 + (cy - by) ** 2 + (cz - bz) ** 2
+        ) / 6.0
+        out[t] = factor * volume / (l2 * math.sqrt(l2))
+
+
+def volume_edge_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """``6 sqrt(2) V / l_rms^3`` of each cell (M,)."""
+    out = np.empty(len(tets))
+    if len(tets):
+        _volume_edge(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _face_keys(tets, faces, n, out):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for f in range(4):
+            a, b, c = tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]]
+            if a > b:
+                a, b = b, a
+            if b > c:
+                b, c = c, b
+            if a > b:
+                a, b = b, a
+            out[4 * t + f] = (a * n + b) * n + c
+
+
+def packed_face_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """(4 M,) int64 keys ``(s0 n + s1) n + s2`` of the sorted vertices of each cell's four faces
+    (in the order opposite vertex 0, 1, 2, 3); ``n_points`` at most
+    :data:`fepre.distmesh.tet_topology.MAX_PACKED_POINTS`."""
+    out = np.empty(4 * len(tets), np.int64)
+    if len(tets):
+        _face_keys(np.ascontiguousarray(tets, np.int64), _FACES, np.int64(n_points), out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _canonical(points, tets, volumes):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        a, b, c, d = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
+        # sort four indices with five compare-swaps
+        if a > b:
+            a, b = b, a
+        if c > d:
+            c, d = d, c
+        if a > c:
+            a, c = c, a
+        if b > d:
+            b, d = d, b
+        if b > c:
+            b, c = c, b
+        ax, ay, az = points[b, 0] - points[a, 0], points[b, 1] - points[a, 1], points[b, 2] - points[a, 2]
+        bx, by, bz = points[c, 0] - points[a, 0], points[c, 1] - points[a, 1], points[c, 2] - points[a, 2]
+        cx, cy, cz = points[d, 0] - points[a, 0], points[d, 1] - points[a, 1], points[d, 2] - points[a, 2]
+        volume = ((ay * bz - az * by) * cx + (az * bx - ax * bz) * cy + (ax * by - ay * bx) * cz) / 6.0
+        if volume < 0.0:
+            c, d = d, c
+        tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3] = a, b, c, d
+        volumes[t] = volume
+
+
+def canonical_cells(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Put each cell (in place, int64 (M, 4)) in canonical form: corners sorted, then the last two
+    swapped where that makes the volume positive. Returns the signed volumes of the sorted
+    corners (M,) (their absolute values are the cells' volumes)."""
+    volumes = np.empty(len(tets))
+    if len(tets):
+        _canonical(np.ascontiguousarray(points, np.float64), tets, volumes)
+    return volumes
+
+
+@njit(cache=True, parallel=True)
+def _centroid_reach(points, tets, bound, centroids, reach):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for a in range(3):
+            centroids[t, a] = 0.25 * (points[tets[t, 0], a] + points[tets[t, 1], a] + points[tets[t, 2], a] + points[tets[t, 3], a])
+        smallest = np.inf
+        for v in range(4):
+            i = tets[t, v]
+            dx = points[i, 0] - centroids[t, 0]
+            dy = points[i, 1] - centroids[t, 1]
+            dz = points[i, 2] - centroids[t, 2]
+            smallest = min(smallest, math.sqrt(dx * dx + dy * dy + dz * dz) + bound[i])
+        reach[t] = smallest
+
+
+def centroid_bounds(points: np.ndarray, tets: np.ndarray, bound: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroids (M, 3) of the cells and an upper bound (M,) of a 1-Lipschitz function there,
+    ``min_i bound_i + |c - p_i|`` over the corners ``p_i`` (``bound`` per point)."""
+    centroids = np.empty((len(tets), 3))
+    reach = np.empty(len(tets))
+    if len(tets):
+        _centroid_reach(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64),
+                        np.ascontiguousarray(bound, np.float64), centroids, reach)
+    return centroids, reach
+
+
+@njit(cache=True, parallel=True)
+def _edge_keys(tets, edges, n, out):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for e in range(6):
+            a, b = tets[t, edges[e, 0]], tets[t, edges[e, 1]]
+            out[6 * t + e] = a * n + b if a < b else b * n + a
+
+
+def packed_edge_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """(6 M,) int64 keys ``lo n + hi`` of each cell's six edges."""
+    out = np.empty(6 * len(tets), np.int64)
+    if len(tets):
+        _edge_keys(np.ascontiguousarray(tets, np.int64), _EDGES, np.int64(n_points), out)
+    return out

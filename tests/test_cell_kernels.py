@@ -1,0 +1,69 @@
+"""The compiled per-cell kernels against independent array computations."""
+
+import numpy as np
+import pytest
+
+from fepre._cell_kernels import packed_face_keys, quality_arrays, volume_edge_ratios
+from fepre.quality import dihedral_angles, signed_volumes, tet_quality
+
+
+def _cells(seed: int, count: int = 2000):
+    rng = np.random.default_rng(seed)
+    points = rng.normal(size=(4 * count, 3))
+    tets = np.arange(4 * count).reshape(-1, 4)
+    # flat cells (four coplanar points), a repeated corner, a needle
+    points[:4] = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]
+    points[4:8] = [[0, 0, 0], [0, 0, 0], [0, 1, 0], [0, 0, 1]]
+    points[8:12] = [[0, 0, 0], [1e-9, 0, 0], [0, 1e-9, 0], [0, 0, 5]]
+    return points, tets
+
+
+def _circumradius(corners):
+    """Radius of the sphere through the four corners, from the linear system of its centre."""
+    a = 2.0 * (corners[:, 1:] - corners[:, :1])
+    b = (corners[:, 1:] ** 2).sum(axis=2) - (corners[:, :1] ** 2).sum(axis=2)
+    centre = np.linalg.solve(a, b[..., None])[..., 0]
+    return np.linalg.norm(centre - corners[:, 0], axis=1)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_quality_arrays_match_independent_formulas(seed):
+    points, tets = _cells(seed)
+    quality = tet_quality(points, tets)
+    dihedral = dihedral_angles(points, tets)
+    np.testing.assert_allclose(quality["min_dihedral_angle"], dihedral.min(axis=1), atol=1e-9)
+    np.testing.assert_allclose(quality["max_dihedral_angle"], dihedral.max(axis=1), atol=1e-9)
+    volume = signed_volumes(points, tets)
+    np.testing.assert_allclose(quality["volume"], volume, rtol=1e-12, atol=1e-15)
+    corners = points[tets]
+    regular = np.abs(volume) > 1e-6
+    faces = corners[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]]
+    areas = 0.5 * np.linalg.norm(np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0]), axis=2)
+    inradius = 3.0 * np.abs(volume) / areas.sum(axis=1)
+    expected = np.sign(volume[regular]) * 3.0 * inradius[regular] / _circumradius(corners[regular])
+    np.testing.assert_allclose(quality["radius_ratio"][regular], expected, rtol=1e-8)
+    edges = corners[:, [1, 2, 3, 2, 3, 3]] - corners[:, [0, 0, 0, 1, 1, 2]]
+    l_rms = np.sqrt((edges**2).sum(axis=2).mean(axis=1))
+    np.testing.assert_allclose(quality["volume_edge_ratio"], 6 * np.sqrt(2) * volume / l_rms**3, rtol=1e-10, atol=1e-15)
+    np.testing.assert_allclose(volume_edge_ratios(points, tets), quality["volume_edge_ratio"], rtol=1e-12, atol=1e-15)
+    # the flat cell and the cell with a repeated corner: zero volume and ratios, finite angles
+    assert quality["volume"][:2].tolist() == [0.0, 0.0] and quality["radius_ratio"][:2].tolist() == [0.0, 0.0]
+    assert np.isfinite(quality_arrays(points, tets)).all()
+
+
+def test_regular_tetrahedron_scores_one():
+    p = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    q = tet_quality(p, [[0, 2, 1, 3]])
+    assert q["radius_ratio"][0] == pytest.approx(1.0, abs=1e-12)
+    assert q["volume_edge_ratio"][0] == pytest.approx(1.0, abs=1e-12)
+    assert q["min_dihedral_angle"][0] == pytest.approx(np.degrees(np.arccos(1 / 3)), abs=1e-9)
+    assert tet_quality(p, np.zeros((0, 4), int))["volume"].shape == (0,)
+
+
+def test_packed_face_keys_ignore_vertex_order():
+    rng = np.random.default_rng(3)
+    tets = rng.integers(0, 1000, size=(500, 4))
+    keys = packed_face_keys(tets, 1000)
+    faces = np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)
+    assert (keys == (faces[:, 0] * 1000 + faces[:, 1]) * 1000 + faces[:, 2]).all()
+    assert (packed_face_keys(tets[:, [3, 1, 2, 0]], 1000).reshape(-1, 4)[:, [3, 1, 2, 0]].ravel() == keys).all()
