@@ -78,9 +78,11 @@ def _squared_to(px, py, pz, tri, scratch):
 
 
 @njit(cache=True, nogil=True)
-def closest_points(points, lower, upper, triangles, width, leaf_start, squared, face, closest, region):
+def closest_points(points, lower, upper, triangles, spheres, width, leaf_start, squared, face, closest, region):
     """For each point: the squared distance to the nearest triangle, its index (in tree order),
-    the closest point and its region. Fills the output arrays."""
+    the closest point and its region. Fills the output arrays. ``spheres`` (F, 4) bound each
+    triangle (centre, radius): a triangle whose sphere is already farther than the best is
+    skipped without the closest-point computation."""
     stack = np.empty(_STACK, dtype=np.int64)
     bounds = np.empty(_STACK)  # each stacked node's box distance, computed when it was pushed
     scratch = np.empty(3)
@@ -101,6 +103,10 @@ def closest_points(points, lower, upper, triangles, width, leaf_start, squared, 
             node = stack[top]
             if node >= width:
                 for t in range(leaf_start[node - width], leaf_start[node - width + 1]):
+                    sx, sy, sz = px - spheres[t, 0], py - spheres[t, 1], pz - spheres[t, 2]
+                    gap = np.sqrt(sx * sx + sy * sy + sz * sz) - spheres[t, 3]
+                    if gap > 0.0 and gap * gap >= best:
+                        continue
                     d, r = _squared_to(px, py, pz, triangles[t], scratch)
                     if d < best:
                         best, best_face, best_region = d, t, r

@@ -101,6 +101,10 @@ class TriangleTree:
         order = _median_split_order(corners.mean(axis=1), boundaries, depth)
         self.order = order.astype(np.int64)
         self.triangles = np.ascontiguousarray(corners[order])
+        centres = self.triangles.mean(axis=1)
+        radii = np.linalg.norm(self.triangles - centres[:, None, :], axis=2).max(axis=1)
+        # rounding: a sphere a hair too small must not skip the nearest triangle
+        self.spheres = np.ascontiguousarray(np.column_stack([centres, radii * (1 + 1e-12) + 1e-300]))
         box_lower = np.full((2 * width, 3), np.inf)
         box_upper = np.full((2 * width, 3), -np.inf)
         starts = boundaries[:-1]
@@ -142,6 +146,6 @@ class TriangleTree:
         closest = np.empty((count, 3))
         region = np.empty(count, dtype=np.int8)
         if count:
-            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.width, self.leaf_start,
+            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.spheres, self.width, self.leaf_start,
                            squared, face, closest, region)
         return squared, self.order[face], closest, region
