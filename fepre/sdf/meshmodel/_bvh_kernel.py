@@ -131,3 +131,19 @@ def closest_points(points, lower, upper, triangles, spheres, width, leaf_start, 
         closest[q, 0], closest[q, 1], closest[q, 2] = bx, by, bz
         region[q] = best_region
         previous = best_face
+
+
+@njit(cache=True, nogil=True)
+def morton_codes(points, lower, scale, out):
+    """30-bit Z-order codes (10 bits per axis) of ``points``: cell ``(p - lower) * scale``."""
+    for q in range(points.shape[0]):
+        code = 0
+        for axis in range(3):
+            v = int((points[q, axis] - lower[axis]) * scale)
+            v = min(max(v, 0), 1023)
+            v = (v | (v << 16)) & 0x030000FF
+            v = (v | (v << 8)) & 0x0300F00F
+            v = (v | (v << 4)) & 0x030C30C3
+            v = (v | (v << 2)) & 0x09249249
+            code |= v << axis
+        out[q] = code
