@@ -138,8 +138,6 @@ def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
 
 def material_checks(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> tuple[list[LostRegion], list[LostRegion]]:
     """:func:`lost_material` and :func:`added_material` from one sampled grid."""
-    if len(tets) == 0:
-        return [], []
     sampled = _sampled(model, points, tets, h)
     return (
         _uncovered_regions(model, points, tets, h, False, size, sampled),
@@ -155,8 +153,6 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     further from a curved face than ``h`` allows."""
     from scipy import ndimage
 
-    if len(tets) == 0:
-        return []
     if sampled is None:
         sampled = _sampled(model, points, tets, h)
     values, band, step, origin = sampled.values, sampled.band, sampled.step, sampled.origin

@@ -78,9 +78,11 @@ def _squared_to(px, py, pz, tri, scratch):
 
 
 @njit(cache=True, nogil=True)
-def closest_points(points, lower, upper, triangles, width, leaf_start, squared, face, closest, region):
+def closest_points(points, lower, upper, triangles, spheres, width, leaf_start, squared, face, closest, region):
     """For each point: the squared distance to the nearest triangle, its index (in tree order),
-    the closest point and its region. Fills the output arrays."""
+    the closest point and its region. Fills the output arrays. ``spheres`` (F, 4) bound each
+    triangle (centre, radius): a triangle whose sphere is already farther than the best is
+    skipped without the closest-point computation."""
     stack = np.empty(_STACK, dtype=np.int64)
     bounds = np.empty(_STACK)  # each stacked node's box distance, computed when it was pushed
     scratch = np.empty(3)
@@ -101,6 +103,10 @@ def closest_points(points, lower, upper, triangles, width, leaf_start, squared, 
             node = stack[top]
             if node >= width:
                 for t in range(leaf_start[node - width], leaf_start[node - width + 1]):
+                    sx, sy, sz = px - spheres[t, 0], py - spheres[t, 1], pz - spheres[t, 2]
+                    gap = np.sqrt(sx * sx + sy * sy + sz * sz) - spheres[t, 3]
+                    if gap > 0.0 and gap * gap >= best:
+                        continue
                     d, r = _squared_to(px, py, pz, triangles[t], scratch)
                     if d < best:
                         best, best_face, best_region = d, t, r
@@ -125,3 +131,19 @@ def closest_points(points, lower, upper, triangles, width, leaf_start, squared, 
         closest[q, 0], closest[q, 1], closest[q, 2] = bx, by, bz
         region[q] = best_region
         previous = best_face
+
+
+@njit(cache=True, nogil=True)
+def morton_codes(points, lower, scale, out):
+    """30-bit Z-order codes (10 bits per axis) of ``points``: cell ``(p - lower) * scale``."""
+    for q in range(points.shape[0]):
+        code = 0
+        for axis in range(3):
+            v = int((points[q, axis] - lower[axis]) * scale)
+            v = min(max(v, 0), 1023)
+            v = (v | (v << 16)) & 0x030000FF
+            v = (v | (v << 8)) & 0x0300F00F
+            v = (v | (v << 4)) & 0x030C30C3
+            v = (v | (v << 2)) & 0x09249249
+            code |= v << axis
+        out[q] = code

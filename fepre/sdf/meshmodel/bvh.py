@@ -55,18 +55,13 @@ SORT_QUERIES = 2048
 
 def _z_order(points: np.ndarray) -> np.ndarray:
     """Order of points along a Z-order (Morton) curve of 10 bits per axis."""
+    from ._bvh_kernel import morton_codes
+
     lower = points.min(axis=0)
     extent = max(float((points.max(axis=0) - lower).max()), 1e-300)
-    cells = np.clip(((points - lower) / extent * 1023.0).astype(np.int64), 0, 1023).astype(np.uint32)
-    code = np.zeros(len(points), dtype=np.uint32)
-    for axis in range(3):
-        v = cells[:, axis]
-        v = (v | (v << np.uint32(16))) & np.uint32(0x030000FF)
-        v = (v | (v << np.uint32(8))) & np.uint32(0x0300F00F)
-        v = (v | (v << np.uint32(4))) & np.uint32(0x030C30C3)
-        v = (v | (v << np.uint32(2))) & np.uint32(0x09249249)
-        code |= v << np.uint32(axis)
-    return np.argsort(code, kind="stable")
+    code = np.empty(len(points), dtype=np.int64)
+    morton_codes(points, lower, 1023.0 / extent, code)
+    return np.argsort(code.astype(np.uint32), kind="quicksort")
 
 
 class TriangleTree:
@@ -101,6 +96,10 @@ class TriangleTree:
         order = _median_split_order(corners.mean(axis=1), boundaries, depth)
         self.order = order.astype(np.int64)
         self.triangles = np.ascontiguousarray(corners[order])
+        centres = self.triangles.mean(axis=1)
+        radii = np.linalg.norm(self.triangles - centres[:, None, :], axis=2).max(axis=1)
+        # rounding: a sphere a hair too small must not skip the nearest triangle
+        self.spheres = np.ascontiguousarray(np.column_stack([centres, radii * (1 + 1e-12) + 1e-300]))
         box_lower = np.full((2 * width, 3), np.inf)
         box_upper = np.full((2 * width, 3), -np.inf)
         starts = boundaries[:-1]
@@ -142,6 +141,6 @@ class TriangleTree:
         closest = np.empty((count, 3))
         region = np.empty(count, dtype=np.int8)
         if count:
-            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.width, self.leaf_start,
+            closest_points(points, self.box_lower, self.box_upper, self.triangles, self.spheres, self.width, self.leaf_start,
                            squared, face, closest, region)
         return squared, self.order[face], closest, region
