@@ -182,3 +182,19 @@ def test_project_warns_when_points_stay_off_the_surface():
         warnings.simplefilter("error")
         assert np.abs(sdf.sphere(1.0)(sdf.sphere(1.0).project(points))).max() < 1e-12
         part.project(points, warn=False)
+
+
+@pytest.mark.parametrize(
+    "model",
+    [sdf.box((2, 2, 1)), sdf.cylinder(1.0, 2.0), sdf.box(1.0) & sdf.gyroid(1.0, 0.1),
+     sdf.sphere(1.0) - sdf.box(0.5), sdf.torus(1.0, 0.2).translate((1, 0, 0))],
+    ids=["box", "cylinder", "gyroid-infill", "difference", "torus"],
+)
+def test_no_points_give_no_values(model):
+    """An empty (0, 3) array evaluates to empty results (the box's sign test reduced over an
+    empty block and raised inside numpy)."""
+    empty = np.zeros((0, 3))
+    assert model(empty).shape == (0,)
+    values, gradients = model.value_and_gradient(empty)
+    assert values.shape == (0,) and gradients.shape == (0, 3)
+    assert model.project(empty).shape == (0, 3)

@@ -250,6 +250,8 @@ class SDF:
         count = array.shape[0]
         shape = (count,) if width == 0 else (count, width)
         out = np.empty(shape, dtype=np.float64)
+        if count == 0:  # kernels reduce over their block (a box's sign test): nothing to evaluate
+            return out
         chunk = max(1024, int(config.chunk_points))
         if count <= chunk:
             out[...] = kernel(array)
