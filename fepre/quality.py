@@ -23,7 +23,6 @@ METRICS = ("min_dihedral_angle", "max_dihedral_angle", "radius_ratio", "volume_e
 # face opposite vertex k (outward for a positive tet), and the two faces meeting at each edge
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 _EDGE_FACES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])  # edges 01 02 03 12 13 23
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 def _check(points: Any, tets: Any) -> tuple[np.ndarray, np.ndarray]:

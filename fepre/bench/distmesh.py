@@ -51,9 +51,10 @@ def _pytetwild(h: float):
     return pytetwild.tetrahedralize_pv(surface, edge_length_abs=h, quiet=True)
 
 
-def _gmsh(h: float):
+def gmsh_sphere(h: float, options: dict) -> tuple[np.ndarray, np.ndarray]:
+    """gmsh's tetrahedral mesh of the unit sphere (OpenCASCADE) at size ``h`` with gmsh
+    ``options``: points (N, 3) and cells (M, 4)."""
     import gmsh
-    import pyvista as pv
 
     gmsh.initialize(readConfigFiles=False)
     try:
@@ -63,7 +64,7 @@ def _gmsh(h: float):
         gmsh.model.occ.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMin", h)
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        for name, value in GMSH_OPTIONS.items():
+        for name, value in options.items():
             gmsh.option.setNumber(name, value)
         gmsh.model.mesh.generate(3)
         tags, coords, _ = gmsh.model.mesh.getNodes()
@@ -71,11 +72,17 @@ def _gmsh(h: float):
         points = np.asarray(coords).reshape(-1, 3)
         index = np.empty(int(tags.max()) + 1, np.int64)
         index[tags.astype(np.int64)] = np.arange(len(tags))
-        tets = index[np.asarray(nodes[0], np.int64).reshape(-1, 4)]
+        return points, index[np.asarray(nodes[0], np.int64).reshape(-1, 4)]
     finally:
         gmsh.finalize()
+
+
+def _gmsh(h: float):
+    import pyvista as pv
+
     from ..quality import add_quality
 
+    points, tets = gmsh_sphere(h, GMSH_OPTIONS)
     return add_quality(pv.UnstructuredGrid({pv.CellType.TETRA: tets}, points))
 
 

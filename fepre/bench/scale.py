@@ -86,30 +86,11 @@ def _child(kind: str, part: str, h: float) -> dict:
 
 
 def _gmsh_sphere(h: float, netgen: bool) -> tuple[int, int, float, float]:
-    import gmsh
-
     from ..quality import tet_quality
+    from .distmesh import gmsh_sphere
 
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("sphere")
-        gmsh.model.occ.addSphere(0, 0, 0, 1.0)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
-        gmsh.option.setNumber("Mesh.Optimize", 1)
-        gmsh.option.setNumber("Mesh.OptimizeNetgen", int(netgen))
-        gmsh.model.mesh.generate(3)
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        _, _, nodes = gmsh.model.mesh.getElements(3)
-        points = np.asarray(coords).reshape(-1, 3)
-        index = np.empty(int(tags.max()) + 1, np.int64)
-        index[tags.astype(np.int64)] = np.arange(len(tags))
-        tets = index[np.asarray(nodes[0], np.int64).reshape(-1, 4)]
-    finally:
-        gmsh.finalize()
+    options = {"Mesh.Algorithm3D": 1, "Mesh.Optimize": 1, "Mesh.OptimizeNetgen": int(netgen)}
+    points, tets = gmsh_sphere(h, options)
     quality = tet_quality(points, tets)
     return len(tets), len(points), float(np.abs(quality["min_dihedral_angle"]).min()), float(np.abs(quality["radius_ratio"]).min())
 

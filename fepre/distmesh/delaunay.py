@@ -8,7 +8,6 @@ import numpy as np
 
 from ..errors import MeshingError
 from .._cell_kernels import canonical_cells
-from ..quality import signed_volumes
 
 __all__ = ["tetrahedralize", "gmsh_available"]
 
@@ -107,6 +106,7 @@ def tetrahedralize(
 
     Examples
     --------
+    >>> from fepre.quality import signed_volumes
     >>> cube = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
     >>> tets = tetrahedralize(cube)
     >>> bool((signed_volumes(cube, tets) > 0).all()), round(float(signed_volumes(cube, tets).sum()), 9)
