@@ -197,3 +197,75 @@ def test_layout_merges_a_short_last_chunk():
     layout = ChunkLayout.of((35, 16, 8), (16, 16, 16))
     assert layout.sizes == ((16, 19), (16,), (8,))
     assert sum(1 for _ in layout) == layout.n_chunks == 2
+
+
+def test_docstring_examples_run():
+    import doctest
+    import importlib
+
+    names = ["fepre.chunked", "fepre.chunked.layout", "fepre.chunked.grid", "fepre.chunked.api", "fepre.chunked.cluster",
+             "fepre.surface.dual_cells", "fepre.surface.qef", "fepre.surface.dual_contouring", "fepre.sampling"]
+    for name in names:
+        result = doctest.testmod(importlib.import_module(name))
+        assert result.failed == 0, name
+
+
+def _model_file(tmp_path):
+    path = tmp_path / "part.py"
+    path.write_text(
+        "from fepre import sdf\n"
+        "model = sdf.infill(sdf.box((4, 4, 2)) - sdf.cylinder(0.8, 3), sdf.gyroid(2.0, 0.3), wall=0.4)\n"
+    )
+    return path
+
+
+def test_cli_samples_to_zarr_and_streams_the_surface(tmp_path, capsys):
+    import pyvista as pv
+
+    from fepre.cli import main
+
+    part = _model_file(tmp_path)
+    store = tmp_path / "grid.zarr"
+    assert main(["sample", str(part), "-o", str(store), "--spacing", "0.1", "--chunks", "24", "--band", "0.3", "--quiet"]) == 0
+    assert open_grid(store).band == pytest.approx(0.3)
+    assert main(["sample", str(part), "-o", str(store), "--spacing", "0.1", "--chunks", "24"]) == 1
+    assert "already exists; pass --overwrite" in capsys.readouterr().err
+    stl = tmp_path / "part.stl"
+    assert main(["surface", str(store), "-o", str(stl), "--method", "surface_nets"]) == 0
+    out = capsys.readouterr().out
+    assert "closed and manifold" in out
+    count = int(out.split("streamed surface: ")[1].split()[0])
+    whole = fepre.isosurface(fepre.modelfile.load_model(part).model, spacing=0.1, method="surface_nets")
+    assert pv.read(stl).n_cells == count == whole.n_cells
+    vtp = tmp_path / "part.vtp"
+    assert main(["surface", str(part), "-o", str(vtp), "--spacing", "0.1", "--chunks", "16", "24", "32", "--quiet"]) == 0
+    assert pv.read(vtp).n_cells == fepre.isosurface(fepre.modelfile.load_model(part).model, spacing=0.1).n_cells
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--chunks", "4"], "--chunks must be at least 8"),
+        (["--chunks", "16", "16"], "--chunks takes one number or three"),
+        (["--band", "0.2"], "--band applies with --chunks"),
+    ],
+)
+def test_cli_bad_chunk_flags(tmp_path, capsys, args, message):
+    from fepre.cli import main
+
+    part = _model_file(tmp_path)
+    assert main(["surface", str(part), "-o", str(tmp_path / "s.stl"), "--spacing", "0.2", *args]) == 1
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "s.stl").exists()
+
+
+def test_cli_sample_flags_checked(tmp_path, capsys):
+    from fepre.cli import main
+
+    part = _model_file(tmp_path)
+    assert main(["sample", str(part), "-o", str(tmp_path / "g.zarr")]) == 1
+    assert "--output .zarr needs --chunks" in capsys.readouterr().err
+    assert main(["sample", str(part), "-o", str(tmp_path / "g.vti"), "--chunks", "16"]) == 1
+    assert "--chunks writes a .zarr store" in capsys.readouterr().err
+    assert main(["sample", str(part), "-o", str(tmp_path / "g.vti"), "--spacing", "0.2", "--quiet"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.vti", "part.py"]

@@ -14,7 +14,7 @@ Examples
 >>> from fepre import sdf
 >>> whole = fepre.isosurface(sdf.torus(1.0, 0.3), spacing=0.05, method="surface_nets")
 >>> chunked = fepre.isosurface(sdf.torus(1.0, 0.3), spacing=0.05, method="surface_nets", chunks=16)
->>> bool((whole.points == chunked.points).all()) and (whole.regular_faces == chunked.regular_faces).all()
+>>> bool((whole.points == chunked.points).all() and (whole.regular_faces == chunked.regular_faces).all())
 True
 """
 

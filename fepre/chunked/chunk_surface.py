@@ -12,8 +12,8 @@ gives exactly the single-grid extraction's vertex and triangle order:
 
 - case-table methods: vertex ``family * N + edge start``, triangle ``cell`` (stable);
 - dual methods: vertex ``cell * 64 + piece``, triangle ``(3 * half + axis) * N + edge start``;
-- flying edges (VTK numbers its output itself): vertex ``axis * N + edge start`` recovered from
-  the coordinates, or ``7 * N + node`` for a crossing on a node; no order key.
+- flying edges: as marching cubes (VTK's triangles are marching cubes'; its float32 coordinates
+  are reproduced), no order key (VTK numbers its output itself).
 
 ``N`` is the grid's node count. Identical keys are identical vertices, so stitching chunks is a
 sort, not a search by position.
@@ -26,10 +26,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ChunkSurface", "extract_chunk", "NODE_FAMILY"]
+__all__ = ["ChunkSurface", "extract_chunk"]
 
-#: family of a flying-edges vertex that lies exactly on a grid node
-NODE_FAMILY = 7
 _PIECES = 64
 
 
@@ -172,30 +170,24 @@ def _flying_edges_chunk(
     counts: np.ndarray,
     on_level: bool,
 ) -> ChunkSurface:
-    """VTK's flying edges on one chunk, placed as the whole grid places it (origin at the grid's)."""
-    import pyvista as pv
+    """Flying edges' surface on one chunk: its triangles are marching cubes' (the same case table
+    and tie rule, one vertex per crossing edge) and its coordinates are computed as VTK computes
+    them: the crossing in node indices rounded to float32, scaled by the spacing and rounded to
+    float32 again, then placed at the grid's origin in float64 (as :func:`flying_edges` does).
+    The tests check the result against VTK's own output on the whole grid."""
+    from ..surface.marching_cubes import marching_cubes
 
-    from ..surface.flying_edges import flying_edges
-
+    _, triangles, (edge, family, cell) = marching_cubes(cells, level, origin, spacing, 1, first_node=lo, keys=True)
     nz, ny, nx = cells.shape
-    grid = pv.ImageData(dimensions=(nx, ny, nz), spacing=tuple(spacing), origin=(0.0, 0.0, 0.0))
-    grid.point_data["sdf"] = cells.reshape(-1)
-    raw, triangles = flying_edges(grid, "sdf", level, 1, first_node=lo)  # VTK's float32 values
-    if raw.shape[0] == 0:
-        return ChunkSurface.empty(on_level)
-    units = raw / spacing
-    nearest = np.rint(units)
-    off = np.abs(units - nearest)
-    axis = np.argmax(off, axis=1)
-    # a crossing on a node (value exactly at the level) has all three coordinates on grid
-    # planes, to one float32 rounding of VTK's
-    ulp = np.spacing(np.abs(raw).astype(np.float32)).astype(np.float64)
-    at_node = np.all(np.abs(raw - nearest * spacing) <= ulp, axis=1)
-    node = nearest.astype(np.int64)
-    start = node.copy()
-    rows = np.flatnonzero(~at_node)
-    start[rows, axis[rows]] = np.floor(units[rows, axis[rows]]).astype(np.int64)
-    ids = (start[:, 2] * counts[1] + start[:, 1]) * counts[0] + start[:, 0]
-    family = np.where(at_node, NODE_FAMILY, axis)
-    keys = family * int(np.prod(counts)) + ids
-    return ChunkSurface(keys, raw + origin, triangles, None, on_level)
+    k, rest = np.divmod(edge, nx * ny)
+    j, i = np.divmod(rest, nx)
+    index = np.stack([i + lo[0], j + lo[1], k + lo[2]], axis=1).astype(np.float64)
+    flat = cells.reshape(-1)
+    stride = np.array([1, nx, nx * ny])[family]
+    start = flat[edge].astype(np.float64)
+    t = (level - start) / (flat[edge + stride].astype(np.float64) - start)
+    index[np.arange(index.shape[0]), family] += t
+    scaled = (spacing * index.astype(np.float32).astype(np.float64)).astype(np.float32)
+    points = scaled.astype(np.float64) + origin
+    keys = family * int(np.prod(counts)) + _global_ids(edge, cells.shape, lo, counts)
+    return ChunkSurface(keys, points, triangles, None, on_level)

@@ -25,13 +25,8 @@ def use_smp_threads(workers: int | None = None) -> int:
     return workers
 
 
-def flying_edges(
-    grid, scalars: str, level: float, workers: int | None = None, *, first_node: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def flying_edges(grid, scalars: str, level: float, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Points (V, 3) and outward triangles (T, 3) from vtkFlyingEdges3D on ``grid[scalars]``.
-
-    ``first_node``: the grid is a chunk of a larger one with the same origin, starting at that
-    node (i, j, k); VTK then computes (in float32) the coordinates the whole grid would give.
 
     Examples
     --------
@@ -55,12 +50,6 @@ def flying_edges(
     local.ShallowCopy(grid)
     origin = np.array(grid.GetOrigin(), dtype=np.float64)
     local.SetOrigin(0.0, 0.0, 0.0)
-    if first_node is not None:
-        # VTK interpolates in node indices (from the extent's start), then scales by the spacing:
-        # a chunk whose extent starts at its first node computes the whole grid's coordinates
-        first = [int(v) for v in first_node]
-        dims = grid.GetDimensions()
-        local.SetExtent(*(v for a in range(3) for v in (first[a], first[a] + dims[a] - 1)))
     fe = vtkFlyingEdges3D()
     fe.SetInputData(local)
     fe.SetInputArrayToProcess(0, 0, 0, vtkDataObject.FIELD_ASSOCIATION_POINTS, scalars)
