@@ -13,7 +13,7 @@ from ..sdf.core import SDF
 from .cluster import check_picklable, needs_pickling, require_dask
 from .grid import ChunkedGrid
 from .layout import ChunkLayout, as_chunks
-from .surface import StreamedSurface, chunk_tasks, stream_stl, surface_in_memory
+from .surface import StreamedSurface, chunk_tasks, file_pieces, stream_stl, surface_in_memory
 
 __all__ = ["isosurface_chunked", "write_isosurface"]
 
@@ -186,11 +186,9 @@ def write_isosurface(
     window = positive_int(window, "window")
     tasks = chunk_tasks(
         source, method=method, level=level, layout=layout, origin=origin, step=step, band=band, dtype=dtype,
-        model=model,
+        model=model, named=False,
     )
-    return stream_stl(
-        tasks, path, method=method, origin=origin, spacing=step, counts=np.array(layout.counts), window=window, log=log
-    )
+    return stream_stl(file_pieces(tasks, method, origin, step), path, window=window, log=log)
 
 
 def _dask_workers() -> int:

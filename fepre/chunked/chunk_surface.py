@@ -95,6 +95,7 @@ def extract_chunk(
     spacing: np.ndarray,
     counts: np.ndarray,
     model: Any = None,
+    named: bool = True,
 ) -> ChunkSurface:
     """The owned part of the ``level`` set in one chunk.
 
@@ -110,6 +111,9 @@ def extract_chunk(
         The whole grid's geometry.
     model : fepre.sdf.SDF, optional
         For dual contouring: the model the samples came from.
+    named : bool
+        Flying edges only: name the vertices (False when only the triangles' corners are
+        wanted, as in a streamed file; the keys are then empty).
     """
     from ..surface.grid_scan import inside_threshold
 
@@ -131,7 +135,7 @@ def extract_chunk(
         start = lo - read_lo
         cells = values[start[2] : stop[2], start[1] : stop[1], start[0] : stop[0]]
         if method == "flying_edges":
-            return _flying_edges_chunk(cells, lo, level, origin, spacing, counts, on_level)
+            return _flying_edges_chunk(cells, lo, level, origin, spacing, counts, on_level, named)
         from ..surface.marching_cubes import marching_cubes
         from ..surface.marching_tetrahedra import marching_tetrahedra
 
@@ -169,25 +173,120 @@ def _flying_edges_chunk(
     spacing: np.ndarray,
     counts: np.ndarray,
     on_level: bool,
+    named: bool,
 ) -> ChunkSurface:
-    """Flying edges' surface on one chunk: its triangles are marching cubes' (the same case table
-    and tie rule, one vertex per crossing edge) and its coordinates are computed as VTK computes
-    them: the crossing in node indices rounded to float32, scaled by the spacing and rounded to
-    float32 again, then placed at the grid's origin in float64 (as :func:`flying_edges` does).
-    The tests check the result against VTK's own output on the whole grid."""
-    from ..surface.marching_cubes import marching_cubes
+    """VTK's flying edges on one chunk; the vertices on its faces named by their crossing edges.
 
-    _, triangles, (edge, family, cell) = marching_cubes(cells, level, origin, spacing, 1, first_node=lo, keys=True)
+    VTK computes a crossing in node indices (from the extent's first node) rounded to float32,
+    scales it by the spacing and rounds to float32 again; the chunk is given the extent of its
+    place in the whole grid, so its coordinates are the whole grid's. Only vertices on a face
+    shared with another chunk need a whole-grid name: each crossing edge of the two node planes
+    at such a face (from a grid scan of them) gets the coordinates VTK gives it, and each face
+    vertex takes the key of the edge with its coordinates (crossings that round to one float32
+    point, at a node exactly on the level, take the smallest of their keys: one vertex, as the
+    single-grid weld makes them). The other vertices are the chunk's own: negative keys made
+    from the chunk's first node and their index.
+    """
+    import pyvista as pv
+
+    from ..surface.flying_edges import flying_edges
+
     nz, ny, nx = cells.shape
-    k, rest = np.divmod(edge, nx * ny)
-    j, i = np.divmod(rest, nx)
-    index = np.stack([i + lo[0], j + lo[1], k + lo[2]], axis=1).astype(np.float64)
-    flat = cells.reshape(-1)
-    stride = np.array([1, nx, nx * ny])[family]
-    start = flat[edge].astype(np.float64)
-    t = (level - start) / (flat[edge + stride].astype(np.float64) - start)
-    index[np.arange(index.shape[0]), family] += t
-    scaled = (spacing * index.astype(np.float32).astype(np.float64)).astype(np.float32)
-    points = scaled.astype(np.float64) + origin
-    keys = family * int(np.prod(counts)) + _global_ids(edge, cells.shape, lo, counts)
-    return ChunkSurface(keys, points, triangles, None, on_level)
+    grid = pv.ImageData(dimensions=(nx, ny, nz), spacing=tuple(spacing))
+    grid.SetExtent(int(lo[0]), int(lo[0]) + nx - 1, int(lo[1]), int(lo[1]) + ny - 1, int(lo[2]), int(lo[2]) + nz - 1)
+    grid.point_data["sdf"] = cells.reshape(-1)
+    raw, triangles = flying_edges(grid, "sdf", level, 1)  # about the origin: VTK's float32 values
+    if raw.shape[0] == 0:
+        return ChunkSurface.empty(on_level)
+    if not named:
+        return ChunkSurface(np.empty(0, dtype=np.int64), raw + origin, triangles, None, on_level)
+    written = raw.astype(np.float32)
+    size = np.array([nx, ny, nz])
+    seam = np.zeros(raw.shape[0], dtype=bool)
+    planes = []  # (axis, local node plane) of every face shared with another chunk
+    for axis in range(3):
+        if lo[axis] > 0:
+            planes.append((axis, 0))
+        if lo[axis] + size[axis] - 1 < counts[axis] - 1:
+            planes.append((axis, size[axis] - 1))
+    for axis, plane in planes:
+        seam |= written[:, axis] == np.float32(spacing[axis] * np.float32(lo[axis] + plane))
+    keys = -(_global_ids(np.zeros(1, dtype=np.int64), cells.shape, lo, counts)[0] << np.int64(28)) - 1 - np.arange(raw.shape[0])
+    if seam.any():
+        edge_keys, expected = _face_crossings(cells, lo, level, spacing, counts, planes)
+        keys[seam] = _keys_of_points(edge_keys, expected, written[seam])
+    return ChunkSurface(keys, raw + origin, triangles, None, on_level)
+
+
+def _face_crossings(cells, lo, level, spacing, counts, planes) -> tuple[np.ndarray, np.ndarray]:
+    """Keys and VTK coordinates (float32) of the crossing edges in the two node planes at each
+    shared face (in-plane edges, and edges across whose crossing may round onto the face)."""
+    from ..surface.grid_scan import AXIS_DIRECTIONS, scan_grid
+
+    total = int(np.prod(counts))
+    all_keys, all_points = [], []
+    for axis, plane in planes:
+        first = max(0, plane - 1)
+        block = np.take(cells, np.arange(first, first + 2), axis=2 - axis)
+        start = lo.copy()
+        start[axis] += first
+        scan = scan_grid(np.ascontiguousarray(block), level, AXIS_DIRECTIONS, 1)
+        edge = np.concatenate(scan.edges)
+        family = np.repeat(np.arange(3), [e.size for e in scan.edges])
+        bz, by, bx = block.shape
+        k, rest = np.divmod(edge, bx * by)
+        j, i = np.divmod(rest, bx)
+        index = np.stack([i + start[0], j + start[1], k + start[2]], axis=1).astype(np.float64)
+        flat = block.reshape(-1)
+        stride = np.array([1, bx, bx * by])[family]
+        value = flat[edge].astype(np.float64)
+        index[np.arange(index.shape[0]), family] += (level - value) / (flat[edge + stride].astype(np.float64) - value)
+        all_points.append((spacing * index.astype(np.float32).astype(np.float64)).astype(np.float32))
+        all_keys.append(family * total + _global_ids(edge, block.shape, start, counts))
+    return np.concatenate(all_keys), np.concatenate(all_points)
+
+
+def _keys_of_points(keys: np.ndarray, points: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """For each float32 point of ``wanted``, the smallest key among ``keys`` whose ``points`` are
+    that point (bit for bit)."""
+    known, asked = points.view(np.uint32), wanted.view(np.uint32)
+    hashed = row_hash(known)
+    order = np.lexsort((keys, hashed))
+    ordered = hashed[order]
+    fresh = np.r_[True, ordered[1:] != ordered[:-1]]
+    group = np.cumsum(fresh) - 1
+    table, table_keys, table_rows = ordered[fresh], keys[order][fresh], known[order][fresh]
+    where = np.minimum(np.searchsorted(table, row_hash(asked)), table.size - 1)
+    if np.array_equal(table_rows[group], known[order]) and np.array_equal(table_rows[where], asked):
+        return table_keys[where]
+    # a 64-bit hash collision (or a vertex with no edge): match the rows themselves
+    order = np.lexsort((keys, *known.T[::-1]))  # pragma: no cover
+    first = np.r_[True, np.any(known[order][1:] != known[order][:-1], axis=1)]  # pragma: no cover
+    where = _row_search(known[order][first], asked)  # pragma: no cover
+    if np.any(where < 0):  # pragma: no cover
+        raise RuntimeError("flying edges: a vertex on a chunk face matches no crossing edge of the face")
+    return keys[order][first][where]  # pragma: no cover
+
+
+def row_hash(rows: np.ndarray) -> np.ndarray:
+    """A 64-bit hash of each row of an (n, 3) uint32 array (callers check for collisions)."""
+    wide = rows.astype(np.uint64)
+    with np.errstate(over="ignore"):
+        hashed = (wide[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (wide[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F))
+        hashed ^= wide[:, 2] * np.uint64(0x165667B19E3779F9) + (hashed >> np.uint64(29))
+    return hashed
+
+
+def _row_search(table: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Index in ``table`` (sorted lexicographically by x, then y, then z columns) of each row of
+    ``rows``, or -1."""
+    combined = np.concatenate([table, rows])
+    order = np.lexsort(combined.T[::-1])
+    ordered = combined[order]
+    group = np.cumsum(np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]) - 1
+    owner = np.full(group[-1] + 1, -1, dtype=np.int64)
+    is_table = order < len(table)
+    owner[group[is_table]] = order[is_table]
+    result = np.empty(len(rows), dtype=np.int64)
+    result[order[~is_table] - len(table)] = owner[group[~is_table]]
+    return result

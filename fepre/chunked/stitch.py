@@ -15,7 +15,7 @@ def stitch(pieces: Sequence[ChunkSurface]) -> tuple[np.ndarray, np.ndarray, bool
     """Points, triangles, whether any node is on the level, and the largest seam mismatch.
 
     Vertices with the same key are one vertex (its coordinates taken from the first chunk that
-    has it); the mismatch is the largest distance between two chunks' copies of a vertex (zero
+    has it); negative keys are a chunk's own vertices, kept as they are (after the others); the mismatch is the largest distance between two chunks' copies of a vertex (zero
     but for flying edges, whose float32 coordinates may differ in the last bit). Vertices come
     sorted by key and triangles by order key (stable), which for fepre's own methods is the
     single-grid extraction's order.
@@ -28,11 +28,16 @@ def stitch(pieces: Sequence[ChunkSurface]) -> tuple[np.ndarray, np.ndarray, bool
     points = np.concatenate([p.points for p in pieces])
     shift = np.cumsum([0] + [p.keys.size for p in pieces[:-1]])
     triangles = np.concatenate([p.triangles + s for p, s in zip(pieces, shift)])
-    unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    merged = points[first]
-    mismatch = float(np.max(np.abs(merged[inverse] - points))) if points.size else 0.0
-    triangles = inverse[triangles]
+    shared = keys >= 0  # negative keys name a chunk's own vertices: no other chunk has them
+    unique, first, inverse = np.unique(keys[shared], return_index=True, return_inverse=True)
+    rows = np.flatnonzero(shared)
+    own = np.flatnonzero(~shared)
+    index = np.empty(keys.size, dtype=np.int64)
+    index[rows] = inverse.ravel()
+    index[own] = unique.size + np.arange(own.size)
+    merged = np.concatenate([points[rows[first]], points[own]])
+    mismatch = float(np.max(np.abs(merged[index[rows]] - points[rows]))) if rows.size else 0.0
+    triangles = index[triangles]
     if all(p.order is not None for p in pieces):
         order = np.argsort(np.concatenate([p.order for p in pieces]), kind="stable")
         triangles = triangles[order]

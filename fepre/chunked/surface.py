@@ -25,28 +25,32 @@ from .grid import ChunkedGrid
 from .layout import HALO, ChunkLayout
 from .sampling import sample_nodes
 
-__all__ = ["chunk_tasks", "surface_in_memory", "stream_stl", "StreamedSurface"]
+__all__ = ["chunk_tasks", "file_pieces", "surface_in_memory", "stream_stl", "StreamedSurface", "FilePiece"]
 
 
-def _model_chunk(model, origin, step, counts, lo, hi, read_lo, read_hi, band, dtype, method, level) -> ChunkSurface:
+def _model_chunk(model, origin, step, counts, lo, hi, read_lo, read_hi, band, dtype, method, level, named) -> ChunkSurface:
     values = sample_nodes(model, origin, step, read_lo, read_hi, band, dtype)
     return extract_chunk(
-        values, read_lo, lo, hi, method=method, level=level, origin=origin, spacing=step, counts=counts, model=model
+        values, read_lo, lo, hi, method=method, level=level, origin=origin, spacing=step, counts=counts, model=model,
+        named=named,
     )
 
 
-def _grid_chunk(values, origin, step, counts, lo, hi, read_lo, method, level, model) -> ChunkSurface:
+def _grid_chunk(values, origin, step, counts, lo, hi, read_lo, method, level, model, named) -> ChunkSurface:
     return extract_chunk(
         np.asarray(values), read_lo, lo, hi, method=method, level=level, origin=origin, spacing=step, counts=counts,
-        model=model,
+        model=model, named=named,
     )
 
 
-def chunk_tasks(source: Any, *, method: str, level: float, layout: ChunkLayout, origin, step, band, dtype, model):
+def chunk_tasks(
+    source: Any, *, method: str, level: float, layout: ChunkLayout, origin, step, band, dtype, model, named: bool = True
+):
     """One delayed :class:`ChunkSurface` per chunk of ``layout``.
 
     ``source`` is a model (each task samples the nodes it reads) or a :class:`ChunkedGrid`
-    (each task reads its block and halo through ``dask.array.overlap``).
+    (each task reads its block and halo through ``dask.array.overlap``). ``named=False`` skips
+    naming flying edges' vertices (a streamed file needs only the corners).
     """
     import dask
 
@@ -62,14 +66,14 @@ def chunk_tasks(source: Any, *, method: str, level: float, layout: ChunkLayout, 
         tasks = []
         for index, lo, hi in layout:
             read_lo = np.maximum(lo - depth, 0)
-            tasks.append(task(blocks[index], origin, step, counts, lo, hi, read_lo, method, level, shared))
+            tasks.append(task(blocks[index], origin, step, counts, lo, hi, read_lo, method, level, shared, named))
         return tasks
     shared = dask.delayed(source, pure=True, name=f"fepre-model-{uuid.uuid4().hex}")
     task = dask.delayed(_model_chunk, pure=True)
     tasks = []
     for _, lo, hi in layout:
         read_lo, read_hi = layout.read_range(lo, hi, method)
-        tasks.append(task(shared, origin, step, counts, lo, hi, read_lo, read_hi, band, dtype, method, level))
+        tasks.append(task(shared, origin, step, counts, lo, hi, read_lo, read_hi, band, dtype, method, level, named))
     return tasks
 
 
@@ -95,7 +99,15 @@ def surface_in_memory(tasks: list, progress: bool = False):
     return points, triangles, on_level
 
 
-def _in_completion_order(tasks: list, window: int) -> Iterable[ChunkSurface]:
+def file_pieces(tasks: list, method: str, origin: np.ndarray, spacing: np.ndarray) -> list:
+    """Each chunk task followed by its :func:`file_piece` (run where the chunk runs)."""
+    import dask
+
+    follow = dask.delayed(file_piece, pure=True)
+    return [follow(task, method, origin, spacing) for task in tasks]
+
+
+def _in_completion_order(tasks: list, window: int) -> Iterable:
     """Chunk results as they finish, with at most ``window`` chunks in flight (bounded memory)."""
     import dask
 
@@ -161,6 +173,8 @@ class StreamedSurface:
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+#: a binary STL counts its triangles in a uint32
+_STL_LIMIT = 2**32 - 1
 
 
 #: a vertex this close to a grid node (in cells, along every axis) is on the node: the crossings
@@ -191,15 +205,54 @@ def _clean_chunk(piece: ChunkSurface, method: str, origin: np.ndarray, spacing: 
     points[at_node] = origin + node[at_node] * spacing
     # as the file holds them: float32 (-0.0 read as 0.0)
     written = points.astype(np.float32) + np.float32(0.0)
-    names, first, inverse = np.unique(written.view(np.int32), axis=0, return_index=True, return_inverse=True)
+    first, inverse = _unique_rows(written.view(np.uint32))
     points = points[first]
-    names = names.astype(np.int64)
-    triangles = inverse.ravel()[piece.triangles]
+    names = written[first].view(np.int32).astype(np.int64)
+    triangles = inverse[piece.triangles]
     keep = (triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2]) & (triangles[:, 0] != triangles[:, 2])
     triangles = triangles[keep]
     if method in _COLLINEAR_METHODS and triangles.shape[0]:
         triangles = flip_zero_area(np.asarray(points, dtype=np.float64), triangles)
     return points, triangles, names
+
+
+def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First index of each distinct row of an (n, 3) uint32 array and each row's group.
+
+    Rows are grouped by a 64-bit hash (a sort of one column instead of three); a collision (two
+    distinct rows, one hash) is detected and then the exact row sort is used."""
+    from .chunk_surface import row_hash
+
+    _, first, inverse = np.unique(row_hash(rows), return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if not np.array_equal(rows[first][inverse], rows):  # pragma: no cover - a 64-bit collision
+        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
+    return first, inverse
+
+
+@dataclass
+class FilePiece:
+    """A chunk's triangles as STL records, its once-used edges and its non-manifold edge count."""
+
+    records: np.ndarray
+    once: np.ndarray
+    nonmanifold: int
+
+
+def file_piece(piece: ChunkSurface, method: str, origin: np.ndarray, spacing: np.ndarray) -> FilePiece:
+    """What :func:`stream_stl` writes and checks of one chunk (computed where the chunk is)."""
+    points, triangles, names = _clean_chunk(piece, method, origin, spacing)
+    if triangles.shape[0] == 0:
+        return FilePiece(np.zeros(0, dtype=_STL_RECORD), np.zeros((0, 6), dtype=np.int64), 0)
+    corners = points[triangles]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    records = np.zeros(len(corners), dtype=_STL_RECORD)
+    records["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    records["corners"] = corners
+    once, over = _chunk_edges(triangles, names)
+    return FilePiece(records, once, over)
 
 
 def _chunk_edges(triangles: np.ndarray, names: np.ndarray) -> tuple[np.ndarray, int]:
@@ -218,16 +271,13 @@ def stream_stl(
     tasks: list,
     path: Path,
     *,
-    method: str,
-    origin: np.ndarray,
-    spacing: np.ndarray,
-    counts: np.ndarray,
     window: int,
     log: Callable[[str], None] | None = None,
 ) -> StreamedSurface:
     """Write the chunks' triangles to a binary STL at ``path`` as they finish.
 
-    The file is written beside ``path`` under a temporary name and renamed when complete.
+    ``tasks`` give :class:`FilePiece` objects (:func:`file_pieces`). The file is written beside
+    ``path`` under a temporary name and renamed when complete.
     """
     import os
     import tempfile
@@ -244,19 +294,15 @@ def stream_stl(
             stream.write(np.uint32(0).tobytes())
             for piece in _in_completion_order(tasks, window):
                 done += 1
-                points, triangles, names = _clean_chunk(piece, method, origin, spacing)
-                if triangles.shape[0]:
-                    corners = points[triangles]
-                    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-                    length = np.linalg.norm(normal, axis=1, keepdims=True)
-                    records = np.zeros(len(corners), dtype=_STL_RECORD)
-                    records["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
-                    records["corners"] = corners
-                    records.tofile(stream)
-                    count += len(records)
-                    once, over = _chunk_edges(triangles, names)
-                    seams.append(once)
-                    nonmanifold += over
+                if count + len(piece.records) > _STL_LIMIT:
+                    raise ValueError(
+                        f"the surface has more than {_STL_LIMIT:,} triangles, the most a binary STL file can "
+                        f"count; use a larger spacing"
+                    )
+                piece.records.tofile(stream)
+                count += len(piece.records)
+                seams.append(piece.once)
+                nonmanifold += piece.nonmanifold
                 if log is not None:
                     log(f"chunk {done}/{len(tasks)}: {count:,} triangles written")
             stream.seek(80)
