@@ -168,7 +168,7 @@ def _is_zarr_grid(path: str) -> bool:
 def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) -> int:
     """``fepre surface --chunks``: from a model file or a zarr grid; .stl outputs are streamed."""
     from .chunked import open_grid, write_isosurface
-    from .surface import isosurface
+    from .chunked.api import isosurface_chunked
 
     if _is_zarr_grid(args.model):
         if args.spacing is not None or args.bounds is not None or args.band is not None:
@@ -200,7 +200,11 @@ def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) ->
             print(f"streamed surface: {written.n_triangles} triangles, {written.seam_edges} edges on chunk seams, {state}")
         print(f"wrote {output}")
         return 0
-    surface = isosurface(source, method=args.method, level=args.level, chunks=chunks, **options)
+    surface = isosurface_chunked(
+        source, method=args.method, level=args.level, chunks=chunks, spacing=options.get("spacing"),
+        shape=None, bounds=options.get("bounds"), band=options.get("band"), model=None, normals=False,
+        progress=not args.quiet,
+    )
     say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s")
     if surface.n_cells == 0:
         raise ValueError(f"the surface of {args.model} is empty at spacing {spacing_text}; nothing written")
@@ -238,8 +242,7 @@ def _bounds_argument(values):
 
 @command("surface", "extract the surface of a model file and write it (STL, PLY, OBJ, VTP)")(_configure_surface)
 def _run_surface(args: argparse.Namespace) -> int:
-    from .modelfile import load_model
-    from .surface import check_surface, isosurface
+    from .surface import isosurface
 
     output = _output_path(args.output, "--output", SURFACE_SUFFIXES)
     if args.spacing is not None and not args.spacing > 0:

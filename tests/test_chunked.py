@@ -125,7 +125,7 @@ def test_streamed_stl_is_closed_and_holds_the_surface(tmp_path, method):
     assert [p.name for p in tmp_path.iterdir()] == ["part.stl"]
 
 
-def test_local_cluster_gives_the_same_surface():
+def test_local_cluster_gives_the_same_surface(tmp_path):
     distributed = pytest.importorskip("distributed")
     model, spacing = PARTS["cube_with_hole"]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
@@ -133,6 +133,9 @@ def test_local_cluster_gives_the_same_surface():
             for method in ("dual_contouring", "flying_edges"):
                 chunked = fepre.isosurface(model, spacing=spacing, method=method, chunks=16)
                 _same_surface(chunked, fepre.isosurface(model, spacing=spacing, method=method), method)
+            written = write_isosurface(model, tmp_path / "part.stl", spacing=spacing, chunks=16, window=3)
+            assert written.closed and written.chunks == 27
+            assert written.n_triangles == fepre.isosurface(model, spacing=spacing).n_cells
 
 
 class _Unpicklable(sdf.SDF):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Callable
 
@@ -12,7 +11,7 @@ from ..arguments import choice, finite_float, nonnegative_float, positive_int
 from ..sdf.core import SDF
 from .cluster import check_picklable, needs_pickling, require_dask
 from .grid import ChunkedGrid
-from .layout import ChunkLayout, as_chunks
+from .layout import ChunkLayout
 from .surface import StreamedSurface, chunk_tasks, file_pieces, stream_stl, surface_in_memory
 
 __all__ = ["isosurface_chunked", "write_isosurface"]

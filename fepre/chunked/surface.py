@@ -12,6 +12,8 @@ without holding the surface.
 
 from __future__ import annotations
 
+import os
+import sys
 import time
 import uuid
 from dataclasses import dataclass
@@ -86,7 +88,7 @@ def _compute_all(tasks: list, progress: bool) -> list[ChunkSurface]:
         if distributed_client() is None:
             from dask.diagnostics import ProgressBar
 
-            with ProgressBar():
+            with ProgressBar(out=sys.stderr):
                 return list(dask.compute(*tasks))
     return list(dask.compute(*tasks))
 
@@ -126,8 +128,22 @@ def _in_completion_order(tasks: list, window: int) -> Iterable:
                 futures.add(client.compute(t))
             yield result
         return
-    for start in range(0, len(tasks), window):
-        yield from dask.compute(*tasks[start : start + window])
+    if dask.config.get("scheduler", None) not in (None, "threads", "threading"):
+        for start in range(0, len(tasks), window):  # the user's own scheduler, in waves
+            yield from dask.compute(*tasks[start : start + window])
+        return
+    # dask's threads, as a sliding window: a new chunk starts as soon as one finishes
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    workers = int(dask.config.get("num_workers", None) or os.cpu_count() or 1)
+    pending = iter(tasks)
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        running = {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, window)}
+        while running:
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            running |= {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, len(done))}
+            for future in done:
+                yield future.result()[0]
 
 
 def _take(iterator, count: int) -> list:
