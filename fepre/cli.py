@@ -141,7 +141,7 @@ def _configure_surface(parser: argparse.ArgumentParser) -> None:
                         help="box to sample (default: the model file's bounds, else the model's own)")
     parser.add_argument("--chunks", type=int, nargs="+", metavar="N",
                         help="extract chunk by chunk on dask, N nodes per chunk (one N, or three for x y z); "
-                             "with an .stl output the surface is streamed to the file, never held whole. "
+                             "with an .stl or .ply output the surface is streamed to the file, never held whole. "
                              "MODEL may then also be a zarr grid written by `fepre sample`")
     parser.add_argument("--band", type=float,
                         help="with --chunks: narrow band half-width (default two cells beyond the level); "
@@ -166,7 +166,7 @@ def _is_zarr_grid(path: str) -> bool:
 
 
 def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) -> int:
-    """``fepre surface --chunks``: from a model file or a zarr grid; .stl outputs are streamed."""
+    """``fepre surface --chunks``: from a model file or a zarr grid; .stl and .ply outputs are streamed."""
     from .chunked import open_grid, write_isosurface
     from .chunked.api import isosurface_chunked
 
@@ -189,7 +189,7 @@ def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) ->
         spacing_text = f"{spacing:g}"
     say(f"fepre surface: {args.method} at spacing {spacing_text}, chunks of {chunks} nodes ...")
     start = time.perf_counter()
-    if output.suffix.lower() == ".stl":
+    if output.suffix.lower() in (".stl", ".ply"):
         written = write_isosurface(
             source, output, method=args.method, level=args.level, chunks=chunks, log=say, **options
         )

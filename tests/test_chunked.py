@@ -114,7 +114,7 @@ def test_streamed_stl_is_closed_and_holds_the_surface(tmp_path, method):
     path = tmp_path / "part.stl"
     written = write_isosurface(model, path, method=method, spacing=spacing, chunks=16)
     whole = fepre.isosurface(model, spacing=spacing, method=method)
-    assert written.closed and written.seam_edges > 1000
+    assert written.closed and written.seam_edges > 1000 and written.n_vertices is None
     read = pv.read(path)
     assert read.n_cells == written.n_triangles
     if method == "marching_tetrahedra":  # zero-area triangles on seams are kept (0.2 % more)
@@ -123,6 +123,26 @@ def test_streamed_stl_is_closed_and_holds_the_surface(tmp_path, method):
         assert written.n_triangles == whole.n_cells
     assert abs(read.volume - whole.volume) < 1e-6 * whole.volume
     assert [p.name for p in tmp_path.iterdir()] == ["part.stl"]
+
+
+@pytest.mark.parametrize("method", ["flying_edges", "dual_contouring"])
+def test_streamed_ply_shares_vertices_across_seams(tmp_path, method):
+    import pyvista as pv
+
+    model, spacing = PARTS["cube_with_hole"]
+    written = write_isosurface(model, tmp_path / "part.ply", method=method, spacing=spacing, chunks=12)
+    stl = write_isosurface(model, tmp_path / "part.stl", method=method, spacing=spacing, chunks=12)
+    read = pv.read(tmp_path / "part.ply")
+    assert written.closed and written.seam_edges > 100
+    assert read.n_cells == written.n_triangles == stl.n_triangles
+    assert read.n_points == written.n_vertices
+    check = fepre.check_surface(read, merge_coincident=False)  # the file's own vertex ids
+    assert check.watertight and check.manifold
+    whole = fepre.isosurface(model, spacing=spacing, method=method)
+    assert check.volume == pytest.approx(whole.volume, rel=1e-6)
+    assert read.n_points == whole.n_points
+    np.testing.assert_array_equal(_triangle_set(read), _triangle_set(pv.read(tmp_path / "part.stl")))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.ply", "part.stl"]
 
 
 def test_local_cluster_gives_the_same_surface(tmp_path):
@@ -186,8 +206,8 @@ def test_bad_surface_arguments(tmp_path):
         fepre.isosurface(grid, chunks=16)
     with pytest.raises(ValueError, match="spacing applies only when source is a model"):
         fepre.isosurface(grid, spacing=0.1)
-    with pytest.raises(ValueError, match="a streamed surface is written as binary STL"):
-        write_isosurface(ball, tmp_path / "ball.ply", spacing=0.1, chunks=8)
+    with pytest.raises(ValueError, match="a streamed surface is written as binary STL or PLY"):
+        write_isosurface(ball, tmp_path / "ball.obj", spacing=0.1, chunks=8)
     with pytest.raises(FileNotFoundError, match="path: folder .* does not exist"):
         write_isosurface(ball, tmp_path / "no" / "ball.stl", spacing=0.1, chunks=8)
     with pytest.raises(FileNotFoundError, match="store: folder"):

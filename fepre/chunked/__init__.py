@@ -3,7 +3,7 @@
 ``fepre.sample(model, spacing=..., chunks=...)`` returns a lazy :class:`ChunkedGrid` (or writes
 it to a zarr store with ``store=``); ``fepre.isosurface(..., chunks=...)`` extracts chunk by
 chunk and stitches the single-grid surface; :func:`write_isosurface` streams a surface too large
-to hold to an STL file. Chunks run wherever dask runs them: threads by default, or the
+to hold to an STL or PLY file. Chunks run wherever dask runs them: threads by default, or the
 ``dask.distributed`` client the user has (the model is then pickled to the workers).
 
 Needs the optional dependencies: ``pip install 'fepre[dask]'``.
@@ -22,6 +22,6 @@ from .api import write_isosurface
 from .cluster import check_picklable
 from .grid import ChunkedGrid, open_grid
 from .layout import ChunkLayout
-from .surface import StreamedSurface
+from .stream import StreamedSurface
 
 __all__ = ["ChunkedGrid", "ChunkLayout", "StreamedSurface", "check_picklable", "open_grid", "write_isosurface"]

@@ -12,7 +12,7 @@ __all__ = ["distributed_client", "needs_pickling", "check_picklable", "require_d
 def require_dask(feature: str) -> None:
     """Raise a clear ImportError when dask (and zarr for stores) are missing."""
     try:
-        import dask.array  # noqa: F401
+        import dask.array  # noqa: F401  (the import is the check)
     except ImportError:
         raise ImportError(
             f"{feature} needs dask: pip install 'fepre[dask]' (dask[array], distributed, zarr)"
