@@ -46,7 +46,7 @@ _LAZY: dict[str, str] = {
     "size_field": "fepre.sizing",
     "SizeField": "fepre.sizing",
 }
-_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing"}
+_SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 
 __all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
 

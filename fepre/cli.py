@@ -139,18 +139,119 @@ def _configure_surface(parser: argparse.ArgumentParser) -> None:
                         help="the level set to extract (default 0: the part's surface; > 0 an offset outward)")
     parser.add_argument("--bounds", type=float, nargs=6, metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
                         help="box to sample (default: the model file's bounds, else the model's own)")
+    parser.add_argument("--chunks", type=int, nargs="+", metavar="N",
+                        help="extract chunk by chunk on dask, N nodes per chunk (one N, or three for x y z); "
+                             "with an .stl or .ply output the surface is streamed to the file, never held whole. "
+                             "MODEL may then also be a zarr grid written by `fepre sample`")
+    parser.add_argument("--band", type=float,
+                        help="with --chunks: narrow band half-width (default two cells beyond the level); "
+                             "chunks farther from the surface are skipped")
     parser.add_argument("--no-check", action="store_true", help="skip the surface check (watertight, genus, errors)")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
 
 
+def _chunks_argument(values: list[int] | None):
+    """``--chunks`` as nodes per chunk (x, y, z), checked."""
+    if values is None:
+        return None
+    from .chunked.layout import as_chunks
+
+    if len(values) not in (1, 3):
+        raise ValueError(f"--chunks takes one number or three (x y z); got {len(values)}: {values}")
+    return tuple(as_chunks(values[0] if len(values) == 1 else tuple(values), "--chunks").tolist())
+
+
+def _is_zarr_grid(path: str) -> bool:
+    return Path(path).suffix.lower() == ".zarr"
+
+
+def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) -> int:
+    """``fepre surface --chunks``: from a model file or a zarr grid; .stl and .ply outputs are streamed."""
+    from .chunked import open_grid, write_isosurface
+    from .chunked.api import isosurface_chunked
+
+    if _is_zarr_grid(args.model):
+        if args.spacing is not None or args.bounds is not None or args.band is not None:
+            raise ValueError("--spacing, --bounds and --band apply to a model file; the zarr grid is already sampled")
+        source = open_grid(args.model)
+        chunks = source.chunks if chunks is None else chunks
+        spacing_text = f"{float(source.spacing[0]):g}"
+        options = {}
+        model = None
+    else:
+        part = _load_part(args)
+        bounds = part.bounds if args.bounds is None else _bounds_argument(args.bounds)
+        spacing = args.spacing
+        if spacing is None:
+            spacing = max(b - a for a, b in zip(*bounds)) / 100.0 if bounds is not None else _default_spacing(part)
+        source, model = part.model, part.model
+        options = {"spacing": spacing, "bounds": bounds, "band": args.band}
+        spacing_text = f"{spacing:g}"
+    say(f"fepre surface: {args.method} at spacing {spacing_text}, chunks of {chunks} nodes ...")
+    start = time.perf_counter()
+    if output.suffix.lower() in (".stl", ".ply"):
+        written = write_isosurface(
+            source, output, method=args.method, level=args.level, chunks=chunks, log=say, **options
+        )
+        say(f"fepre surface: {written.n_triangles:,} triangles from {written.chunks} chunks in {written.seconds:.1f} s")
+        if not args.quiet:
+            state = "closed and manifold" if written.closed else (
+                f"NOT closed: {written.open_edges} open and {written.nonmanifold_edges} non-manifold edges")
+            print(f"streamed surface: {written.n_triangles} triangles, {written.seam_edges} edges on chunk seams, {state}")
+        print(f"wrote {output}")
+        return 0
+    surface = isosurface_chunked(
+        source, method=args.method, level=args.level, chunks=chunks, spacing=options.get("spacing"),
+        shape=None, bounds=options.get("bounds"), band=options.get("band"), model=None, normals=False,
+        progress=not args.quiet,
+    )
+    say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s")
+    if surface.n_cells == 0:
+        raise ValueError(f"the surface of {args.model} is empty at spacing {spacing_text}; nothing written")
+    if not args.no_check:
+        _check_surface_file(surface, model, float(spacing_text), args.quiet)
+    _write_atomically(lambda path: surface.save(str(path)), output)
+    print(f"wrote {output}")
+    return 0
+
+
+def _check_surface_file(surface, model, spacing: float, quiet: bool) -> None:
+    """Print the surface check; warn about components below the grid's resolution."""
+    from .surface import check_surface
+
+    check = check_surface(surface, model)
+    if not quiet:
+        print(check)
+    if check.thin_components:
+        import warnings
+
+        from .errors import ResolutionWarning
+
+        warnings.warn(
+            f"{check.thin_components} of the {check.components} components are thinner than the spacing "
+            f"{spacing:g} (parts of the model below the grid's resolution); a smaller --spacing resolves them",
+            ResolutionWarning,
+        )
+
+
+def _bounds_argument(values):
+    from .arguments import as_bounds
+
+    return as_bounds((values[:3], values[3:]), 3, "--bounds")
+
+
 @command("surface", "extract the surface of a model file and write it (STL, PLY, OBJ, VTP)")(_configure_surface)
 def _run_surface(args: argparse.Namespace) -> int:
-    from .modelfile import load_model
-    from .surface import check_surface, isosurface
+    from .surface import isosurface
 
     output = _output_path(args.output, "--output", SURFACE_SUFFIXES)
     if args.spacing is not None and not args.spacing > 0:
         raise ValueError(f"--spacing must be > 0; got {args.spacing:g}")
+    chunks = _chunks_argument(args.chunks)
+    if args.band is not None and chunks is None:
+        raise ValueError("--band applies with --chunks")
+    if chunks is not None or _is_zarr_grid(args.model):
+        return _run_chunked_surface(args, output, chunks, (lambda message: None) if args.quiet else _say)
     bounds = None
     if args.bounds is not None:
         from .arguments import as_bounds
@@ -177,21 +278,76 @@ def _run_surface(args: argparse.Namespace) -> int:
         say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s")
     else:
         say(f"fepre surface: {surface.n_cells} triangles in {time.perf_counter() - start:.2f} s; checking ...")
-        check = check_surface(surface, part.model)
-        if not args.quiet:
-            print(check)
-        if check.thin_components:
-            import warnings
-
-            from .errors import ResolutionWarning
-
-            warnings.warn(
-                f"{check.thin_components} of the {check.components} components are thinner than the spacing "
-                f"{spacing:g} (parts of the model below the grid's resolution); a smaller --spacing resolves them",
-                ResolutionWarning,
-            )
+        _check_surface_file(surface, part.model, spacing, args.quiet)
     say(f"fepre surface: writing {output} ...")
     _write_atomically(lambda path: surface.save(str(path)), output)
+    print(f"wrote {output}")
+    return 0
+
+
+def _configure_sample(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    parser.add_argument("-o", "--output", required=True,
+                        help="grid file: .vti (held in memory), or .zarr (chunked, with --chunks)")
+    parser.add_argument("--spacing", type=float, help="grid spacing (default: largest extent / 100)")
+    parser.add_argument("--bounds", type=float, nargs=6, metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+                        help="box to sample (default: the model file's bounds, else the model's own)")
+    parser.add_argument("--chunks", type=int, nargs="+", metavar="N",
+                        help="nodes per chunk (one N, or three for x y z): sample chunk by chunk on dask into a zarr store")
+    parser.add_argument("--band", type=float,
+                        help="narrow band half-width: only nodes that may lie this close to the surface are evaluated")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing .zarr store")
+    parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
+
+
+@command("sample", "sample a model file on a grid: a .vti image, or a chunked zarr store for grids beyond memory")(_configure_sample)
+def _run_sample(args: argparse.Namespace) -> int:
+    from .sampling import sample
+
+    chunks = _chunks_argument(args.chunks)
+    if Path(args.output).suffix.lower() == ".zarr":
+        output = Path(args.output)  # a store is a folder: checked below
+    else:
+        output = _output_path(args.output, "--output", (".vti", ".zarr"))
+    if output.suffix.lower() == ".zarr" and chunks is None:
+        raise ValueError("--output .zarr needs --chunks (nodes per chunk, e.g. --chunks 128)")
+    if output.suffix.lower() == ".vti" and chunks is not None:
+        raise ValueError("--chunks writes a .zarr store; give --output NAME.zarr (a .vti is held in memory)")
+    if args.spacing is not None and not args.spacing > 0:
+        raise ValueError(f"--spacing must be > 0; got {args.spacing:g}")
+    if chunks is not None:
+        from .chunked.sampling import check_store
+
+        try:
+            check_store(output, args.overwrite)
+        except FileExistsError:
+            raise ValueError(f"--output {str(output)!r} already exists; pass --overwrite to replace it") from None
+        except FileNotFoundError:
+            raise ValueError(f"--output {str(output)!r}: the folder {str(output.parent)!r} does not exist") from None
+    part = _load_part(args)
+    bounds = part.bounds if args.bounds is None else _bounds_argument(args.bounds)
+    spacing = args.spacing
+    if spacing is None:
+        spacing = max(b - a for a, b in zip(*bounds)) / 100.0 if bounds is not None else _default_spacing(part)
+    say = (lambda message: None) if args.quiet else _say
+    say(f"fepre sample: spacing {spacing:g} ...")
+    if chunks is None:
+        grid = sample(part.model, spacing=spacing, bounds=bounds, band=args.band)
+        _write_atomically(lambda path: grid.save(str(path)), output)
+    else:
+        import contextlib
+
+        from .chunked.cluster import distributed_client
+
+        bar = contextlib.nullcontext()
+        if not args.quiet and distributed_client() is None:
+            from dask.diagnostics import ProgressBar
+
+            bar = ProgressBar(out=sys.stderr)
+        with bar:
+            grid = sample(part.model, spacing=spacing, bounds=bounds, band=args.band, chunks=chunks,
+                          store=output, overwrite=args.overwrite)
+        say(f"fepre sample: {grid}")
     print(f"wrote {output}")
     return 0
 

@@ -228,8 +228,12 @@ def sample(
     dtype: Any = "float32",
     band: float | None = None,
     workers: int | None = None,
+    chunks: Any = None,
+    store: Any = None,
+    overwrite: bool = False,
 ):
-    """Sample ``model`` on a regular grid and return it as a :class:`pyvista.ImageData`.
+    """Sample ``model`` on a regular grid and return it as a :class:`pyvista.ImageData`
+    (or, with ``chunks``, as a lazy :class:`fepre.chunked.ChunkedGrid`).
 
     Parameters
     ----------
@@ -250,11 +254,22 @@ def sample(
         Narrow band half-width (world units): only blocks that may hold values within the band
         are evaluated; the rest hold ``±band``. Widened to one cell diagonal if smaller.
     workers : int, optional
-        Threads (default ``fepre.config.workers``).
+        Threads (default ``fepre.config.workers``; with ``chunks`` dask's scheduler decides).
+    chunks : int or (3,) ints, optional
+        Nodes per chunk along x, y, z (at least 8): return a lazy
+        :class:`fepre.chunked.ChunkedGrid` (a dask array with the grid's origin and spacing)
+        whose chunks are evaluated where dask runs them, bit for bit as the whole grid would be;
+        with ``band``, chunks farther than the band from the surface are filled without
+        evaluating the model. Needs ``pip install 'fepre[dask]'``.
+    store : str or os.PathLike, optional
+        With ``chunks``: compute the grid into this zarr store (written beside it under a
+        temporary name, moved into place when complete) and return the grid read from it.
+    overwrite : bool
+        Replace an existing ``store``.
 
     Returns
     -------
-    pyvista.ImageData
+    pyvista.ImageData or fepre.chunked.ChunkedGrid
         Point array ``"sdf"``; field data ``"sdf_evaluated_fraction"`` (nodes evaluated / nodes)
         and, when banded, ``"sdf_band"``.
 
@@ -279,6 +294,19 @@ def sample(
     dtype = np.dtype(dtype)
     if dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise ValueError(f"dtype must be 'float32' or 'float64'; got {dtype.name!r}")
+    if store is not None and chunks is None:
+        raise ValueError("store needs chunks: a zarr store holds a chunked grid (pass chunks=, e.g. 128)")
+    if chunks is not None:
+        from .chunked.cluster import require_dask
+        from .chunked.layout import as_chunks
+        from .chunked.sampling import sample_chunked
+
+        require_dask("sample(chunks=...)")
+        as_chunks(chunks)
+        origin, step, counts = grid_geometry(model, spacing=spacing, shape=shape, bounds=bounds, padding=padding)
+        if band is not None:
+            band = max(nonnegative_float(band, "band"), float(np.linalg.norm(step)))
+        return sample_chunked(model, origin, step, counts, chunks, dtype=dtype, band=band, store=store, overwrite=overwrite)
     workers = config.resolve_workers(workers)
     origin, step, counts = grid_geometry(model, spacing=spacing, shape=shape, bounds=bounds, padding=padding)
     _check_memory(counts, dtype)

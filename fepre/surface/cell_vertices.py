@@ -126,6 +126,7 @@ def donated_corners(
     origin: np.ndarray,
     spacing: np.ndarray,
     shape: tuple[int, int, int],
+    first_node: np.ndarray = np.zeros(3, dtype=np.int64),
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Samples to give to the cell that holds a corner but sees only two of its faces.
 
@@ -140,7 +141,7 @@ def donated_corners(
     if donor.size == 0:
         return None
     nz, ny, nx = shape
-    ijk = np.floor((point - origin) / spacing).astype(np.int64)
+    ijk = np.floor((point - origin) / spacing).astype(np.int64) - first_node
     inside_grid = np.all((ijk >= 0) & (ijk < np.array([nx - 1, ny - 1, nz - 1])), axis=1)
     ids = ijk @ np.array([1, nx, nx * ny])
     cells = dual.vertex_grid_cell
@@ -176,6 +177,7 @@ def widened_for_tips(
     spacing: np.ndarray,
     shape: tuple[int, int, int],
     box: tuple[np.ndarray, np.ndarray],
+    first_node: np.ndarray = np.zeros(3, dtype=np.int64),
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Boxes grown to take a corner whose tip lies in a cell with no vertex (no inside node).
 
@@ -187,7 +189,7 @@ def widened_for_tips(
     if donor.size == 0:
         return None
     nz, ny, nx = shape
-    ijk = np.floor((point - origin) / spacing).astype(np.int64)
+    ijk = np.floor((point - origin) / spacing).astype(np.int64) - first_node
     ijk = np.clip(ijk, 0, np.array([nx - 2, ny - 2, nz - 2]))
     ids = ijk @ np.array([1, nx, nx * ny])
     cells = dual.vertex_grid_cell

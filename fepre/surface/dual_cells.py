@@ -30,7 +30,7 @@ from .grid_scan import AXIS_DIRECTIONS, GridScan, inside_threshold, scan_grid
 from .marching_cubes import CUBE_TABLE
 from .table_extraction import cell_edge_vertices
 
-__all__ = ["DualCells", "dual_cells", "split_quads", "shorter_diagonal"]
+__all__ = ["DualCells", "dual_cells", "dual_keys", "empty_dual_result", "split_quads", "shorter_diagonal"]
 
 #: per axis, the slots (local edge index % 4 in each cell) of the four cells around an edge,
 #: counter-clockwise seen from the edge's + end: (a-1, b-1), (a, b-1), (a, b), (a-1, b) for the
@@ -52,6 +52,15 @@ class DualCells:
         One row per (active cell, cut edge of that cell): the cell's index and the crossing's.
     quads : (Q, 4) int64
         Active-cell indices of each quad, counter-clockwise seen from outside.
+    vertex_cell : (C,) int64
+        Active-cell index of each vertex.
+    vertex_piece : (C,) int64
+        Label of each vertex's piece of surface in its cell (0..63; a cell's labels depend only
+        on its case and its neighbours', so a chunk of a grid labels a cell as the whole grid does).
+    quad_edge : (Q,) int64
+        Start node id (flat, VTK order) of each quad's crossing edge.
+    quad_axis : (Q,) int64
+        Axis (0, 1, 2) of each quad's crossing edge (the quads come by axis, then by edge).
     """
 
     scan: GridScan
@@ -60,6 +69,9 @@ class DualCells:
     crossing: np.ndarray
     quads: np.ndarray
     vertex_cell: np.ndarray
+    vertex_piece: np.ndarray
+    quad_edge: np.ndarray
+    quad_axis: np.ndarray
 
     @property
     def n_cells(self) -> int:
@@ -122,7 +134,7 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
     around[crossing, local % 4] = vertex
     flat = values.reshape(-1)
     threshold = inside_threshold(values.dtype, level)
-    quads = []
+    quads, quad_edge, quad_axis = [], [], []
     for axis, edges in enumerate(scan.edges):
         quad = around[offsets[axis] : offsets[axis + 1]][:, _QUAD_SLOTS[axis]]
         valid = (quad >= 0).all(axis=1)  # edges on the grid's faces have fewer than four cells
@@ -130,7 +142,19 @@ def dual_cells(values: np.ndarray, level: float, workers: int | None = None) -> 
         backwards = flat[edges[valid]] >= threshold  # the start node is outside: the edge points in
         quad[backwards] = quad[backwards][:, ::-1]
         quads.append(quad)
-    return DualCells(scan, offsets, vertex[order], crossing[order], np.concatenate(quads), keys // _MAX_PIECES)
+        quad_edge.append(edges[valid])
+        quad_axis.append(np.full(quad.shape[0], axis, dtype=np.int64))
+    return DualCells(
+        scan,
+        offsets,
+        vertex[order],
+        crossing[order],
+        np.concatenate(quads),
+        keys // _MAX_PIECES,
+        keys % _MAX_PIECES,
+        np.concatenate(quad_edge),
+        np.concatenate(quad_axis),
+    )
 
 
 #: labels per cell: a case's pieces 0..3, then ``8 * (piece + 1) + arc`` for the arcs of cut pieces
@@ -305,3 +329,24 @@ def split_quads(quads: np.ndarray, along02: np.ndarray) -> np.ndarray:
     first = np.where(along02[:, None], quads[:, [0, 1, 2]], quads[:, [0, 1, 3]])
     second = np.where(along02[:, None], quads[:, [0, 2, 3]], quads[:, [1, 2, 3]])
     return np.concatenate([first, second])
+
+
+def dual_keys(dual: DualCells) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each vertex and triangle of a dual surface comes from, in the grid's own ids.
+
+    Returns ``(vertex_cell, vertex_piece, triangle_edge, triangle_rank)``: each vertex's grid
+    cell (flat id of its lowest node) and piece label; the start node of each triangle's
+    crossing edge, and ``3 * half + axis`` (the triangles of :func:`split_quads` come all first
+    halves, then all second halves, each half by edge axis, then by edge).
+    """
+    rank = np.concatenate([dual.quad_axis, dual.quad_axis + 3])
+    return dual.vertex_grid_cell, dual.vertex_piece, np.concatenate([dual.quad_edge, dual.quad_edge]), rank
+
+
+def empty_dual_result(keys: bool):
+    """No vertices and no triangles (with empty keys when asked)."""
+    empty = (np.empty((0, 3)), np.empty((0, 3), dtype=np.int64))
+    if not keys:
+        return empty
+    none = np.empty(0, dtype=np.int64)
+    return (*empty, (none, none, none, none))

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from .cell_vertices import donated_corners, keep_in_cells, solve_in_cells, unpinch, widened_for_tips
-from .dual_cells import dual_cells, split_quads
+from .dual_cells import dual_cells, dual_keys, empty_dual_result, split_quads
 from .hermite import Hermite, hermite_from_grid, hermite_from_model
 from .qef import accumulate_qef, incidence
 from .quad_split import better_diagonal
@@ -65,7 +65,9 @@ def dual_contouring(
     model: Any = None,
     truncation: float = 0.1,
     margin: float = 0.01,
-) -> tuple[np.ndarray, np.ndarray]:
+    first_node: np.ndarray | None = None,
+    keys: bool = False,
+):
     """Points (one per active cell) and outward triangles of the ``level`` set, sharp features kept.
 
     Parameters
@@ -86,6 +88,11 @@ def dual_contouring(
         Eigenvalues of a cell's ``A^T A`` below this fraction of its largest are dropped.
     margin : float
         How far (in cells) a vertex may leave its cell.
+    first_node : (3,) int, optional
+        The (i, j, k) index of ``values[0, 0, 0]`` in the grid that ``origin`` belongs to (a
+        chunk of a larger grid): every coordinate is computed from whole-grid indices.
+    keys : bool
+        Also return :func:`fepre.surface.dual_cells.dual_keys`.
 
     Returns
     -------
@@ -109,22 +116,23 @@ def dual_contouring(
     spacing = np.asarray(spacing, dtype=float)
     dual = dual_cells(values, level, workers)
     if dual is None:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+        return empty_dual_result(keys)
+    first = np.zeros(3, dtype=np.int64) if first_node is None else np.asarray(first_node, dtype=np.int64)
     if model is None:
-        hermite = hermite_from_grid(dual, values, level, origin, spacing)
+        hermite = hermite_from_grid(dual, values, level, origin, spacing, first)
     else:
-        hermite = hermite_from_model(dual, values, level, origin, spacing, model)
+        hermite = hermite_from_model(dual, values, level, origin, spacing, model, first_node=first)
     nz, ny, nx = values.shape
     k, rest = np.divmod(dual.vertex_grid_cell, nx * ny)
     j, i = np.divmod(rest, nx)
-    low = origin + np.stack([i, j, k], axis=1) * spacing
+    low = origin + (np.stack([i, j, k], axis=1) + first) * spacing
     centre = low + 0.5 * spacing
     box = (low - margin * spacing, low + (1 + margin) * spacing)
     rows_cell, rows_crossing = dual.cell, dual.crossing  # the Hermite samples of each cell
     qef = accumulate_qef(rows_cell, hermite.points, hermite.normals, centre, rows_crossing)
     points, rank, free, corners = solve_in_cells(qef, truncation, *box)
-    donated = donated_corners(corners, rank, rows_cell, rows_crossing, hermite, dual, origin, spacing, values.shape)
-    widened = widened_for_tips(corners, dual, origin, spacing, values.shape, box)
+    donated = donated_corners(corners, rank, rows_cell, rows_crossing, hermite, dual, origin, spacing, values.shape, first)
+    widened = widened_for_tips(corners, dual, origin, spacing, values.shape, box, first)
     if donated is not None:
         order = np.argsort(np.concatenate([rows_cell, donated[0]]), kind="stable")
         rows_cell = np.concatenate([rows_cell, donated[0]])[order]
@@ -141,7 +149,8 @@ def dual_contouring(
         points, rank = _refine_features(rows_cell, rows_crossing, hermite, model, level, points, rank, centre, box, truncation)
     facing = incidence(rows_cell, rows_crossing, dual.n_cells, dual.n_crossings) @ hermite.normals
     along02 = better_diagonal(points, dual.quads, rank >= 2, facing)
-    return points, split_quads(dual.quads, along02)
+    triangles = split_quads(dual.quads, along02)
+    return (points, triangles, dual_keys(dual)) if keys else (points, triangles)
 
 
 def _project_smooth(

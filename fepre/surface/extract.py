@@ -91,14 +91,15 @@ def isosurface(
     band: float | None = None,
     model: SDF | None = None,
     workers: int | None = None,
+    chunks: Any = None,
 ):
     """Extract the ``level`` set of a model or an image grid as outward triangles.
 
     Parameters
     ----------
-    source : fepre.sdf.SDF or pyvista.ImageData
+    source : fepre.sdf.SDF, pyvista.ImageData or fepre.chunked.ChunkedGrid
         A model (sampled first with :func:`fepre.sample` and ``spacing``/``shape``/``bounds``/
-        ``band``) or a sampled grid.
+        ``band``), a sampled grid, or a chunked grid (extracted chunk by chunk).
     method : {"flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets", "dual_contouring"}
         ``"flying_edges"`` is VTK's vtkFlyingEdges3D (the reference); the others are fepre's.
         ``"dual_contouring"`` keeps the sharp edges and corners of CSG parts: each cell's vertex
@@ -116,7 +117,16 @@ def isosurface(
         its crossings and normals from the model (sharp features) instead of from the grid's
         gradient, and ``normals`` uses its gradient.
     workers : int, optional
-        Threads (default ``fepre.config.workers``).
+        Threads (default ``fepre.config.workers``; chunked: dask's scheduler decides).
+    chunks : int or (3,) ints, optional
+        Nodes per chunk along x, y, z (at least 8): extract chunk by chunk on dask (threads, or
+        the user's ``dask.distributed`` client) and stitch. Each chunk reads a halo (one node for
+        the case-table methods, three for the dual ones), vertices shared by chunks are merged
+        by their grid edge or cell, and the result is the single-grid surface (fepre's methods:
+        the same arrays; flying edges: the same vertices and triangles in another order). A
+        model is sampled per chunk in a narrow band (default two cell diagonals beyond the
+        level), so chunks far from the surface cost one evaluation. See
+        :func:`fepre.chunked.write_isosurface` for surfaces too large to hold.
 
     Returns
     -------
@@ -140,6 +150,17 @@ def isosurface(
     >>> round(sharp.area, 6), round(fepre.check_surface(sharp).volume, 6)
     (6.0, 1.0)
     """
+    from ..chunked.grid import ChunkedGrid
+
+    if chunks is not None or isinstance(source, ChunkedGrid):
+        from ..chunked.api import isosurface_chunked
+
+        if scalars not in (None, "sdf"):
+            raise ValueError("scalars applies only to an ImageData source")
+        return isosurface_chunked(
+            source, method=method, level=level, chunks=chunks, spacing=spacing, shape=shape, bounds=bounds,
+            band=band, model=model, normals=normals,
+        )
     method = choice(method, "method", METHODS)
     level = finite_float(level, "level")
     workers = config.resolve_workers(workers)
@@ -178,16 +199,53 @@ def isosurface(
             points, triangles = dual_contouring(values, level, origin, step, workers, model=model)
         else:
             points, triangles = _NUMPY_METHODS[method](values, level, origin, step, workers)
-    if points.shape[0] and bool((values == level).any()):
+    points, triangles = clean_triangles(points, triangles, method, bool((values == level).any()), grid.spacing)
+    return surface_dataset(
+        points,
+        triangles,
+        method=method,
+        level=level,
+        grid=(grid.origin, grid.spacing, grid.dimensions),
+        normals=normals,
+        model=model,
+        value_range=lambda: (float(values.min()), float(values.max())),
+    )
+
+
+def clean_triangles(
+    points: np.ndarray, triangles: np.ndarray, method: str, on_level: bool, spacing: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """The passes after extraction: weld where grid nodes lie on the level, then (for the
+    methods that make them) flip away triangles with three collinear corners."""
+    tolerance = 1e-6 * float(np.min(spacing))
+    if points.shape[0] and on_level:
         # nodes on the level: the crossings on their edges coincide
-        points, triangles = weld(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
+        points, triangles = weld(np.asarray(points), np.asarray(triangles), tolerance)
     if len(triangles) and method in _COLLINEAR_METHODS:
         # corners on one line (dual contouring along a crease, marching tetrahedra through an
         # edge): flipped away, the surface unchanged
-        points, triangles = remove_zero_area(np.asarray(points), np.asarray(triangles), 1e-6 * float(np.min(grid.spacing)))
+        points, triangles = remove_zero_area(np.asarray(points), np.asarray(triangles), tolerance)
+    return points, triangles
+
+
+def surface_dataset(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    *,
+    method: str,
+    level: float,
+    grid: tuple[Any, Any, Any],
+    normals: bool,
+    model: SDF | None,
+    value_range,
+):
+    """The PolyData ``isosurface`` returns: triangles, optional normals and the field data naming
+    the method, level and grid ``(origin, spacing, dimensions)``; warns when empty
+    (``value_range()`` gives the samples' range for the message)."""
+    origin, spacing, dimensions = grid
     surface = triangle_polydata(points, triangles)
     if surface.n_points == 0:
-        low, high = float(values.min()), float(values.max())
+        low, high = value_range()
         warn_user(
             f"the surface is empty: level {level:g} is not crossed by the samples (range "
             f"[{low:g}, {high:g}]); choose a level inside that range or check the model and bounds",
@@ -197,9 +255,9 @@ def isosurface(
         surface.point_data["Normals"] = _point_normals(surface, model, points, triangles)
     surface.field_data["surface_method"] = np.array([method])
     surface.field_data["surface_level"] = np.array([level])
-    surface.field_data["surface_spacing"] = np.asarray(grid.spacing, dtype=float)
-    surface.field_data["surface_grid_origin"] = np.asarray(grid.origin, dtype=float)
-    surface.field_data["surface_grid_dimensions"] = np.asarray(grid.dimensions, dtype=np.int64)
+    surface.field_data["surface_spacing"] = np.asarray(spacing, dtype=float)
+    surface.field_data["surface_grid_origin"] = np.asarray(origin, dtype=float)
+    surface.field_data["surface_grid_dimensions"] = np.asarray(dimensions, dtype=np.int64)
     return surface
 
 

@@ -70,6 +70,8 @@ def hermite_from_model(
     spacing: np.ndarray,
     model: Any,
     iterations: int = 12,
+    *,
+    first_node: np.ndarray | None = None,
 ) -> Hermite:
     """Crossings refined on ``model`` and its normalised gradients.
 
@@ -87,6 +89,8 @@ def hermite_from_model(
     iterations : int
         Largest number of steps per edge (each a model evaluation on the edges not yet
         converged to a millionth of a cell; Newton needs two or three on smooth surfaces).
+    first_node : (3,) int, optional
+        The (i, j, k) index of ``values[0, 0, 0]`` in the grid of ``origin`` (a chunk).
 
     Examples
     --------
@@ -104,7 +108,7 @@ def hermite_from_model(
     rows = np.arange(axis.size)
     step = np.zeros((axis.size, 3))
     step[rows, axis] = spacing[axis]  # the edge vector
-    base = origin + ijk * spacing
+    base = origin + (ijk + _first(first_node)) * spacing
     threshold = float(inside_threshold(values.dtype, level))
     start_inside = v0 < threshold
     _solve_on_edges(model, level, base, step, t, v0 - level, v1 - level, start_inside, iterations, spacing)
@@ -193,7 +197,12 @@ def _bisect_inside_end(
 
 
 def hermite_from_grid(
-    dual: DualCells, values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray
+    dual: DualCells,
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    first_node: np.ndarray | None = None,
 ) -> Hermite:
     """Linear crossings and normals from the gradient of the samples (no model needed).
 
@@ -228,5 +237,9 @@ def hermite_from_grid(
         at_start = (flat[start + shift_up].astype(np.float64) - flat[start + shift_down]) / width
         at_end = (flat[end + shift_up].astype(np.float64) - flat[end + shift_down]) / width
         gradient[rows, across] = (1 - t) * at_start + t * at_end
-    points = origin + (ijk + t[:, None] * np.eye(3)[axis]) * spacing
+    points = origin + ((ijk + _first(first_node)) + t[:, None] * np.eye(3)[axis]) * spacing
     return Hermite(points, _unit(gradient))
+
+
+def _first(first_node: np.ndarray | None) -> np.ndarray:
+    return np.zeros(3, dtype=np.int64) if first_node is None else np.asarray(first_node, dtype=np.int64)

@@ -20,8 +20,15 @@ CUBE_TABLE = CaseTable(np.array(AXIS_DIRECTIONS), EDGE_START, EDGE_AXIS, TRIANGL
 
 
 def marching_cubes(
-    values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray, workers: int | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    workers: int | None = None,
+    *,
+    first_node: np.ndarray | None = None,
+    keys: bool = False,
+):
     """Points and outward triangles of the ``level`` set of a (nz, ny, nx) array.
 
     Examples
@@ -33,4 +40,7 @@ def marching_cubes(
     >>> triangles.shape[1]
     3
     """
-    return extract_with_table(values, level, np.asarray(origin, float), np.asarray(spacing, float), CUBE_TABLE, workers)
+    return extract_with_table(
+        values, level, np.asarray(origin, float), np.asarray(spacing, float), CUBE_TABLE, workers,
+        first_node=first_node, keys=keys,
+    )

@@ -82,8 +82,15 @@ TETRAHEDRON_TABLE = _build_table()
 
 
 def marching_tetrahedra(
-    values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray, workers: int | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    workers: int | None = None,
+    *,
+    first_node: np.ndarray | None = None,
+    keys: bool = False,
+):
     """Points and outward triangles of the ``level`` set of a (nz, ny, nx) array.
 
     Examples
@@ -96,5 +103,6 @@ def marching_tetrahedra(
     (3, 3)
     """
     return extract_with_table(
-        values, level, np.asarray(origin, float), np.asarray(spacing, float), TETRAHEDRON_TABLE, workers
+        values, level, np.asarray(origin, float), np.asarray(spacing, float), TETRAHEDRON_TABLE, workers,
+        first_node=first_node, keys=keys,
     )

@@ -190,14 +190,15 @@ def accumulate_qef(
     reference : (C, 3)
         A point in or near each cell (its centre), the origin of the cell's relative coordinates.
     sample : (K,) int, optional
-        Sample of each row (default: row ``i`` is sample ``i``). A sample shared by several
-        cells is expanded once.
+        Sample of each row (default: row ``i`` is sample ``i``). Each row's terms are taken about
+        its own cell's reference, so a cell's sums depend on its own samples only.
     """
     count = reference.shape[0]
-    if sample is None:
-        sample = np.arange(cell.size)
-    origin = reference.mean(axis=0)  # sums in coordinates about one point, shifted per cell after
-    position = points - origin
+    if sample is not None:
+        points, normals = points[sample], normals[sample]
+    # each row about its own cell's reference: a cell's sums then depend on its samples only
+    # (not on which other cells are in the batch, so a chunk of a grid solves as the whole does)
+    position = points - reference[cell]
     offset = np.einsum("ij,ij->i", normals, position)
     terms = np.empty((points.shape[0], 13))
     terms[:, 0] = 1.0
@@ -205,14 +206,12 @@ def accumulate_qef(
     for k, (a, b) in enumerate(_UPPER):
         terms[:, 4 + k] = normals[:, a] * normals[:, b]
     terms[:, 10:13] = normals * offset[:, None]
-    sums = incidence(cell, sample, count, points.shape[0]) @ terms
-    shift = reference - origin
-    mass = sums[:, 1:4] / sums[:, 0:1] - shift
+    sums = incidence(cell, np.arange(cell.size), count, cell.size) @ terms
+    mass = sums[:, 1:4] / sums[:, 0:1]
     ata = np.empty((count, 3, 3))
     for k, (a, b) in enumerate(_UPPER):
         ata[:, a, b] = ata[:, b, a] = sums[:, 4 + k]
-    atb = sums[:, 10:13] - np.einsum("cij,cj->ci", ata, shift)
-    return QEF(ata, atb, mass, reference)
+    return QEF(ata, sums[:, 10:13], mass, reference)
 
 
 def _segment_sums(cell: np.ndarray, rows: np.ndarray, count: int) -> np.ndarray:

@@ -12,16 +12,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from .dual_cells import dual_cells, shorter_diagonal, split_quads
+from .dual_cells import dual_cells, dual_keys, empty_dual_result, shorter_diagonal, split_quads
 from .table_extraction import edge_points
 
 __all__ = ["surface_nets"]
 
 
 def surface_nets(
-    values: np.ndarray, level: float, origin: np.ndarray, spacing: np.ndarray, workers: int | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    values: np.ndarray,
+    level: float,
+    origin: np.ndarray,
+    spacing: np.ndarray,
+    workers: int | None = None,
+    *,
+    first_node: np.ndarray | None = None,
+    keys: bool = False,
+):
     """Points (one per active cell) and outward triangles of the ``level`` set.
+
+    ``first_node``: the (i, j, k) index of ``values[0, 0, 0]`` in the grid of ``origin``. With
+    ``keys``, also :func:`fepre.surface.dual_cells.dual_keys` (each vertex's cell and piece, each
+    triangle's crossing edge).
 
     Examples
     --------
@@ -36,9 +47,13 @@ def surface_nets(
     spacing = np.asarray(spacing, float)
     dual = dual_cells(values, level, workers)
     if dual is None:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+        return empty_dual_result(keys)
     crossings = np.concatenate(
-        [edge_points(e, d, values, level, origin, spacing) for e, d in zip(dual.scan.edges, np.eye(3, dtype=int))]
+        [
+            edge_points(e, d, values, level, origin, spacing, first_node)
+            for e, d in zip(dual.scan.edges, np.eye(3, dtype=int))
+        ]
     )
     points = dual.cell_means(crossings)
-    return points, split_quads(dual.quads, shorter_diagonal(points, dual.quads))
+    triangles = split_quads(dual.quads, shorter_diagonal(points, dual.quads))
+    return (points, triangles, dual_keys(dual)) if keys else (points, triangles)

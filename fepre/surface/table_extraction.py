@@ -73,8 +73,15 @@ def edge_points(
     level: float,
     origin: np.ndarray,
     spacing: np.ndarray,
+    first_node: np.ndarray | None = None,
 ) -> np.ndarray:
-    """World coordinates of the level crossing on the edges starting at node ``ids``."""
+    """World coordinates of the level crossing on the edges starting at node ``ids``.
+
+    ``first_node`` is the (i, j, k) index of ``values[0, 0, 0]`` in the grid that ``origin``
+    belongs to (a chunk of a larger grid): coordinates are computed from whole-grid indices, so
+    a chunk's crossings are bit for bit those of the whole grid.
+    """
+    fi, fj, fk = (0, 0, 0) if first_node is None else (int(v) for v in first_node)
     nz, ny, nx = values.shape
     flat = values.reshape(-1)
     di, dj, dk = (int(v) for v in direction)
@@ -84,9 +91,9 @@ def edge_points(
     k, rest = np.divmod(ids, nx * ny)
     j, i = np.divmod(rest, nx)
     points = np.empty((ids.size, 3))
-    points[:, 0] = origin[0] + spacing[0] * (i + t * di)
-    points[:, 1] = origin[1] + spacing[1] * (j + t * dj)
-    points[:, 2] = origin[2] + spacing[2] * (k + t * dk)
+    points[:, 0] = origin[0] + spacing[0] * ((i + fi) + t * di)
+    points[:, 1] = origin[1] + spacing[1] * ((j + fj) + t * dj)
+    points[:, 2] = origin[2] + spacing[2] * ((k + fk) + t * dk)
     return points
 
 
@@ -152,21 +159,34 @@ def extract_with_table(
     spacing: np.ndarray,
     table: CaseTable,
     workers: int | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    *,
+    first_node: np.ndarray | None = None,
+    keys: bool = False,
+):
     """Points (V, 3) and outward triangles (T, 3) of the ``level`` set of a (nz, ny, nx) grid.
 
-    After the scan, ranges of active cells are triangulated on ``workers`` threads.
+    After the scan, ranges of active cells are triangulated on ``workers`` threads. With
+    ``keys``, also ``(vertex_edge, vertex_family, triangle_cell)``: each vertex's crossing edge
+    as its start node (flat id in ``values``) and the index of its direction in
+    ``table.directions``, and the cell (flat id of its lowest node) of each triangle; the
+    triangles come by cell, then in table order.
     """
     workers = config.resolve_workers(workers)
     scan = scan_grid(values, level, [tuple(d) for d in table.directions], workers)
     sizes = np.array([e.size for e in scan.edges])
     offsets = np.concatenate([[0], np.cumsum(sizes)])
     if sizes.sum() == 0:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+        empty = (np.empty((0, 3)), np.empty((0, 3), dtype=np.int64))
+        none = np.empty(0, dtype=np.int64)
+        return (*empty, (none, none, none)) if keys else empty
     points = np.concatenate(
-        [edge_points(e, d, values, level, origin, spacing) for e, d in zip(scan.edges, table.directions)]
+        [edge_points(e, d, values, level, origin, spacing, first_node) for e, d in zip(scan.edges, table.directions)]
     )
     parts = _map_ranges(
         lambda r: _triangles_in(scan, table, offsets, *r), _cell_ranges(scan.cells.size, workers), workers
     )
+    if keys:
+        family = np.repeat(np.arange(sizes.size), sizes)
+        triangle_cell = np.repeat(scan.cells, table.triangle_count[scan.cases])
+        return points, np.concatenate(parts), (np.concatenate(scan.edges), family, triangle_cell)
     return points, np.concatenate(parts)
