@@ -11,19 +11,19 @@ from .chunk_surface import ChunkSurface
 __all__ = ["stitch"]
 
 
-def stitch(pieces: Sequence[ChunkSurface]) -> tuple[np.ndarray, np.ndarray, bool, float]:
-    """Points, triangles, whether any node is on the level, and the largest seam mismatch.
+def stitch(pieces: Sequence[ChunkSurface]) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Points, triangles and whether any node is on the level.
 
     Vertices with the same key are one vertex (its coordinates taken from the first chunk that
-    has it); negative keys are a chunk's own vertices, kept as they are (after the others); the mismatch is the largest distance between two chunks' copies of a vertex (zero
-    but for flying edges, whose float32 coordinates may differ in the last bit). Vertices come
+    has it, the same bits in every chunk); negative keys are a chunk's own vertices, kept as they
+    are (after the others). Vertices come
     sorted by key and triangles by order key (stable), which for fepre's own methods is the
     single-grid extraction's order.
     """
     pieces = [p for p in pieces if p.triangles.shape[0]]
     on_level = any(p.on_level for p in pieces)
     if not pieces:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64), on_level, 0.0
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64), on_level
     keys = np.concatenate([p.keys for p in pieces])
     points = np.concatenate([p.points for p in pieces])
     shift = np.cumsum([0] + [p.keys.size for p in pieces[:-1]])
@@ -36,9 +36,8 @@ def stitch(pieces: Sequence[ChunkSurface]) -> tuple[np.ndarray, np.ndarray, bool
     index[rows] = inverse.ravel()
     index[own] = unique.size + np.arange(own.size)
     merged = np.concatenate([points[rows[first]], points[own]])
-    mismatch = float(np.max(np.abs(merged[index[rows]] - points[rows]))) if rows.size else 0.0
     triangles = index[triangles]
     if all(p.order is not None for p in pieces):
         order = np.argsort(np.concatenate([p.order for p in pieces]), kind="stable")
         triangles = triangles[order]
-    return merged, triangles, on_level, mismatch
+    return merged, triangles, on_level

@@ -93,7 +93,7 @@ def surface_in_memory(tasks: list, progress: bool = False):
     """Compute every chunk; stitch.  Returns ``(points, triangles, on_level)``."""
     from .stitch import stitch
 
-    points, triangles, on_level, _ = stitch(_compute_all(tasks, progress))
+    points, triangles, on_level = stitch(_compute_all(tasks, progress))
     return points, triangles, on_level
 
 
