@@ -773,6 +773,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError, OSError, MeshingError) as exc:
         print(f"fepre {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except ImportError as exc:  # an optional dependency the command needs is not installed
+        print(f"fepre {args.command}: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:  # pragma: no cover
         print("interrupted", file=sys.stderr)
         return 130

@@ -292,3 +292,18 @@ def test_cli_sample_flags_checked(tmp_path, capsys):
     assert "--chunks writes a .zarr store" in capsys.readouterr().err
     assert main(["sample", str(part), "-o", str(tmp_path / "g.vti"), "--spacing", "0.2", "--quiet"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.vti", "part.py"]
+
+
+def test_without_dask_the_error_says_what_to_install(tmp_path, capsys, monkeypatch):
+    import sys
+
+    from fepre.cli import main
+
+    monkeypatch.setitem(sys.modules, "dask", None)
+    monkeypatch.setitem(sys.modules, "dask.array", None)
+    with pytest.raises(ImportError, match=r"pip install 'fepre\[dask\]'"):
+        fepre.sample(sdf.sphere(1.0), spacing=0.1, chunks=8)
+    part = _model_file(tmp_path)
+    assert main(["surface", str(part), "-o", str(tmp_path / "s.stl"), "--chunks", "16", "--spacing", "0.5"]) == 1
+    assert "needs dask: pip install 'fepre[dask]'" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.py"]
