@@ -112,6 +112,27 @@ def positive_int(value: Any, name: str) -> int:
     return int(value)
 
 
+def int_triple(value: Any, name: str, minimum: int, why: str = "") -> np.ndarray:
+    """``value`` (an int, or three ints for x, y, z) as a (3,) int64 array, each at least ``minimum``.
+
+    Examples
+    --------
+    >>> int_triple(16, "chunks", 8).tolist()
+    [16, 16, 16]
+    """
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        value = (value,) * 3
+    try:
+        entries = list(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {value!r}") from None
+    if len(entries) != 3 or any(isinstance(e, bool) or not isinstance(e, (int, np.integer)) for e in entries):
+        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {value!r}")
+    if min(entries) < minimum:
+        raise ValueError(f"{name} must be at least {minimum} nodes along each axis{why}; got {value!r}")
+    return np.array([int(e) for e in entries], dtype=np.int64)
+
+
 def as_bounds(value: Any, dim: int = 3, name: str = "bounds") -> tuple[tuple[float, ...], tuple[float, ...]]:
     """Return ``((min...), (max...))`` from that form or a flat VTK-style 2*dim sequence.
 

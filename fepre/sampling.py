@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import as_bounds, as_vector, domain_bounds, nonnegative_float, positive_int
+from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float
 from .config import config
 from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
 
@@ -37,22 +37,7 @@ def _format_bytes(count: float) -> str:
 
 
 def _shape_vector(shape: Any) -> np.ndarray:
-    if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):
-        shape = (shape,) * 3
-    try:
-        entries = list(shape)
-    except TypeError:
-        raise TypeError(f"shape must be an int or a sequence of 3 ints; got {shape!r}") from None
-    if len(entries) != 3:
-        raise ValueError(f"shape must be an int or a sequence of 3 ints; got {shape!r}")
-    result = []
-    for entry in entries:
-        if isinstance(entry, bool) or not isinstance(entry, (int, np.integer)):
-            raise TypeError(f"shape must contain integers; got {shape!r}")
-        if entry < 2:
-            raise ValueError(f"shape must have at least 2 nodes per axis; got {shape!r}")
-        result.append(int(entry))
-    return np.array(result)
+    return int_triple(shape, "shape", 2)
 
 
 def grid_geometry(

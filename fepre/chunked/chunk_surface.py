@@ -77,10 +77,10 @@ def _node_index(ids: np.ndarray, counts: np.ndarray) -> np.ndarray:
 
 def _used(keys: np.ndarray, points: np.ndarray, triangles: np.ndarray, order: np.ndarray | None, on_level: bool):
     """Keep only the vertices the kept triangles use."""
-    used = np.flatnonzero(np.bincount(triangles.ravel(), minlength=len(keys)))
-    index = np.full(len(keys), -1, dtype=np.int64)
-    index[used] = np.arange(used.size)
-    return ChunkSurface(keys[used], points[used], index[triangles], order, on_level)
+    from ..surface.weld import drop_unused
+
+    used, triangles = drop_unused(len(keys), triangles)
+    return ChunkSurface(keys[used], points[used], triangles, order, on_level)
 
 
 def extract_chunk(

@@ -15,6 +15,8 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from ..arguments import int_triple
+
 __all__ = ["ChunkLayout", "as_chunks", "HALO", "MIN_CHUNK"]
 
 #: nodes each method reads beyond the ones a chunk owns, on (the low side, the high side)
@@ -37,20 +39,7 @@ def as_chunks(chunks: Any, name: str = "chunks") -> np.ndarray:
     >>> as_chunks(64).tolist()
     [64, 64, 64]
     """
-    if isinstance(chunks, (int, np.integer)) and not isinstance(chunks, bool):
-        chunks = (chunks,) * 3
-    try:
-        entries = list(chunks)
-    except TypeError:
-        raise TypeError(f"{name} must be an int or 3 ints (nodes per chunk along x, y, z); got {chunks!r}") from None
-    if len(entries) != 3 or any(isinstance(e, bool) or not isinstance(e, (int, np.integer)) for e in entries):
-        raise TypeError(f"{name} must be an int or 3 ints (nodes per chunk along x, y, z); got {chunks!r}")
-    if min(entries) < MIN_CHUNK:
-        raise ValueError(
-            f"{name} must be at least {MIN_CHUNK} nodes along each axis (the dual methods read 3 "
-            f"nodes beyond each side of a chunk); got {chunks!r}"
-        )
-    return np.array([int(e) for e in entries], dtype=np.int64)
+    return int_triple(chunks, name, MIN_CHUNK, " (the dual methods read 3 nodes beyond each side of a chunk)")
 
 
 def _axis_sizes(count: int, size: int) -> tuple[int, ...]:

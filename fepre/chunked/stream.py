@@ -87,14 +87,14 @@ def _clean_chunk(piece: ChunkSurface, method: str, origin: np.ndarray, spacing: 
     the triangles and each point's name (V, 3) int64 (the bits of its float32 coordinates).
     """
     from ..surface.extract import _COLLINEAR_METHODS
+    from ..surface.weld import drop_unused
     from ..surface.zero_area import flip_zero_area
 
     units = (piece.points - origin) / spacing
     node = np.rint(units)
     at_node = np.all(np.abs(units - node) <= _NODE_TOLERANCE, axis=1)
-    units[at_node] = node[at_node]  # the crossings at a node on the level, moved onto it exactly
     points = piece.points.copy()
-    points[at_node] = origin + node[at_node] * spacing
+    points[at_node] = origin + node[at_node] * spacing  # the crossings of a node on the level, onto it
     # as the file holds them: float32 (-0.0 read as 0.0)
     written = points.astype(np.float32) + np.float32(0.0)
     first, inverse = _unique_rows(written.view(np.uint32))
@@ -105,7 +105,8 @@ def _clean_chunk(piece: ChunkSurface, method: str, origin: np.ndarray, spacing: 
     triangles = triangles[keep]
     if method in _COLLINEAR_METHODS and triangles.shape[0]:
         triangles = flip_zero_area(np.asarray(points, dtype=np.float64), triangles)
-    return points, triangles, names
+    used, triangles = drop_unused(len(points), triangles)  # vertices whose triangles all collapsed
+    return points[used], triangles, names[used]
 
 
 def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

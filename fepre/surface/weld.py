@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["weld"]
+__all__ = ["weld", "drop_unused"]
 
 
 def weld(points: np.ndarray, triangles: np.ndarray, tolerance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -67,8 +67,20 @@ def weld(points: np.ndarray, triangles: np.ndarray, tolerance: float = 0.0) -> t
             representative[order] = order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]
     merged = representative[triangles]
     keep = (merged[:, 0] != merged[:, 1]) & (merged[:, 1] != merged[:, 2]) & (merged[:, 0] != merged[:, 2])
-    merged = merged[keep]
-    used = np.flatnonzero(np.bincount(merged.ravel(), minlength=len(points)))  # sorted, O(n)
-    index = np.full(len(points), -1, dtype=np.int64)
+    used, renumbered = drop_unused(len(points), merged[keep])
+    return points[used], renumbered
+
+
+def drop_unused(count: int, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices (of ``count``) that ``triangles`` use, in order, and the triangles renumbered.
+
+    Examples
+    --------
+    >>> used, triangles = drop_unused(4, np.array([[0, 2, 3]]))
+    >>> used.tolist(), triangles.tolist()
+    ([0, 2, 3], [[0, 1, 2]])
+    """
+    used = np.flatnonzero(np.bincount(triangles.ravel(), minlength=count))  # sorted, O(n)
+    index = np.full(count, -1, dtype=np.int64)
     index[used] = np.arange(used.size)
-    return points[used], index[merged]
+    return used, index[triangles]
