@@ -47,6 +47,8 @@ _LAZY: dict[str, str] = {
     "SizeField": "fepre.sizing",
     "periodic_nodes": "fepre.periodic",
     "PeriodicNodes": "fepre.periodic",
+    "homogenize": "fepre.periodic",
+    "Homogenized": "fepre.periodic",
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 

@@ -130,7 +130,7 @@ def distmesh(
         opposite (offset by the period, exactly) and keeps every other node off the faces. The
         mesh's field data ``periodic_lower`` and ``periodic_period`` record the cell;
         :func:`fepre.periodic_nodes` gives the node pairs, :func:`fepre.homogenize` the
-        effective stiffness. Takes one ``h`` (no size field).
+        effective stiffness. Takes one ``h`` (no ``size``).
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
@@ -170,13 +170,17 @@ def distmesh(
     o = resolve_options(options, overrides)
     if size is not None and not callable(size) and not _is_dataset(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
+    if periodic is not None and (size is not None or isinstance(h, (tuple, list, np.ndarray))):
+        raise ValueError("periodic meshes take one h (a number); size= and h=(hmin, hmax) are not supported with periodic=")
+    if periodic is not None and bounds is None:
+        from ..periodic.cell import periodic_cell
+
+        bounds = (tuple(np.zeros(3)), tuple(np.broadcast_to(periodic_cell(periodic, None).period, 3)))
     h, size, absolute = _resolve_sizes(model, h, size, bounds)
     cell = None
     if periodic is not None:
         from ..periodic.cell import check_periodic_model, periodic_cell
 
-        if absolute:
-            raise ValueError("periodic meshes take one h (a number); size fields and h=(hmin, hmax) are not supported with periodic=")
         cell = periodic_cell(periodic, bounds)
         check_periodic_model(model, cell, h)
         periodic_model, model = model, cell.solid(model)
@@ -225,7 +229,10 @@ def distmesh(
     found, protection, feature_nodes = None, None, 0
     if o.features:
         found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
-        for message in found.skipped:
+        # a periodic cell's faces get their own nodes: warn only of the model's own features
+        skipped = found.skipped if cell is None else detect_features(
+            periodic_model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False).skipped
+        for message in skipped:
             warn_user(f"distmesh: {message}", FeatureWarning)
         if found:
             nodes = found.nodes
@@ -322,8 +329,14 @@ def distmesh(
     if cell is not None:
         from ..periodic.nodes import match_faces
 
-        match_faces(points, cell, cell.tolerance(h))  # raises MeshingError naming an unpaired node
-        history.update(periodic_nodes=np.array([periodic_count]))
+        *_, unpaired = match_faces(points, cell, cell.tolerance(h), model, h)  # MeshingError: a node off the surface
+        if unpaired.size:
+            warn_user(
+                f"distmesh: {unpaired.size} node(s) on the rim of the periodic cell's faces have no partner on the "
+                "opposite face (the mesh kept their cells on one face only); they are left unconstrained",
+                ResolutionWarning,
+            )
+        history.update(periodic_nodes=np.array([periodic_count]), periodic_unpaired=np.array([unpaired.size]))
     grid = to_grid(points, tets, model, history, found)
     if cell is not None:
         grid.field_data["periodic_lower"] = cell.lower

@@ -13,7 +13,7 @@ __all__ = ["PeriodicCell", "periodic_cell", "check_periodic_model", "compose", "
 
 AXES = "xyz"
 #: free DistMesh points stay this far (times h) from the cell's faces
-FACE_MARGIN = 0.3
+FACE_MARGIN = 0.45
 #: samples per face side when checking that a model repeats across the period
 _CHECK_SAMPLES = 24
 
@@ -95,8 +95,9 @@ def periodic_cell(periodic: Any, bounds: Any) -> PeriodicCell:
 def check_periodic_model(model, cell: PeriodicCell, h: float) -> None:
     """Refuse a model that does not repeat across the cell, or one already cut by its faces.
 
-    The model is sampled on a grid of every pair of opposite faces; values that differ by more
-    than ``1e-6`` of the cell's size (plus ``1e-4 h``) mean its faces do not match. A model
+    The model is sampled on a grid of every pair of opposite faces: its sign must agree, and
+    within ``2 h`` of the zero set its values too (to ``1e-6`` of the cell's size plus
+    ``1e-4 h``), or its faces do not match. A model
     whose values are zero on a face where they are negative just inside was cut by the cell
     already (fepre cuts it itself: give the unbounded periodic model).
     """
@@ -113,8 +114,11 @@ def check_periodic_model(model, cell: PeriodicCell, h: float) -> None:
         high[:, axis] = cell.upper[axis]
         inside[:, axis] = cell.lower[axis] + 1e-3 * h
         a, b, c = model(low), model(high), model(inside)
-        worst = int(np.argmax(np.abs(a - b)))
-        if abs(a[worst] - b[worst]) > tolerance:
+        # the solid must repeat: same sign everywhere, same value near the zero set (its shape)
+        near = np.minimum(np.abs(a), np.abs(b)) < 2.0 * h
+        mismatch = np.where(near, np.abs(a - b) > tolerance, (a < 0) != (b < 0))
+        if mismatch.any():
+            worst = int(np.argmax(np.where(mismatch, np.abs(a - b), -1.0)))
             point = low[worst].copy()
             raise ValueError(
                 f"the model does not repeat across the period along {AXES[axis]}: at "

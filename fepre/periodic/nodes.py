@@ -40,6 +40,7 @@ class PeriodicNodes:
     masters: np.ndarray
     shifts: np.ndarray
     points: np.ndarray
+    unpaired: np.ndarray
 
     def __len__(self) -> int:
         return int(self.slaves.size)
@@ -62,32 +63,37 @@ class PeriodicNodes:
         return np.column_stack([lower.astype(np.int64), upper])
 
 
-def match_faces(points: np.ndarray, cell: PeriodicCell, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(slaves, masters, shifts)`` of the nodes on the cell's faces; raises MeshingError when a
-    node on a face has no partner one period away (on the opposite face)."""
+def match_faces(points: np.ndarray, cell: PeriodicCell, tol: float, model=None, h: float = 0.0):
+    """``(slaves, masters, shifts, unpaired)`` of the nodes on the cell's faces.
+
+    ``unpaired`` are face nodes with no partner one period away. With a ``model``, they must lie
+    on its zero set (within ``1e-3 h``: rim nodes whose cells the final mesh kept on one face
+    only), else MeshingError names one (a fepre bug).
+    """
     from scipy.spatial import cKDTree
 
     points = np.asarray(points, dtype=np.float64)
     low = np.abs(points - cell.lower) <= tol
     high = np.abs(points - cell.upper) <= tol
-    slaves = np.flatnonzero(high.any(axis=1))
-    shifts = high[slaves].astype(np.int8)
+    candidates = np.flatnonzero(high.any(axis=1))
+    shifts = high[candidates].astype(np.int8)
     tree = cKDTree(points)
-    distance, masters = tree.query(points[slaves] - shifts * cell.period) if slaves.size else (np.zeros(0), np.zeros(0, np.int64))
-    lonely = distance > tol
-    # a lower-face node without an upper partner: its images are missing among the slaves
-    lower_only = np.flatnonzero(low.any(axis=1) & ~high.any(axis=1))
-    image_count = np.zeros(points.shape[0], np.int64)
-    np.add.at(image_count, masters[~lonely], 1)
-    expected = (1 << low[lower_only].sum(axis=1)) - 1  # 1 on a face, 3 on an edge, 7 at a corner
-    short = lower_only[image_count[lower_only] < expected]
-    if lonely.any() or short.size:
-        node = int(slaves[np.argmax(lonely)]) if lonely.any() else int(short[0])
-        raise MeshingError(
-            f"the periodic mesh's faces do not match: node {node} at {np.round(points[node], 9).tolist()} has no "
-            f"partner one period away ({int(lonely.sum()) + short.size} such nodes); this is a bug in fepre, please report it"
-        )
-    return slaves.astype(np.int64), masters.astype(np.int64), shifts
+    distance, masters = tree.query(points[candidates] - shifts * cell.period) if candidates.size else (np.zeros(0), np.zeros(0, np.int64))
+    paired = distance <= tol
+    slaves, masters, shifts = candidates[paired], masters[paired].astype(np.int64), shifts[paired]
+    has_partner = np.zeros(points.shape[0], bool)
+    has_partner[slaves] = True
+    has_partner[masters] = True
+    unpaired = np.flatnonzero((low | high).any(axis=1) & ~has_partner)
+    if model is not None and unpaired.size:
+        off = unpaired[np.abs(model(points[unpaired])) > 1e-3 * h]
+        if off.size:
+            node = int(off[0])
+            raise MeshingError(
+                f"the periodic mesh's faces do not match: node {node} at {np.round(points[node], 9).tolist()} has no "
+                f"partner one period away ({off.size} such nodes off the surface); this is a bug in fepre, please report it"
+            )
+    return slaves.astype(np.int64), masters, shifts, unpaired.astype(np.int64)
 
 
 def periodic_nodes(mesh) -> PeriodicNodes:
@@ -122,5 +128,5 @@ def periodic_nodes(mesh) -> PeriodicNodes:
                         np.asarray(field["periodic_period"], dtype=np.float64).reshape(3))
     points = np.asarray(mesh.points, dtype=np.float64)
     tol = 1e-9 * float(cell.period.max())
-    slaves, masters, shifts = match_faces(points, cell, tol)
-    return PeriodicNodes(cell, slaves, masters, shifts, points)
+    slaves, masters, shifts, unpaired = match_faces(points, cell, tol)
+    return PeriodicNodes(cell, slaves, masters, shifts, points, unpaired)
