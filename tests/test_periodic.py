@@ -175,3 +175,35 @@ def test_match_faces_reports_unpaired_nodes_and_refuses_them_off_the_surface():
     assert match_faces(points, cell, 1e-9, rim, 0.1)[3].tolist() == [2]
     with pytest.raises(MeshingError, match=r"node 2 at \[0.0, 0.2, 0.3\] has no partner"):
         match_faces(points, cell, 1e-9, sdf.sphere(5.0), 0.1)
+
+
+def random_periodic_void(seed: int):
+    """A solid cell with a spherical void at a random place, repeated so that it crosses faces."""
+    import itertools
+
+    rng = np.random.default_rng(seed)
+    period = rng.uniform(0.8, 1.4, 3)
+    radius = rng.uniform(0.15, 0.3) * period.min()
+    centre = rng.uniform(0, 1, 3) * period
+    copies = [sdf.sphere(radius, center=tuple(centre + np.array(k) * period)) for k in itertools.product((-1, 0, 1), repeat=3)]
+    void = copies[0]
+    for other in copies[1:]:
+        void = void | other
+    return sdf.box((20, 20, 20)) - void, tuple(period), radius
+
+
+@pytest.mark.parametrize("seed", [3, 11, 29])
+def test_random_voids_crossing_the_faces_give_paired_valid_cells(seed):
+    model, period, radius = random_periodic_void(seed)
+    h = min(period) / 9
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mesh = fepre.distmesh(model, h=h, periodic=period)
+    nodes = fepre.periodic_nodes(mesh)
+    points = np.asarray(mesh.points)
+    assert np.abs(points[nodes.slaves] - nodes.shifts * nodes.cell.period - points[nodes.masters]).max() <= 1e-12
+    assert nodes.unpaired.size == 0
+    assert mesh["min_dihedral_angle"].min() >= 25.0 and mesh["max_dihedral_angle"].max() <= 150.0
+    # the void is whole in the cell however it is cut by the faces: volume = cell - sphere
+    exact = np.prod(period) - 4 / 3 * np.pi * radius**3
+    assert mesh.volume == pytest.approx(exact, rel=0.015)
