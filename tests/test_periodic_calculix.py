@@ -83,8 +83,9 @@ def test_a_spherical_void_stays_under_the_hashin_shtrikman_bounds():
 
 
 def test_a_gyroid_sheet_cell_is_cubic():
-    mesh = quiet_mesh(sdf.gyroid(period=1.0, thickness=0.2), 0.08, 1.0)
-    result = fepre.homogenize(mesh, (E, NU), order=2, model=sdf.gyroid(period=1.0, thickness=0.2))
+    mesh = quiet_mesh(sdf.gyroid(period=1.0, thickness=0.2), 0.09, 1.0)
+    # C3D4 keeps the test quick (2 s; C3D10 takes 27 s here and is 0.4% off cubic, `fepre bench periodic`)
+    result = fepre.homogenize(mesh, (E, NU), order=1)
     c = result.stiffness
     assert np.ptp(np.diag(c)[:3]) <= 0.01 * c[0, 0]
     assert np.ptp(np.diag(c)[3:]) <= 0.01 * c[3, 3]
