@@ -45,6 +45,10 @@ _LAZY: dict[str, str] = {
     "plot_model": "fepre.plotting",
     "size_field": "fepre.sizing",
     "SizeField": "fepre.sizing",
+    "periodic_nodes": "fepre.periodic",
+    "PeriodicNodes": "fepre.periodic",
+    "homogenize": "fepre.periodic",
+    "Homogenized": "fepre.periodic",
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 

@@ -359,9 +359,27 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hmax", type=float, help="largest edge length: grade the mesh with the automatic size field from --h to this")
     parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
+    _period_argument(parser, required=False)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
+
+
+def _period_argument(parser: argparse.ArgumentParser, required: bool) -> None:
+    parser.add_argument("--period", type=float, nargs="+", metavar="L", required=required,
+                        help="mesh one periodic cell of the model: its period (or Lx Ly Lz); the cell is the model "
+                             "file's bounds, or from the origin; an .inp gets the periodic *EQUATION constraints")
+
+
+def _periods(values: list[float] | None):
+    """The ``--period`` values as one or three positive floats, or None."""
+    if values is None:
+        return None
+    if len(values) not in (1, 3):
+        raise ValueError(f"--period takes one period or three (Lx Ly Lz); got {len(values)} numbers")
+    if not all(np.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f"--period must be positive; got {' '.join(f'{v:g}' for v in values)}")
+    return values[0] if len(values) == 1 else tuple(values)
 
 
 def _edge_length(args: argparse.Namespace, part) -> float:
@@ -386,8 +404,12 @@ def _run_mesh(args: argparse.Namespace) -> int:
 
     output = _output_path(args.output, "--output", _mesh_suffixes())
     size = _size_file(args.size) if args.size is not None else None
+    period = _periods(args.period)
     part = _load_part(args)
-    part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
+    if period is None:
+        part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
+    elif args.hmax is not None or size is not None:
+        raise ValueError("--period meshes with one --h (no --hmax or --size)")
     h = _edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
     if args.hmax is not None:
         if h is None or not args.hmax > h:
@@ -410,7 +432,9 @@ def _run_mesh(args: argparse.Namespace) -> int:
         say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
     mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
-                          features=not args.no_features)
+                          features=not args.no_features, periodic=period)
+    if period is not None:
+        say(f"fepre mesh: periodic cell: {len(fepre.periodic_nodes(mesh))} nodes tied to their partners one period away")
     say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
     if not args.quiet:
         print(summary(mesh))
@@ -717,6 +741,65 @@ def _describe_file(name: str) -> str:
     if not sets:
         lines.append("named sets: none")
     return "\n".join(lines)
+
+
+def _configure_homogenize(parser: argparse.ArgumentParser) -> None:
+    _model_argument(parser)
+    _period_argument(parser, required=True)
+    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--E", type=float, required=True, help="Young's modulus of the solid")
+    parser.add_argument("--nu", type=float, required=True, help="Poisson's ratio of the solid")
+    parser.add_argument("--order", type=int, choices=(1, 2), default=2, help="C3D4 (1) or C3D10 (2, default)")
+    parser.add_argument("-o", "--output", help="also write the cell's mesh (.vtu, .inp with its *EQUATION constraints, ...)")
+    parser.add_argument("--workdir", help="an existing folder to keep CalculiX's files in")
+    parser.add_argument("--json", help="write the result (stiffness, density, moduli) to this .json file")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--quiet", action="store_true", help="print only the result")
+
+
+@command("homogenize", "mesh one periodic cell and compute its effective elastic stiffness in CalculiX")(_configure_homogenize)
+def _run_homogenize(args: argparse.Namespace) -> int:
+    import json
+
+    import fepre
+
+    from .periodic.homogenize import _ccx
+
+    period = _periods(args.period)
+    if not (np.isfinite(args.E) and args.E > 0):
+        raise ValueError(f"--E must be a positive Young's modulus; got {args.E:g}")
+    if not -1.0 < args.nu < 0.5:
+        raise ValueError(f"--nu must lie in (-1, 0.5) for an isotropic solid; got {args.nu:g}")
+    _ccx(None)
+    output = _output_path(args.output, "--output", _mesh_suffixes()) if args.output else None
+    json_path = _output_path(args.json, "--json", (".json",)) if args.json else None
+    if args.workdir is not None and not Path(args.workdir).is_dir():
+        raise ValueError(f"--workdir {args.workdir!r} is not an existing folder")
+    part = _load_part(args)
+    h = _edge_length(args, part)
+    say = (lambda message: None) if args.quiet else _say
+    say(f"fepre homogenize: DistMesh of the periodic cell, h={h:g} ...")
+    start = time.perf_counter()
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, periodic=period, progress=not args.quiet, seed=args.seed)
+    say(f"fepre homogenize: {mesh.n_cells} tetrahedra in {time.perf_counter() - start:.1f} s; six load cases in CalculiX ...")
+    if output is not None:
+        fepre.export(mesh, output, order=args.order, model=part.model)
+        say(f"fepre homogenize: wrote {output}")
+    result = fepre.homogenize(mesh, {"E": args.E, "nu": args.nu}, order=args.order, model=part.model, workdir=args.workdir)
+    print(result)
+    print(f"  nu = {np.array2string(result.poisson_ratios[[0, 0, 1], [1, 2, 2]], precision=4)} (12, 13, 23)")
+    if json_path is not None:
+        record = {
+            "stiffness_voigt_11_22_33_23_13_12": result.stiffness.tolist(),
+            "relative_density": result.relative_density,
+            "young_moduli": result.young_moduli.tolist(),
+            "shear_moduli_23_13_12": result.shear_moduli.tolist(),
+            "material": {"E": args.E, "nu": args.nu},
+            "cells": result.cells, "order": result.order, "h": h, "period": list(np.broadcast_to(period, 3)),
+        }
+        _write_atomically(lambda path: path.write_text(json.dumps(record, indent=2)), json_path)
+        say(f"fepre homogenize: wrote {json_path}")
+    return 0
 
 
 def _configure_demo(parser: argparse.ArgumentParser) -> None:

@@ -70,6 +70,7 @@ def remove_boundary_slivers(
     h: float,
     *,
     guard: SurfaceGuard | None = None,
+    locked: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
     """Remove bad cells with four boundary vertices and two boundary faces.
 
@@ -102,6 +103,8 @@ def remove_boundary_slivers(
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
     allowed = ~in_sorted(new_edge, boundary_edges)
+    if locked is not None:  # faces between locked vertices stay (a periodic cell's faces)
+        allowed &= ~locked[cells].all(axis=1)
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
     rows = np.arange(cells.shape[0])[:, None]
@@ -141,6 +144,7 @@ def expose_shallow_vertices(
     *,
     targets: ShapeTargets | None = None,
     guard: SurfaceGuard | None = None,
+    locked: np.ndarray | None = None,
 ):
     """Remove bad cells made of a boundary face and a vertex just under it; project that vertex.
 
@@ -166,6 +170,8 @@ def expose_shallow_vertices(
     vertex = cells[rows, local]
     face = cells[rows[:, None], FACE_OF_TET[local]]
     allowed = in_sorted(face_keys(face, n), boundary_face_keys) & movable[vertex]
+    if locked is not None:  # a face between locked vertices stays (a periodic cell's faces)
+        allowed &= ~locked[face].all(axis=1)
     allowed &= model(points[vertex]) > -SHALLOW * h
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the exposed faces continue the removed one: no face of them crosses a crease

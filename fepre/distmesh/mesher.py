@@ -94,6 +94,7 @@ def distmesh(
     bounds: Any = None,
     size: Any = None,
     fixed: Any = None,
+    periodic: Any = None,
     options: DistMeshOptions | None = None,
     progress: bool = False,
     callback: Callable[[DistMeshState], object] | None = None,
@@ -122,6 +123,14 @@ def distmesh(
         Points kept in the mesh that never move; they must lie in the solid (sdf <= 1e-3 h).
         They combine with the detected features (``features=True``): feature nodes closer
         than ``h/2`` to one of them are left out.
+    periodic : float or (Lx, Ly, Lz), optional
+        Mesh one cell of a periodic model: ``model`` is the unbounded periodic model and
+        ``bounds`` the cell (default ``[0, L]``; its extents must equal the periods). fepre cuts
+        the model with the cell, lays nodes on each face, edge and corner identically on its
+        opposite (offset by the period, exactly) and keeps every other node off the faces. The
+        mesh's field data ``periodic_lower`` and ``periodic_period`` record the cell;
+        :func:`fepre.periodic_nodes` gives the node pairs, :func:`fepre.homogenize` the
+        effective stiffness. Takes one ``h`` (no ``size``).
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
@@ -161,7 +170,21 @@ def distmesh(
     o = resolve_options(options, overrides)
     if size is not None and not callable(size) and not _is_dataset(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
+    if periodic is not None and (size is not None or isinstance(h, (tuple, list, np.ndarray))):
+        raise ValueError("periodic meshes take one h (a number); size= and h=(hmin, hmax) are not supported with periodic=")
+    if periodic is not None and bounds is None:
+        from ..periodic.cell import periodic_cell
+
+        bounds = (tuple(np.zeros(3)), tuple(np.broadcast_to(periodic_cell(periodic, None).period, 3)))
     h, size, absolute = _resolve_sizes(model, h, size, bounds)
+    cell = None
+    if periodic is not None:
+        from ..periodic.cell import check_periodic_model, periodic_cell
+
+        cell = periodic_cell(periodic, bounds)
+        check_periodic_model(model, cell, h)
+        periodic_model, model = model, cell.solid(model)
+        bounds = (tuple(cell.lower), tuple(cell.upper))
     lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
     extent = float((upper - lower).max())
     if h >= extent:
@@ -181,6 +204,8 @@ def distmesh(
             )
         if len(np.unique(fixed_points, axis=0)) != len(fixed_points):
             raise ValueError("fixed must not contain duplicate points")
+        if cell is not None and cell.on_planes(fixed_points, cell.tolerance(h)).any():
+            raise ValueError("fixed points must not lie on the faces of the periodic cell (fepre lays the periodic face nodes itself)")
     if size is not None:
         evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
     from ..sizing.estimate import estimated_cells
@@ -194,15 +219,27 @@ def distmesh(
         )
 
     t0 = time.perf_counter()
+    periodic_count = 0
+    if cell is not None:
+        from ..periodic.boundary_nodes import boundary_nodes
+
+        face_nodes = boundary_nodes(periodic_model, cell, h, seed=o.seed)
+        periodic_count = len(face_nodes)
+        fixed_points = np.concatenate([face_nodes, fixed_points])
     found, protection, feature_nodes = None, None, 0
     if o.features:
         found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
-        for message in found.skipped:
+        # a periodic cell's faces get their own nodes: warn only of the model's own features
+        skipped = found.skipped if cell is None else detect_features(
+            periodic_model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False).skipped
+        for message in skipped:
             warn_user(f"distmesh: {message}", FeatureWarning)
         if found:
             nodes = found.nodes
+            if cell is not None:  # the face nodes stand for the features on the cell's faces
+                nodes = nodes[~cell.on_planes(nodes, 1e-3 * h).any(axis=1)]
             feature_nodes = len(nodes)
-            if len(fixed_points):
+            if len(fixed_points) and len(nodes):
                 from scipy.spatial import cKDTree
 
                 distance, _ = cKDTree(fixed_points).query(nodes)
@@ -219,13 +256,21 @@ def distmesh(
     if protection is not None:
         free = np.arange(len(points)) >= len(fixed_points)
         points = points[~(free & protection.inside(points))]
+    protect = None if protection is None else protection.push
+    if cell is not None:
+        from ..periodic.cell import FACE_MARGIN, compose
+
+        free = np.arange(len(points)) >= len(fixed_points)
+        near_face = (np.minimum(points - cell.lower, cell.upper - points) < FACE_MARGIN * h).any(axis=1)
+        points = points[~(free & near_face)]
+        protect = compose(protect, cell.keep_off_faces(FACE_MARGIN * h))
     if len(points) - len(fixed_points) < 4:
         _check_domain(model, lower, upper, h)
     fixed_mask = np.zeros(len(points), bool)
     fixed_mask[: len(fixed_points)] = True
 
     loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
-                   protect=None if protection is None else protection.push, local_size=size if absolute else None)
+                   protect=protect, local_size=size if absolute else None)
     previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
     points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
     loop_seconds = time.perf_counter() - start
@@ -239,7 +284,8 @@ def distmesh(
 
         pinned = stage_pins(points, tets, fixed_mask, None if fixed is None else as_points(fixed, 3, "fixed")[0], model, h)
         try:
-            points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed)
+            locked = None if cell is None else cell.on_planes(points, cell.tolerance(h)).any(axis=1)
+            points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
         except MeshingError as exc:
             # the stage checks its own result and refuses it; the loop's mesh is valid
             warn_user(
@@ -280,7 +326,21 @@ def distmesh(
         added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - start]),
     )
+    if cell is not None:
+        from ..periodic.nodes import match_faces
+
+        *_, unpaired = match_faces(points, cell, cell.tolerance(h), model, h)  # MeshingError: a node off the surface
+        if unpaired.size:
+            warn_user(
+                f"distmesh: {unpaired.size} node(s) on the rim of the periodic cell's faces have no partner on the "
+                "opposite face (the mesh kept their cells on one face only); they are left unconstrained",
+                ResolutionWarning,
+            )
+        history.update(periodic_nodes=np.array([periodic_count]), periodic_unpaired=np.array([unpaired.size]))
     grid = to_grid(points, tets, model, history, found)
+    if cell is not None:
+        grid.field_data["periodic_lower"] = cell.lower
+        grid.field_data["periodic_period"] = cell.period
     if not loop.converged:
         warn_user(
             f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "

@@ -155,6 +155,7 @@ def improve_arrays(
     maxiter: int | None = None,
     seed: int = 0,
     deadline_seconds: float | None = None,
+    locked: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -186,6 +187,10 @@ def improve_arrays(
         Seed of the random candidate moves; same input and seed give the same mesh.
     deadline_seconds : float, optional
         Stop starting new rounds after this many seconds (no warning).
+    locked : (N,) bool, optional
+        Boundary vertices whose faces must stay as they are (a periodic cell's face nodes): no
+        boundary edge between four of them is flipped and no vertex is exposed through a face
+        of three of them. They should be fixed too.
 
     Returns
     -------
@@ -214,6 +219,10 @@ def improve_arrays(
     """
     start = time.perf_counter()
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
+    if locked is not None:
+        locked = np.asarray(locked)
+        if locked.shape != (points.shape[0],) or locked.dtype != bool:
+            raise ValueError(f"locked must be a bool array of shape ({points.shape[0]},); got {locked.shape} {locked.dtype}")
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
     targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
@@ -319,11 +328,11 @@ def improve_arrays(
         )
         tets, quality, removed, boundary_face_keys, boundary_edges = timed(
             "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges, model, h, guard=guard,
+            boundary_edges, model, h, guard=guard, locked=locked,
         )
         points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
             "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
-            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets, guard=guard,
+            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets, guard=guard, locked=locked,
         )
         counts["flips"] += flipped
         counts["moves"] += moved

@@ -137,7 +137,10 @@ def export(
         ``"region_names"``/``"boundary_names"`` and ``"boundary_faces"`` (element, face 1..4, set
         of each boundary face; :func:`boundary_faces` gives them as triangles). A VTU file holds
         exactly this grid (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
-        ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid).
+        ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid). A periodic
+        mesh (``fepre.distmesh(..., periodic=)``) keeps ``"periodic_lower"``/``"periodic_period"``
+        and gains ``"periodic_anchor"``; its ``.inp`` holds the periodic ``*EQUATION`` constraints
+        and three reference nodes (:mod:`fepre.export.abaqus`).
         :func:`tag_boundaries` gives the tagged boundary faces for viewing.
 
     Examples
@@ -176,10 +179,12 @@ def export(
         points, cells = quadratic.points, quadratic.cells
         midside = (quadratic.curved, quadratic.straightened)
     title, model_text = _title(model)
+    periodic, constraints = _periodic(mesh, points, cells)
     data = ExportData(
         points, cells, region_ids, region_names, faces, title, model_text,
         point_arrays={name: np.asarray(mesh.point_data[name]) for name in mesh.point_data.keys()},
         cell_arrays={name: np.asarray(mesh.cell_data[name]) for name in mesh.cell_data.keys()},
+        periodic=periodic, constraints=constraints,
     )
     with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
         fmt.writer(stage, path.name, data)
@@ -187,7 +192,27 @@ def export(
     if midside is not None:
         grid.field_data["curved_midside_nodes"] = np.array([midside[0]])
         grid.field_data["straightened_midside_nodes"] = np.array([midside[1]])
+    if periodic is not None:
+        from .abaqus import periodic_anchor
+
+        grid.field_data["periodic_lower"] = periodic.lower
+        grid.field_data["periodic_period"] = periodic.period
+        grid.field_data["periodic_anchor"] = np.array([periodic_anchor(data)])
     return grid
+
+
+def _periodic(mesh: Any, points: np.ndarray, cells: np.ndarray):
+    """The periodic cell of ``mesh`` (field data from ``fepre.distmesh(..., periodic=)``) and the
+    constraints over the written nodes, or ``(None, None)``."""
+    field = mesh.field_data
+    if "periodic_lower" not in field or "periodic_period" not in field:
+        return None, None
+    from ..periodic.cell import PeriodicCell
+    from ..periodic.equations import periodic_constraints
+
+    cell = PeriodicCell(np.asarray(field["periodic_lower"], dtype=np.float64).reshape(3),
+                        np.asarray(field["periodic_period"], dtype=np.float64).reshape(3))
+    return cell, periodic_constraints(points, cells, cell, 1e-9 * float(cell.period.max()))
 
 
 class _CallableModule(types.ModuleType):

@@ -7,7 +7,13 @@ coordinates wider than the 20 characters CalculiX reads per field. This writer e
 * ``*NODE, NSET=NALL`` with ``%.12e`` coordinates (at most 20 characters);
 * ``*ELEMENT, TYPE=C3D4`` or ``C3D10, ELSET=EALL`` (element id = cell index + 1, node order of
   VTK which C3D10 shares), then one ``*ELSET`` per region;
-* for every named boundary a ``*NSET`` of its nodes and an element-face ``*SURFACE`` (``S1``..``S4``).
+* for every named boundary a ``*NSET`` of its nodes and an element-face ``*SURFACE`` (``S1``..``S4``);
+* for a periodic cell (:func:`fepre.distmesh` with ``periodic=``), three reference nodes after the
+  mesh's (``*NSET`` ``PBC_REF`` and ``PBC_REFX``, ``PBC_REFY``, ``PBC_REFZ``; their displacements
+  are the cell's periods times the columns of the macroscopic displacement gradient), a node
+  ``PBC_ANCHOR`` to hold against rigid translation, the nodes on the faces (and the anchor) as
+  ``PBC_FACES``, and the ``*EQUATION`` constraints tying each upper-face node to its partner
+  (:mod:`fepre.periodic.equations`).
 
 The file holds the mesh only (no material or step), ready for ``*INCLUDE, INPUT=part.inp``.
 """
@@ -22,7 +28,7 @@ from .data import ExportData
 
 __all__ = ["write_inp", "RESERVED_NAMES"]
 
-RESERVED_NAMES = ("NALL", "EALL")
+RESERVED_NAMES = ("NALL", "EALL", "PBC_REF", "PBC_REFX", "PBC_REFY", "PBC_REFZ", "PBC_ANCHOR", "PBC_FACES")
 IDS_PER_LINE = 16
 
 
@@ -73,7 +79,38 @@ def inp_text(data: ExportData) -> str:
         parts.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT\n")
         surface = np.column_stack([faces.elements[members] + 1, faces.local_faces[members] + 1])
         parts.append(_rows("%d, S%d\n", surface))
+    if data.periodic is not None:
+        parts.append(_periodic_text(data))
     return "".join(parts)
+
+
+def _periodic_text(data: ExportData) -> str:
+    from ..periodic.equations import equation_text
+
+    n = data.points.shape[0]
+    cell = data.periodic
+    references = (n + 1, n + 2, n + 3)
+    lines = ["** periodic cell: lower corner %s, periods %s\n" % (cell.lower.tolist(), cell.period.tolist())]
+    lines.append("*NODE, NSET=PBC_REF\n")
+    for k, node in enumerate(references):
+        position = cell.upper + 0.5 * cell.period * np.eye(3)[k]
+        lines.append("%d, %.12e, %.12e, %.12e\n" % (node, *position))
+    for k, node in enumerate(references):
+        lines.append(f"*NSET, NSET=PBC_REF{'XYZ'[k]}\n{node}\n")
+    anchor = periodic_anchor(data)
+    lines.append(f"*NSET, NSET=PBC_ANCHOR\n{anchor + 1}\n")
+    on_faces = cell.on_planes(data.points, 1e-9 * float(cell.period.max())).any(axis=1)
+    on_faces[anchor] = True
+    lines.append("*NSET, NSET=PBC_FACES\n" + _id_lines(np.flatnonzero(on_faces) + 1))
+    lines.append(equation_text(data.constraints, n, references))
+    return "".join(lines)
+
+
+def periodic_anchor(data: ExportData) -> int:
+    """The first node (0-based) that no periodic constraint makes dependent."""
+    dependent = np.zeros(data.points.shape[0], bool)
+    dependent[data.constraints.dependent] = True
+    return int(np.argmin(dependent))
 
 
 def write_inp(directory: Path, filename: str, data: ExportData) -> None:

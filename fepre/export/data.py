@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -41,6 +42,10 @@ class ExportData:
     point_arrays, cell_arrays : dict name -> array
         The input mesh's own arrays (one value per corner node, per cell), for formats that carry
         them (VTU).
+    periodic : fepre.periodic.PeriodicCell or None
+        The cell of a periodic mesh.
+    constraints : fepre.periodic.equations.PeriodicConstraints or None
+        Its node pairs (over ``points``, midside nodes included), written as ``*EQUATION``.
     """
 
     points: np.ndarray
@@ -52,6 +57,8 @@ class ExportData:
     model_text: str = ""
     point_arrays: dict = field(default_factory=dict)
     cell_arrays: dict = field(default_factory=dict)
+    periodic: Any = None
+    constraints: Any = None
 
     @property
     def order(self) -> int:
