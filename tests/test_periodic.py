@@ -207,3 +207,14 @@ def test_random_voids_crossing_the_faces_give_paired_valid_cells(seed):
     # the void is whole in the cell however it is cut by the faces: volume = cell - sphere
     exact = np.prod(period) - 4 / 3 * np.pi * radius**3
     assert mesh.volume == pytest.approx(exact, rel=0.015)
+
+
+def test_docstring_examples_run():
+    import doctest
+    import importlib
+
+    for name in ("fepre.periodic.nodes", "fepre.periodic.homogenize"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = doctest.testmod(importlib.import_module(name))
+        assert result.failed == 0, name
