@@ -371,6 +371,18 @@ def _period_argument(parser: argparse.ArgumentParser, required: bool) -> None:
                              "file's bounds, or from the origin; an .inp gets the periodic *EQUATION constraints")
 
 
+def _check_period_bounds(period, part) -> None:
+    """The model file's bounds are the periodic cell: their extents must be the periods."""
+    if period is None or part.bounds is None:
+        return
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in part.bounds)
+    if not np.allclose(upper - lower, np.broadcast_to(period, 3), rtol=1e-9, atol=0.0):
+        raise ValueError(
+            f"--period {' '.join(f'{v:g}' for v in np.broadcast_to(period, 3))} disagrees with the bounds in "
+            f"{part.path}, whose extents are {' '.join(f'{v:g}' for v in upper - lower)} (the bounds are the cell)"
+        )
+
+
 def _periods(values: list[float] | None):
     """The ``--period`` values as one or three positive floats, or None."""
     if values is None:
@@ -406,6 +418,7 @@ def _run_mesh(args: argparse.Namespace) -> int:
     size = _size_file(args.size) if args.size is not None else None
     period = _periods(args.period)
     part = _load_part(args)
+    _check_period_bounds(period, part)
     if period is None:
         part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     elif args.hmax is not None or size is not None:
@@ -776,6 +789,7 @@ def _run_homogenize(args: argparse.Namespace) -> int:
     if args.workdir is not None and not Path(args.workdir).is_dir():
         raise ValueError(f"--workdir {args.workdir!r} is not an existing folder")
     part = _load_part(args)
+    _check_period_bounds(period, part)
     h = _edge_length(args, part)
     say = (lambda message: None) if args.quiet else _say
     say(f"fepre homogenize: DistMesh of the periodic cell, h={h:g} ...")

@@ -116,3 +116,7 @@ def test_fepre_homogenize_command_errors(tmp_path, capsys):
     assert "--nu must lie in (-1, 0.5)" in capsys.readouterr().err
     assert main(base + ["--period", "1", "--nu", "0.3", "--workdir", str(tmp_path / "missing")]) == 1
     assert "--workdir" in capsys.readouterr().err
+    (tmp_path / "bounded.py").write_text("from fepre import sdf\nmodel = sdf.box((9, 9, 9))\nh = 0.3\nbounds = ((0, 0, 0), (1, 1, 1))\n")
+    assert main(["mesh", str(tmp_path / "bounded.py"), "--period", "0.9", "-o", str(tmp_path / "x.inp")]) == 1
+    assert "--period 0.9 0.9 0.9 disagrees with the bounds" in capsys.readouterr().err
+    assert not (tmp_path / "x.inp").exists()

@@ -293,6 +293,16 @@ def distmesh(
                 "DistMesh mesh without it",
                 ConvergenceWarning,
             )
+        if cell is not None:
+            from ..periodic.face_smoothing import smooth_face_nodes
+            from .tet_shape import ShapeTargets
+
+            points, moves = smooth_face_nodes(points, tets, cell, periodic_model, h, ShapeTargets(), seed=o.seed)
+            if moves:  # the cells around the moved face nodes may now be improved further
+                try:
+                    points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
+                except MeshingError:
+                    pass
         sliver_seconds = time.perf_counter() - t0
         if progress:
             from ..quality import tet_quality

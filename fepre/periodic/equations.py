@@ -10,8 +10,9 @@ master on the lower faces (:mod:`fepre.periodic.nodes`):
 one equation per degree of freedom. In a 10-node mesh, a midside node on a face whose edge is
 not on the opposite face (the two faces' triangles differ at the rim of the solid) has no
 partner; it follows its edge's end nodes linearly, ``u(q) = (u(a) + u(b)) / 2``, written against
-their masters. Every equation's first node is its dependent one and no dependent node appears
-in another equation.
+their masters. A corner node on a face without a partner (a rim node whose cells the mesh kept
+on one face only, :func:`fepre.periodic.nodes.match_faces`) is left unconstrained. Every
+equation's first node is its dependent one and no dependent node appears in another equation.
 """
 
 from __future__ import annotations
@@ -66,23 +67,9 @@ def _edge_of_midside(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def periodic_constraints(points: np.ndarray, cells: np.ndarray, cell: PeriodicCell, tol: float) -> PeriodicConstraints:
     """The constraints of the mesh ``(points, cells)`` (4- or 10-node tetrahedra) of ``cell``."""
-    from scipy.spatial import cKDTree
+    from .nodes import match_faces
 
-    points = np.asarray(points, dtype=np.float64)
-    high = np.abs(points - cell.upper) <= tol
-    low = np.abs(points - cell.lower) <= tol
-    on_face = (high | low).any(axis=1)
-    candidates = np.flatnonzero(high.any(axis=1))
-    shifts = high[candidates].astype(np.int8)
-    tree = cKDTree(points)
-    distance, masters = tree.query(points[candidates] - shifts * cell.period) if candidates.size else (np.zeros(0), np.zeros(0, np.int64))
-    paired = distance <= tol
-    slaves, masters, shifts = candidates[paired], masters[paired].astype(np.int64), shifts[paired]
-    # lower-face nodes that are nobody's master and not on an upper face themselves
-    has_image = np.zeros(len(points), bool)
-    has_image[masters] = True
-    has_image[slaves] = True
-    lonely = np.flatnonzero(on_face & ~has_image)
+    slaves, masters, shifts, lonely = match_faces(points, cell, tol)
     followers = np.zeros(0, np.int64)
     ends = np.zeros((0, 2), np.int64)
     unpaired = lonely
