@@ -158,6 +158,8 @@ def test_periodic_argument_errors():
 def test_check_periodic_model_accepts_a_repeating_solid_with_other_values():
     # a huge box is solid everywhere in the cell: its values differ across the period, its solid does not
     check_periodic_model(sdf.box((10, 10, 10)), periodic_cell(1.0, None), 0.1)
+    # a void nearer one face than the other: distances differ across the period, the solid does not
+    check_periodic_model(sdf.box((10, 10, 10)) - sdf.sphere(0.3, center=(0.45, 0.5, 0.55)), periodic_cell(1.0, None), 0.1)
     with pytest.raises(ValueError, match="does not repeat"):
         check_periodic_model(sdf.sphere(0.3, center=(0.1, 0.5, 0.5)), periodic_cell(1.0, None), 0.1)
 
