@@ -63,9 +63,10 @@ def smooth_face_nodes(points: np.ndarray, tets: np.ndarray, cell: PeriodicCell, 
     movable = (planes == 1) | ((planes == 2) & ~rim)
     images = np.split(slaves[order], first[1:])
     group_of = np.full(n, -1, np.int64)
-    for g in np.flatnonzero(movable).tolist():
-        group_of[group_masters[g]] = g
-        group_of[images[g]] = g
+    group_of[group_masters[movable]] = np.flatnonzero(movable)
+    slave_group = np.repeat(np.arange(group_masters.size), np.diff(np.append(first, masters.size)))
+    chosen = movable[slave_group]
+    group_of[slaves[order][chosen]] = slave_group[chosen]
     start, cell_ids = _incidence(tets, n)
     score = targets.score
     quality = score(points[tets])
