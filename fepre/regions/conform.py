@@ -1,0 +1,115 @@
+"""Cells of a region mesh: their region, cells that cross an interface, the per-region quality stage."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .interface import ON_INTERFACE, interface_faces
+from .partition import RegionSet
+
+__all__ = ["cell_regions", "crossing_cells", "improve_regions", "check_interfaces", "final_region_mesh"]
+
+#: Rounds of dropping the free nodes of cells that cross an interface and triangulating again.
+REPAIR_ROUNDS = 6
+
+
+def cell_regions(points: np.ndarray, tets: np.ndarray, regions: RegionSet) -> np.ndarray:
+    """(M,) region index of each cell: the region holding its centroid."""
+    return regions.region_of(points[tets].mean(axis=1))
+
+
+def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray:
+    """(N,) region of each node, -1 for a node on an interface (it belongs to both sides)."""
+    owner = regions.region_of(points)
+    owner[regions.on_interface(points, ON_INTERFACE * h)] = -1
+    return owner
+
+
+def crossing_cells(tets: np.ndarray, region_ids: np.ndarray, owner: np.ndarray) -> np.ndarray:
+    """(M,) bool: the cell has a node strictly inside another region than its own."""
+    nodes = owner[tets]
+    return ((nodes >= 0) & (nodes != region_ids[:, None])).any(axis=1)
+
+
+def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions: RegionSet):
+    """The final mesh of a region mesh: :func:`~fepre.distmesh.finalize.final_mesh`, then, while
+    some cell has a node strictly inside another region than its own (it bridges a concave
+    wedge where an interface meets the part's surface at a grazing angle), the free node of
+    each such cell nearest the interface is dropped and the points are triangulated again.
+
+    Returns ``points, tets, fixed, region_ids, dropped``.
+    """
+    from ..distmesh.finalize import final_mesh
+
+    dropped = 0
+    for _ in range(REPAIR_ROUNDS):
+        points, tets, fixed = final_mesh(model, points, fixed, h, geps, backend, previous)
+        region_ids = cell_regions(points, tets, regions)
+        crossing = crossing_cells(tets, region_ids, node_regions(points, regions, h))
+        if not crossing.any():
+            break
+        cells = tets[crossing]
+        distance = np.where(fixed[cells], np.inf, regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape))
+        nearest = cells[np.arange(len(cells)), np.argmin(distance, axis=1)]
+        nearest = np.unique(nearest[~fixed[nearest]])
+        if nearest.size == 0:
+            break
+        keep = np.ones(len(points), dtype=bool)
+        keep[nearest] = False
+        points, fixed, previous = points[keep], fixed[keep], None
+        dropped += nearest.size
+    return points, tets, fixed, region_ids, dropped
+
+
+def improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size=None):
+    """The quality stage on each region's cells on its own, interface nodes fixed and locked.
+
+    A region's cells see its interface faces as boundary faces whose nodes may not move and
+    whose triangles may not change, so the faces the other side shares stay as they are.
+    Returns ``points, tets, region_ids`` (the stage may remove flat cells on the part's surface)
+    and the stage's worst figures per region.
+    """
+    from ..distmesh.slivers import improve_arrays
+
+    points = points.copy()
+    new_tets, new_ids, infos = [], [], []
+    for k in np.unique(region_ids):
+        cells = tets[region_ids == k]
+        used = np.unique(cells)
+        local = np.searchsorted(used, cells)
+        region_points, region_tets, info = improve_arrays(
+            points[used], local, model, h, fixed_mask=pinned[used] | on_interface[used], size=size, seed=seed,
+            locked=on_interface[used],
+        )
+        points[used] = region_points
+        new_tets.append(used[region_tets])
+        new_ids.append(np.full(len(region_tets), k, dtype=np.int64))
+        infos.append(info)
+    return points, np.concatenate(new_tets), np.concatenate(new_ids), infos
+
+
+def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> tuple[np.ndarray, np.ndarray]:
+    """Check that regions meet only on interface faces and that those faces lie on the interfaces.
+
+    Returns the interface faces and the pair of regions on either side of each. Raises
+    ``MeshingError`` when a face between two regions has a node off the interface (more than
+    ``ON_INTERFACE h``) or a face of the part's surface has all its nodes on an interface
+    strictly inside the part (a region's cell removed next to the interface).
+    """
+    from ..distmesh.topology import boundary_faces
+    from ..errors import MeshingError
+
+    faces, first, second = interface_faces(tets, region_ids, len(points))
+    on = regions.on_interface(points, ON_INTERFACE * h)
+    off = ~on[faces].all(axis=1)
+    if off.any():
+        worst = faces[off][0]
+        raise MeshingError(
+            f"distmesh: {int(off.sum())} face(s) between regions have a node off the interface "
+            f"(e.g. at {np.round(points[worst[~on[worst]][0]], 6).tolist()}); the interface is not resolved at h={h:g}"
+        )
+    outer = boundary_faces(tets)
+    inner = on[outer].all(axis=1) & (np.asarray(model(points[outer].mean(axis=1))) < -0.1 * h)
+    if inner.any():
+        raise MeshingError(f"distmesh: {int(inner.sum())} face(s) on an interface have a cell on one side only")
+    return faces, np.column_stack([region_ids[first], region_ids[second]])
