@@ -344,15 +344,10 @@ def distmesh(
         try:
             locked = None if cell is None else cell.on_planes(points, cell.tolerance(h)).any(axis=1)
             if region_set is not None:
-                from ..regions.conform import improve_regions
+                from ..regions.conform import region_quality_stage
 
-                points, tets, region_ids, _ = improve_regions(points, tets, region_ids, model, h, pinned, interface_mask, o.seed, size)
-                from ..regions.interface_smoothing import smooth_interface_nodes
-                from .tet_shape import ShapeTargets
-
-                points, moves = smooth_interface_nodes(points, tets, region_ids, region_set, model, h, ShapeTargets(), seed=o.seed)
-                if moves:  # the cells around the moved interface nodes may now be improved further
-                    points, tets, region_ids, _ = improve_regions(points, tets, region_ids, model, h, pinned, interface_mask, o.seed, size)
+                points, tets, region_ids = region_quality_stage(
+                    points, tets, region_ids, region_set, model, h, pinned, interface_mask, o.seed, size)
             else:
                 points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
         except MeshingError as exc:

@@ -7,7 +7,7 @@ import numpy as np
 from .interface import ON_INTERFACE, interface_faces
 from .partition import RegionSet
 
-__all__ = ["cell_regions", "crossing_cells", "improve_regions", "check_interfaces", "final_region_mesh"]
+__all__ = ["cell_regions", "crossing_cells", "improve_regions", "region_quality_stage", "check_interfaces", "final_region_mesh"]
 
 #: Rounds of dropping the free nodes of cells that cross an interface and triangulating again.
 REPAIR_ROUNDS = 6
@@ -62,30 +62,43 @@ def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions:
 
 
 def improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size=None):
-    """The quality stage on each region's cells on its own, interface nodes fixed and locked.
+    """The quality stage on the whole mesh, each cell flipped only with cells of its region.
 
-    A region's cells see its interface faces as boundary faces whose nodes may not move and
-    whose triangles may not change, so the faces the other side shares stay as they are.
-    Returns ``points, tets, region_ids`` (the stage may remove flat cells on the part's surface)
-    and the stage's worst figures per region.
+    The interface nodes are fixed and locked, and flips never join cells of two regions (the
+    stage's ``labels``), so the faces between regions stay as they are. Returns ``points,
+    tets, region_ids`` (the stage may remove flat cells on the part's surface).
     """
     from ..distmesh.slivers import improve_arrays
 
-    points = points.copy()
-    new_tets, new_ids, infos = [], [], []
-    for k in np.unique(region_ids):
-        cells = tets[region_ids == k]
-        used = np.unique(cells)
-        local = np.searchsorted(used, cells)
-        region_points, region_tets, info = improve_arrays(
-            points[used], local, model, h, fixed_mask=pinned[used] | on_interface[used], size=size, seed=seed,
-            locked=on_interface[used],
-        )
-        points[used] = region_points
-        new_tets.append(used[region_tets])
-        new_ids.append(np.full(len(region_tets), k, dtype=np.int64))
-        infos.append(info)
-    return points, np.concatenate(new_tets), np.concatenate(new_ids), infos
+    points, tets, info = improve_arrays(
+        points, tets, model, h, fixed_mask=pinned | on_interface, size=size, seed=seed, locked=on_interface,
+        labels=region_ids,
+    )
+    return points, tets, info["labels"]
+
+
+def region_quality_stage(points, tets, region_ids, regions: RegionSet, model, h, pinned, on_interface, seed, size=None):
+    """:func:`improve_regions`, then the interface nodes of cells still under the targets move
+    along their interface (:func:`~fepre.regions.interface_smoothing.smooth_interface_nodes`)
+    and the regions are improved once more. Only the last pass's warnings are shown."""
+    import warnings
+
+    from ..distmesh.tet_shape import ShapeTargets
+    from .interface_smoothing import smooth_interface_nodes
+
+    with warnings.catch_warnings(record=True) as first:
+        warnings.simplefilter("always")
+        points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size)
+    points, moves = smooth_interface_nodes(points, tets, region_ids, regions, model, h, ShapeTargets(), seed=seed)
+    if not moves:
+        shown = first
+    else:
+        with warnings.catch_warnings(record=True) as shown:
+            warnings.simplefilter("always")
+            points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size)
+    for record in shown:
+        warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
+    return points, tets, region_ids
 
 
 def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> tuple[np.ndarray, np.ndarray]:

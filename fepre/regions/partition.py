@@ -71,8 +71,10 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
     from ..export.boundaries import check_names
     from ..sdf.core import SDF
 
-    if not isinstance(regions, dict) or len(regions) < 2:
-        got = f"{len(regions)} region" if isinstance(regions, dict) else type(regions).__name__
+    if not isinstance(regions, dict):
+        raise TypeError(f"regions must be a dict of names to fepre SDFs (e.g. {{'skin': ..., 'core': ...}}); got {type(regions).__name__}")
+    if len(regions) < 2:
+        got = f"{len(regions)} region"
         raise ValueError(f"regions must be a dict of at least two names to fepre SDFs (e.g. {{'skin': ..., 'core': ...}}); got {got}")
     names = list(regions)
     check_names(names, "regions")
@@ -109,4 +111,10 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
             f"union holds the whole part"
         )
     counts = np.bincount(np.argmin(values, axis=1), minlength=len(names))
+    empty = [names[k] for k in np.flatnonzero(counts == 0)]
+    if empty:
+        raise ValueError(
+            f"regions {', '.join(map(repr, empty))} hold no part of the model (no sample of the part, "
+            f"{spacing:.3g} apart, lies in them); give regions inside the model, or a smaller h for a thin one"
+        )
     return RegionSet(found.names, found.models, tuple((counts / counts.sum()).tolist()))
