@@ -139,7 +139,7 @@ def test_skin_and_gyroid_core():
         warnings.simplefilter("ignore", fepre.FeatureWarning)  # gyroid walls meet the skin in tiny steps
         mesh = mesh_of(model, h, regions)
     faces = check_region_mesh(mesh, model, regions, h)
-    assert region_volumes(mesh)[0] == pytest.approx(1.0 - 0.7**3, rel=1e-9)  # the skin's planes are kept
+    assert region_volumes(mesh)[0] == pytest.approx(1.0 - 0.7**3, rel=2e-4)  # planes kept; corners where the gyroid meets two faces are cut to h
     points = np.asarray(mesh.points)
     # every interface node lies on the skin's inner faces (|coordinate| = 0.35 for one axis)
     assert np.abs(np.abs(points[np.unique(faces)]).max(axis=1) - 0.35).max() <= 1e-3 * h

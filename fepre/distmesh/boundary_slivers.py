@@ -103,12 +103,11 @@ def remove_boundary_slivers(
     a_b = np.take_along_axis(cells, order[:, 2:], axis=1)
     new_edge = edge_keys(c_d, n)
     allowed = ~in_sorted(new_edge, boundary_edges)
-    rows = np.arange(cells.shape[0])[:, None]
-    if locked is not None:  # faces between locked vertices stay (a periodic cell's faces, an interface)
-        for k in (0, 1):
-            allowed &= ~locked[cells[rows, FACE_OF_TET[order[:, k]]]].all(axis=1)
+    if locked is not None:  # faces between locked vertices stay (a periodic cell's faces)
+        allowed &= ~locked[cells].all(axis=1)
     allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
     # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
+    rows = np.arange(cells.shape[0])[:, None]
     normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
     allowed &= np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
     if guard is not None and allowed.any():
@@ -186,6 +185,8 @@ def expose_shallow_vertices(
     cells, candidates, vertex = cells[chosen], candidates[chosen], vertex[chosen]
     projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol, warn=False)
     reached = np.abs(model(projected)) <= surface_tol
+    if guard is not None:
+        reached &= guard.in_own_region(vertex, projected)
     if guard is not None and reached.any():
         check = np.flatnonzero(reached)
         local_of = np.argmax(cells[check] == vertex[check, None], axis=1)

@@ -268,8 +268,6 @@ def distmesh(
             nodes = found.nodes
             if cell is not None:  # the face nodes stand for the features on the cell's faces
                 nodes = nodes[~cell.on_planes(nodes, 1e-3 * h).any(axis=1)]
-            if region_set is not None:  # the interface nodes stand for the features next to them
-                nodes = nodes[~guard.inside(nodes)]
             feature_nodes = len(nodes)
             if len(fixed_points) and len(nodes):
                 from scipy.spatial import cKDTree
@@ -317,15 +315,13 @@ def distmesh(
         from ..regions.protection import drop_protected
 
         loop_points, loop_fixed, dropped = drop_protected(model, loop.points, loop.fixed_mask, guard, h)
-        points, tets, fixed_mask, region_ids, repaired = final_region_mesh(
+        points, tets, fixed_mask, region_ids, repaired, crossing = final_region_mesh(
             model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set)
     loop_seconds = time.perf_counter() - start
     interface_mask = None
     if region_set is not None:
-        from ..regions.conform import crossing_cells, node_regions
         from ..regions.interface import interface_node_mask
 
-        crossing = crossing_cells(tets, region_ids, node_regions(points, region_set, h))
         if crossing.any():
             raise MeshingError(
                 f"distmesh: {int(crossing.sum())} cell(s) cross an interface between regions after dropping "

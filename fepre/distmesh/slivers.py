@@ -157,6 +157,7 @@ def improve_arrays(
     deadline_seconds: float | None = None,
     locked: np.ndarray | None = None,
     labels: np.ndarray | None = None,
+    node_regions: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -196,6 +197,10 @@ def improve_arrays(
         A label of each cell (its material region): cells are only flipped with cells of the
         same label, so the faces between labels stay (their vertices should be fixed and
         locked). ``info["labels"]`` holds the labels of the returned cells.
+    node_regions : (owner (N,) int, region_of callable), optional
+        With ``labels``: each boundary vertex whose ``owner`` is a region (>= 0; -1 on an
+        interface) only slides to positions where ``region_of`` gives that region, so it never
+        crosses the rim of an interface along the part's surface.
 
     Returns
     -------
@@ -275,6 +280,7 @@ def improve_arrays(
     boundary_edges = _boundary_edge_keys(faces, n)
     boundary_face_keys = np.unique(face_keys(faces, n))
     guard = SurfaceGuard(model, h, points, on_boundary)
+    guard.regions = node_regions
     threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
     volume_before = float(volumes.sum())
 

@@ -95,6 +95,7 @@ def export(
     boundary_angle: float = DEFAULT_ANGLE,
     default_region: str = DEFAULT_REGION,
     materials: Mapping[str, Any] | None = None,
+    interfaces: bool | None = None,
 ) -> Any:
     """Write a tetrahedral mesh for a solver, with named boundary and region sets.
 
@@ -121,8 +122,7 @@ def export(
         Cells whose centroid value is negative (first match wins) form a region (``*ELSET``,
         physical volume, cell tag); the rest form ``default_region``. Without it, a mesh with
         cell data ``region_id`` and field data ``region_names`` (``fepre.distmesh(...,
-        regions=)``) keeps its regions. The faces between two regions form a face set
-        ``interface_<a>_<b>`` (``*SURFACE`` on the side of ``a``, physical surface, facet tag).
+        regions=)``) keeps its regions.
     model : SDF, optional
         The part's model: named in file headers and used for curved midside nodes.
     overwrite : bool
@@ -137,6 +137,11 @@ def export(
     materials : dict region name -> (E, nu) or {"E": ..., "nu": ...}, optional
         Isotropic elastic material of every region, written to an Abaqus/CalculiX file as one
         ``*MATERIAL`` and one ``*SOLID SECTION`` per region (other formats carry no materials).
+    interfaces : bool, optional
+        Write the faces between each pair of regions as a face set ``interface_<a>_<b>``
+        (``*SURFACE`` on the side of region ``a``, physical surface, facet tag). Default: for a
+        mesh that carries its regions (a conformal mesh from ``fepre.distmesh(...,
+        regions=)``), not for regions given here.
 
     Returns
     -------
@@ -180,11 +185,15 @@ def export(
 
     points, cells = tetra_arrays(mesh)
     faces = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
-    if regions is None and "region_id" in mesh.cell_data and "region_names" in mesh.field_data:
+    carried = regions is None and "region_id" in mesh.cell_data and "region_names" in mesh.field_data
+    if carried:
         region_ids, region_names = mesh_regions(mesh, len(cells))
     else:
         region_ids, region_names = assign_regions(points, cells, regions, default_region)
-    faces = with_interfaces(faces, cells, region_ids, region_names)
+    if interfaces is not None and not isinstance(interfaces, bool):
+        raise TypeError(f"interfaces must be True, False or None; got {interfaces!r}")
+    if carried if interfaces is None else interfaces:
+        faces = with_interfaces(faces, cells, region_ids, region_names)
     _check_name_clashes(region_names, faces.names)
     section_table = sections(materials, region_names, fmt.name)
     midside = None

@@ -7,15 +7,10 @@ import numpy as np
 from .interface import ON_INTERFACE, interface_faces
 from .partition import RegionSet
 
-__all__ = ["cell_regions", "crossing_cells", "improve_regions", "region_quality_stage", "check_interfaces", "final_region_mesh"]
+__all__ = ["cell_regions", "node_regions", "improve_regions", "region_quality_stage", "check_interfaces", "final_region_mesh"]
 
 #: Rounds of dropping the free nodes of cells that cross an interface and triangulating again.
 REPAIR_ROUNDS = 6
-
-
-def cell_regions(points: np.ndarray, tets: np.ndarray, regions: RegionSet) -> np.ndarray:
-    """(M,) region index of each cell: the region holding its centroid."""
-    return regions.region_of(points[tets].mean(axis=1))
 
 
 def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray:
@@ -25,10 +20,21 @@ def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray
     return owner
 
 
-def crossing_cells(tets: np.ndarray, region_ids: np.ndarray, owner: np.ndarray) -> np.ndarray:
-    """(M,) bool: the cell has a node strictly inside another region than its own."""
-    nodes = owner[tets]
-    return ((nodes >= 0) & (nodes != region_ids[:, None])).any(axis=1)
+def cell_regions(points: np.ndarray, tets: np.ndarray, regions: RegionSet, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Region of each cell and whether it crosses an interface, ``(region_ids, crossing)``.
+
+    A cell belongs to the region of its nodes that are not on an interface; a cell whose nodes
+    all lie on interfaces, to the region holding its centroid. A cell with nodes strictly inside
+    two regions crosses an interface (``crossing``; its region is then one of the two).
+    """
+    owner = node_regions(points, regions, h)[tets]
+    highest = owner.max(axis=1)
+    lowest = np.where(owner >= 0, owner, len(regions.names)).min(axis=1)
+    region_ids = highest.copy()
+    on_interfaces = highest < 0
+    if on_interfaces.any():
+        region_ids[on_interfaces] = regions.region_of(points[tets[on_interfaces]].mean(axis=1))
+    return region_ids, (highest >= 0) & (lowest != highest)
 
 
 def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions: RegionSet):
@@ -37,16 +43,15 @@ def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions:
     wedge where an interface meets the part's surface at a grazing angle), the free node of
     each such cell nearest the interface is dropped and the points are triangulated again.
 
-    Returns ``points, tets, fixed, region_ids, dropped``.
+    Returns ``points, tets, fixed, region_ids, dropped, crossing`` (the cells still crossing).
     """
     from ..distmesh.finalize import final_mesh
 
     dropped = 0
-    for _ in range(REPAIR_ROUNDS):
+    for repair in range(REPAIR_ROUNDS + 1):
         points, tets, fixed = final_mesh(model, points, fixed, h, geps, backend, previous)
-        region_ids = cell_regions(points, tets, regions)
-        crossing = crossing_cells(tets, region_ids, node_regions(points, regions, h))
-        if not crossing.any():
+        region_ids, crossing = cell_regions(points, tets, regions, h)
+        if not crossing.any() or repair == REPAIR_ROUNDS:
             break
         cells = tets[crossing]
         distance = np.where(fixed[cells], np.inf, regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape))
@@ -58,21 +63,22 @@ def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions:
         keep[nearest] = False
         points, fixed, previous = points[keep], fixed[keep], None
         dropped += nearest.size
-    return points, tets, fixed, region_ids, dropped
+    return points, tets, fixed, region_ids, dropped, crossing
 
 
-def improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size=None):
+def improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size=None, regions=None):
     """The quality stage on the whole mesh, each cell flipped only with cells of its region.
 
-    The interface nodes are fixed and locked, and flips never join cells of two regions (the
-    stage's ``labels``), so the faces between regions stay as they are. Returns ``points,
+    The interface nodes are fixed and flips never join cells of two regions (the stage's
+    ``labels``), so the faces between regions stay as they are (removing a flat cell on the
+    part's surface may move the rim of an interface, never off the interface). Returns ``points,
     tets, region_ids`` (the stage may remove flat cells on the part's surface).
     """
     from ..distmesh.slivers import improve_arrays
 
     points, tets, info = improve_arrays(
-        points, tets, model, h, fixed_mask=pinned | on_interface, size=size, seed=seed, locked=on_interface,
-        labels=region_ids,
+        points, tets, model, h, fixed_mask=pinned | on_interface, size=size, seed=seed, labels=region_ids,
+        node_regions=None if regions is None else (node_regions(points, regions, h), regions.region_of),
     )
     return points, tets, info["labels"]
 
@@ -88,14 +94,14 @@ def region_quality_stage(points, tets, region_ids, regions: RegionSet, model, h,
 
     with warnings.catch_warnings(record=True) as first:
         warnings.simplefilter("always")
-        points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size)
-    points, moves = smooth_interface_nodes(points, tets, region_ids, regions, model, h, ShapeTargets(), seed=seed)
+        points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size, regions)
+    points, moves = smooth_interface_nodes(points, tets, region_ids, regions, model, h, ShapeTargets(), seed=seed, pinned=pinned)
     if not moves:
         shown = first
     else:
         with warnings.catch_warnings(record=True) as shown:
             warnings.simplefilter("always")
-            points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size)
+            points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size, regions)
     for record in shown:
         warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
     return points, tets, region_ids

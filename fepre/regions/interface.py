@@ -8,10 +8,15 @@ import numpy as np
 
 from .partition import RegionSet
 
-__all__ = ["interface_nodes", "interface_faces", "interface_node_mask", "ON_INTERFACE"]
+__all__ = ["interface_nodes", "interface_faces", "interface_node_mask", "onto_rim", "ON_INTERFACE", "RIM_ANGLE"]
 
 #: A node lies on an interface when two regions' values are within this (times h) of zero.
 ON_INTERFACE = 1e-3
+#: Crease angle (degrees) down to which the curves where an interface meets the part's surface
+#: get nodes of their own (the part's sharp features use the mesher's ``feature_angle``).
+RIM_ANGLE = 10.0
+#: Interface nodes this close (times h) under the part's surface are moved onto it.
+RIM_SNAP = 0.05
 
 
 def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -42,25 +47,35 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
     tol = ON_INTERFACE * h
     parts = [model & region for region in regions.models]
     creases = [np.zeros((0, 3))] * len(parts)
+    part_features = np.zeros((0, 3))
     if options.features:
-        for j in regions.meshing_order()[1:].tolist():
-            creases[j] = detect_features(parts[j], h, angle=options.feature_angle, bounds=bounds, warn=False).nodes
+        part_features = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False).nodes
+        for j in range(len(parts)):
+            # a rim (interface meeting the part's surface) is kept however shallow its crease
+            creases[j] = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False).nodes
     order = regions.meshing_order()
     for position, i in enumerate(order[:-1].tolist()):
         later = order[position + 1:]
         found = np.concatenate(nodes)
         fixed = found[np.asarray(parts[i](found)) <= tol] if len(found) else found
-        for j in later.tolist():
+        for j in [i] + later.tolist():
             candidates = creases[j]
             if len(candidates) == 0:
                 continue
             values = np.abs(regions.values(candidates))
-            shared = (values[:, i] <= tol) & (values[:, j] <= tol) & (np.asarray(model(candidates)) <= tol)
+            shared = (values[:, i] <= tol) & (values[:, later].min(axis=1) <= tol) & (np.asarray(model(candidates)) <= tol)
+            if j == i:  # the region's own shallow creases: only those on a rim
+                shared &= np.abs(np.asarray(model(candidates))) <= tol
             candidates = candidates[shared]
             if len(fixed) and len(candidates):
                 candidates = candidates[cKDTree(fixed).query(candidates)[0] >= 0.5 * h]
             fixed = np.concatenate([fixed, candidates])
-        fixed = np.unique(fixed, axis=0)
+        # the whole part's own sharp features on this region's boundary (an edge of a skin's
+        # inner face between patches where a lattice touches it), so the whole mesh keeps them
+        edges = part_features[np.abs(np.asarray(parts[i](part_features))) <= tol] if len(part_features) else part_features
+        if len(fixed) and len(edges):
+            edges = edges[cKDTree(fixed).query(edges)[0] >= 0.5 * h]
+        fixed = np.unique(np.concatenate([fixed, edges]), axis=0)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the whole mesh reports on itself
             try:
@@ -68,7 +83,7 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
                                 options=options, check_resolution=False)
             except (MeshingError, ValueError) as exc:
                 raise MeshingError(f"distmesh: region {regions.names[i]!r} could not be meshed to lay its interface nodes: {exc}") from exc
-        points = np.asarray(mesh.points, dtype=np.float64)
+        points = snap_to_rims(np.array(mesh.points, dtype=np.float64), model, regions.models[i], h)
         values = np.abs(regions.values(points))
         shared = (values[:, later].min(axis=1) <= tol) & (values[:, i] <= tol) & (np.asarray(model(points)) <= tol)
         faces = boundary_faces(np.asarray(mesh.cells_dict[10], dtype=np.int64))
@@ -79,6 +94,43 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
         inner.append(np.full(len(faces), i, dtype=np.int64))
     found, index = np.unique(np.concatenate(nodes), axis=0, return_index=True)
     return found[np.argsort(index)], np.concatenate(triangles), np.concatenate(inner)
+
+
+def onto_rim(points: np.ndarray, model, region, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Newton steps of ``points`` onto the curve where the zero sets of ``model`` and
+    ``region`` meet (the smallest step satisfying both, linearised); returns the points and
+    whether each reached the curve (both values within ``1e-6 h``)."""
+    moved = points.copy()
+    for _ in range(12):
+        f1, g1 = model.value_and_gradient(moved)
+        f2, g2 = region.value_and_gradient(moved)
+        a11, a12, a22 = (g1 * g1).sum(axis=1), (g1 * g2).sum(axis=1), (g2 * g2).sum(axis=1)
+        det = a11 * a22 - a12 * a12
+        det = np.where(np.abs(det) > 1e-12 * np.maximum(a11 * a22, 1e-300), det, np.inf)  # parallel: no curve
+        c1 = (a22 * f1 - a12 * f2) / det
+        c2 = (a11 * f2 - a12 * f1) / det
+        moved = moved - c1[:, None] * g1 - c2[:, None] * g2
+    reached = (np.abs(np.asarray(model(moved))) <= 1e-6 * h) & (np.abs(np.asarray(region(moved))) <= 1e-6 * h)
+    return moved, reached
+
+
+def snap_to_rims(points: np.ndarray, model, region, h: float) -> np.ndarray:
+    """``points`` with the nodes on ``region``'s zero set that lie just inside the part (within
+    ``RIM_SNAP h`` of its surface) moved onto the curve where the two zero sets meet.
+
+    A region's own DistMesh leaves its surface nodes next to that curve (the rim of an
+    interface) a little off it; in the whole part's mesh such a node would sit just under the
+    surface and make flat cells. A node is moved only if alternating projections reach the curve
+    within ``RIM_SNAP h`` of it."""
+    values = np.asarray(model(points))
+    near = np.flatnonzero((values < 0) & (values > -RIM_SNAP * h) & (np.abs(np.asarray(region(points))) <= ON_INTERFACE * h))
+    if near.size == 0:
+        return points
+    moved, on_both = onto_rim(points[near], model, region, h)
+    close = np.linalg.norm(moved - points[near], axis=1) <= RIM_SNAP * h
+    snapped = on_both & close
+    points[near[snapped]] = moved[snapped]
+    return points
 
 
 def interface_faces(tets: np.ndarray, region_ids: np.ndarray, n_points: int):

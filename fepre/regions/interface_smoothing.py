@@ -5,8 +5,10 @@ regions), so the cells that touch an interface keep the shapes the loop left the
 lattice meets a skin at a grazing angle, a few stay under the targets. This pass moves the
 interface nodes of such cells along the interface: random moves in the tangent plane, put back
 on the interface, of which the one that raises the worst score of the node's cells (in every
-region) most is kept; every cell stays positive. Nodes on the part's surface (the rim of an
-interface) and on a sharp edge of an interface do not move.
+region) most is kept; every cell stays positive. A node on the rim of an interface (on the
+part's surface) moves along the rim, put back on the curve where the interface meets the
+surface. Nodes the quality stage pins (the part's sharp edges and corners) and nodes on a sharp
+edge of an interface do not move.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..periodic.face_smoothing import CANDIDATES, MARGIN, ROUNDS, _incidence
-from .interface import interface_faces
+from .interface import interface_faces, onto_rim
 from .partition import RegionSet
 
 __all__ = ["smooth_interface_nodes", "EDGE_ANGLE"]
@@ -39,7 +41,7 @@ def _smooth_nodes(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.ndarray, regions: RegionSet, model,
-                           h: float, targets, seed: int = 0) -> tuple[np.ndarray, int]:
+                           h: float, targets, seed: int = 0, pinned: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """``(points, moves)``: ``points`` with the interface nodes of bad cells moved (see the module)."""
     from ..distmesh.tet_shape import signed_volume
 
@@ -52,7 +54,10 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
     on_interface[faces.ravel()] = True
     side = np.full(n, -1, np.int64)
     side[faces.ravel()] = np.repeat(region_ids[first], 3)
-    movable = on_interface & _smooth_nodes(points, faces) & (np.asarray(model(points)) < -1e-6 * h)
+    rim = on_interface & (np.abs(np.asarray(model(points))) <= 1e-6 * h)
+    movable = on_interface & (_smooth_nodes(points, faces) | rim)
+    if pinned is not None:
+        movable &= ~pinned
     start, cell_ids = _incidence(tets, n)
     score = targets.score
     quality = score(points[tets])
@@ -73,8 +78,11 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
             offsets = rng.normal(size=(CANDIDATES, 3))
             offsets -= np.outer(offsets @ normal, normal)
             offsets *= (rng.uniform(0.02, 0.25, CANDIDATES) * h / np.maximum(np.linalg.norm(offsets, axis=1), 1e-300))[:, None]
-            candidates = region.project(points[node] + offsets, iterations=20, tol=1e-6 * h, warn=False)
-            on = regions.on_interface(candidates, 1e-4 * h) & (np.asarray(model(candidates)) < -1e-6 * h)
+            if rim[node]:
+                candidates, on = onto_rim(points[node] + offsets, model, region, h)
+            else:
+                candidates = region.project(points[node] + offsets, iterations=20, tol=1e-6 * h, warn=False)
+                on = regions.on_interface(candidates, 1e-4 * h) & (np.asarray(model(candidates)) < -1e-6 * h)
             cells = points[tets[star]]
             local = tets[star] == node
             best, best_score = None, quality[star].min()

@@ -16,6 +16,8 @@ __all__ = ["InterfaceProtection", "RATIO", "drop_protected"]
 
 #: Points stay this many times a triangle's circumradius from its circumcentre.
 RATIO = 1.02
+#: Free points closer than this (times h) to a fixed node are dropped before the final mesh.
+NEAR_NODE = 0.4
 #: Nearest triangle centres looked at per point, and pushes per call (neighbouring balls overlap).
 _NEAREST = 8
 _ROUNDS = 3
@@ -112,14 +114,23 @@ def drop_protected(model, points: np.ndarray, fixed: np.ndarray, protection: Int
     projection brings it back; the final mesh projects it once more. A point left inside a
     ball after that projection would join cells across the interface: it is dropped.
 
+    A free point pushed onto a ball's sphere next to one of its triangle's nodes (which lie on
+    that sphere) and left closer than ``NEAR_NODE h`` to a fixed node is dropped too: it would
+    make a cell of almost no volume there.
+
     Returns ``points, fixed, dropped`` (a copy when some were dropped).
     """
+    from scipy.spatial import cKDTree
+
     values = np.asarray(model(points))
     outside = np.flatnonzero((values > 0) & ~fixed)
     projected = points.copy()
     if outside.size:
         projected[outside] = model.project(points[outside], iterations=30, tol=1e-4 * h, warn=False)
     drop = protection.inside(projected) & ~fixed
+    if fixed.any() and (~fixed).any():
+        distance, _ = cKDTree(points[fixed]).query(projected[~fixed], distance_upper_bound=NEAR_NODE * h)
+        drop[np.flatnonzero(~fixed)[distance < NEAR_NODE * h]] = True
     if not drop.any():
         return points, fixed, 0
     keep = ~drop
