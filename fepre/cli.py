@@ -364,7 +364,7 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
                         help="mesh the part as one region even if the model file defines `regions`")
     parser.add_argument("--material", nargs=3, action="append", metavar=("REGION", "E", "NU"),
                         help="elastic material of a region (repeat for each; a model file's `materials` is the default); "
-                             "written to an .inp as *MATERIAL and *SOLID SECTION")
+                             "written to an .inp as *MATERIAL and *SOLID SECTION (a mesh of one region: REGION is volume)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
@@ -383,6 +383,8 @@ def _materials(args: argparse.Namespace, part, regions: dict, format_name: str) 
             except ValueError:
                 raise ValueError(f"--material {region} {young} {poisson}: E and NU must be numbers") from None
         source = "--material"
+    elif not regions or format_name != "abaqus":
+        return None  # the model file's materials are for its regions, written to .inp files only
     else:
         materials, source = dict(part.materials), f"`materials` in {part.path}"
     if not materials:
