@@ -7,8 +7,9 @@ twice in one interleaved run: as one region (``fepre.distmesh(model, h)``) and w
 (``regions=``). Printed per part: cells and seconds of both (and their ratio), the worst dihedral
 angle of each region and of the one-region mesh (target 25), the largest dihedral (target 150),
 the smallest radius ratio (target 0.25), the interface faces, the largest distance of an
-interface node from the two zero sets (target 1e-3 h) and, where known, the region volumes'
-largest relative error.
+interface node from the two zero sets (target 1e-3 h) and, for regions bounded by planes only,
+the largest relative error of their volumes (curved ones are inscribed polyhedra). The first
+part's one-region time includes the compilation of the kernels.
 """
 
 from __future__ import annotations
@@ -35,10 +36,8 @@ def _parts(quick: bool):
         ("three boxes on a line", bar, {"a": left, "b": sdf.box((1, 0.5, 1), center=(1.5, 0.25, 0.5)),
                                         "c": sdf.box((1, 0.5, 1), center=(1.5, 0.75, 0.5))}, 0.2, [1.0, 0.5, 0.5]),
         ("sphere core r=0.6 in a ball", ball, {"skin": ball - sdf.sphere(0.6), "core": sdf.sphere(0.6)}, 0.12, None),
-        ("cube core in a ball", ball, {"skin": ball - sdf.box(1.0), "core": sdf.box(1.0)}, 0.12,
-         [4 / 3 * np.pi - 1.0, 1.0]),
-        ("plate with an insert", plate, {"plate": plate - pin, "insert": pin}, 0.1,
-         [2.4 - 0.4 * np.pi * 0.16, 0.4 * np.pi * 0.16]),
+        ("cube core in a ball", ball, {"skin": ball - sdf.box(1.0), "core": sdf.box(1.0)}, 0.12, [None, 1.0]),
+        ("plate with an insert", plate, {"plate": plate - pin, "insert": pin}, 0.1, None),
         ("bead cut by a disc's faces", disc, {"matrix": disc - bead, "bead": bead}, 0.12, None),
     ]
     for size, h in ((1.0, 0.08),) if quick else ((1.0, 0.08), (1.2, 0.07)):
