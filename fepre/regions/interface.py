@@ -49,15 +49,18 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
     creases = [np.zeros((0, 3))] * len(parts)
     part_features = np.zeros((0, 3))
     if options.features:
-        part_features = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False).nodes
+        found_part = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False)
+        part_features = _corners_first(found_part.corners, found_part.nodes)
         for j in range(len(parts)):
             # a rim (interface meeting the part's surface) is kept however shallow its crease
-            creases[j] = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False).nodes
+            found_j = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False)
+            creases[j] = _corners_first(found_j.corners, found_j.nodes)
     order = regions.meshing_order()
     for position, i in enumerate(order[:-1].tolist()):
         later = order[position + 1:]
         found = np.concatenate(nodes)
-        fixed = found[np.asarray(parts[i](found)) <= tol] if len(found) else found
+        laid = found[np.asarray(parts[i](found)) <= tol] if len(found) else found
+        extra = [np.zeros((0, 3))]
         for j in [i] + later.tolist():
             candidates = creases[j]
             if len(candidates) == 0:
@@ -66,16 +69,16 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
             shared = (values[:, i] <= tol) & (values[:, later].min(axis=1) <= tol) & (np.asarray(model(candidates)) <= tol)
             if j == i:  # the region's own shallow creases: only those on a rim
                 shared &= np.abs(np.asarray(model(candidates))) <= tol
-            candidates = candidates[shared]
-            if len(fixed) and len(candidates):
-                candidates = candidates[cKDTree(fixed).query(candidates)[0] >= 0.5 * h]
-            fixed = np.concatenate([fixed, candidates])
+            extra.append(candidates[shared])
         # the whole part's own sharp features on this region's boundary (an edge of a skin's
         # inner face between patches where a lattice touches it), so the whole mesh keeps them
-        edges = part_features[np.abs(np.asarray(parts[i](part_features))) <= tol] if len(part_features) else part_features
-        if len(fixed) and len(edges):
-            edges = edges[cKDTree(fixed).query(edges)[0] >= 0.5 * h]
-        fixed = np.unique(np.concatenate([fixed, edges]), axis=0)
+        if len(part_features):
+            extra.append(part_features[np.abs(np.asarray(parts[i](part_features))) <= tol])
+        extra = np.concatenate(extra)
+        extra = extra[np.sort(np.unique(extra, axis=0, return_index=True)[1])]  # first copy, order kept
+        if len(laid) and len(extra):
+            extra = extra[cKDTree(laid).query(extra)[0] >= 0.5 * h]
+        fixed = np.concatenate([laid, _thinned(extra, 0, 0.5 * h)])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the whole mesh reports on itself
             try:
@@ -94,6 +97,34 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
         inner.append(np.full(len(faces), i, dtype=np.int64))
     found, index = np.unique(np.concatenate(nodes), axis=0, return_index=True)
     return found[np.argsort(index)], np.concatenate(triangles), np.concatenate(inner)
+
+
+def _corners_first(corners: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Feature nodes with the corners first, so that thinning keeps a corner over a curve node."""
+    if len(corners) == 0 or len(nodes) == 0:
+        return np.concatenate([corners.reshape(-1, 3), nodes.reshape(-1, 3)])
+    from scipy.spatial import cKDTree
+
+    others = nodes[cKDTree(corners).query(nodes)[0] > 0.0]
+    return np.concatenate([corners, others])
+
+
+def _thinned(points: np.ndarray, keep_first: int, spacing: float) -> np.ndarray:
+    """``points`` without those closer than ``spacing`` to a point kept before them (the first
+    ``keep_first`` always stay): creases found on several parts, or a curve's end next to a
+    corner, would otherwise make interface triangles a fraction of ``h`` wide."""
+    from scipy.spatial import cKDTree
+
+    if len(points) < 2:
+        return points
+    pairs = cKDTree(points).query_pairs(spacing, output_type="ndarray")
+    if len(pairs) == 0:
+        return points
+    keep = np.ones(len(points), dtype=bool)
+    for a, b in np.sort(pairs, axis=1)[np.lexsort((pairs.max(axis=1), pairs.min(axis=1)))].tolist():
+        if keep[a] and keep[b] and b >= keep_first:  # a few pairs: the near-coincident creases
+            keep[b] = False
+    return points[keep]
 
 
 def onto_rim(points: np.ndarray, model, region, h: float) -> tuple[np.ndarray, np.ndarray]:
