@@ -648,7 +648,7 @@ def _configure_view(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", metavar="FILE", help="a mesh or surface file (VTU, VTK, STL, INP, MSH, ...) or a MODEL.py")
     parser.add_argument("--screenshot", metavar="PNG", help="render off screen and save a PNG instead of opening a window")
     parser.add_argument("--metric", default="min_dihedral_angle",
-                        help="cell quality to colour tetrahedra by (default min_dihedral_angle)")
+                        help="cell quality to colour tetrahedra by (default min_dihedral_angle), or region_id for the material regions")
     parser.add_argument("--no-clip", action="store_true", help="show the whole mesh instead of its interior")
     parser.add_argument("--clip", metavar="AXIS[=VALUE]",
                         help="clip plane of a mesh: normal x, y or z, through VALUE (default the centre), e.g. z=0.5")

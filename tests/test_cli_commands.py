@@ -334,6 +334,11 @@ def test_mesh_with_regions_writes_sections_and_the_interface(tmp_path, capsys):
                  "--material", "soft", "5", "0.2", "--material", "stiff", "7", "0.25"]) == 0
     assert "5.000000000000e+00, 2.000000000000e-01" in (tmp_path / "flags.inp").read_text()
     assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "one.vtu"), "--quiet", "--no-regions"]) == 0
+    picture = tmp_path / "regions.png"
+    assert main(["view", str(tmp_path / "bar.inp"), "--metric", "region_id", "--screenshot", str(picture)]) == 0
+    pixels = np.asarray(Image.open(picture).convert("RGB")).reshape(-1, 3).astype(int)
+    for colour in ((0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)):  # one colour per region (shaded)
+        assert (np.abs(pixels - colour).sum(axis=1) < 120).sum() > 500
     one = pv.read(tmp_path / "one.vtu")
     assert "volume" in one.field_data and "soft" not in one.field_data and set(np.unique(one["region_id"])) == {0}
 

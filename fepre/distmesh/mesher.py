@@ -246,7 +246,7 @@ def distmesh(
     if region_set is not None:
         from ..regions import interface_nodes
 
-        on_interface, interface_triangles, interface_inner = interface_nodes(model, region_set, h, (lower, upper), o)
+        on_interface, interface_triangles, interface_inner = interface_nodes(model, region_set, h, (lower, upper), o, progress)
         if len(fixed_points) and len(on_interface):  # a fixed point on an interface stands for its node
             from scipy.spatial import cKDTree
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import numpy as np
@@ -19,7 +20,7 @@ RIM_ANGLE = 10.0
 RIM_SNAP = 0.05
 
 
-def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes and triangles of every interface between regions, about ``h`` apart.
 
     Each region but the last of :meth:`RegionSet.meshing_order` (smallest first) is meshed by
@@ -79,6 +80,9 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
         if len(laid) and len(extra):
             extra = extra[cKDTree(laid).query(extra)[0] >= 0.5 * h]
         fixed = np.concatenate([laid, _thinned(extra, 0, 0.5 * h)])
+        if progress:
+            sys.stderr.write(f"distmesh: region {regions.names[i]!r} meshed on its own to lay its interfaces ...\n")
+            sys.stderr.flush()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the whole mesh reports on itself
             try:
@@ -95,6 +99,9 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options) -> tup
         nodes.append(points[np.unique(faces)])
         triangles.append(points[faces])
         inner.append(np.full(len(faces), i, dtype=np.int64))
+        if progress:
+            sys.stderr.write(f"distmesh: {len(faces)} interface triangles, {len(np.unique(faces))} nodes\n")
+            sys.stderr.flush()
     found, index = np.unique(np.concatenate(nodes), axis=0, return_index=True)
     return found[np.argsort(index)], np.concatenate(triangles), np.concatenate(inner)
 
