@@ -224,3 +224,12 @@ def test_bad_materials_are_refused(tmp_path):
     with pytest.raises(ValueError, match=r"materials\['left'\] nu must lie in"):
         fepre.export(mesh, tmp_path / "a.inp", materials={"left": (1, 0.5), "right": (1, 0.3)})
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_graded_mesh_with_regions():
+    # the automatic size field (fine near the ball's surface) with a cube core: edges kept, targets met
+    ball, core = sdf.sphere(1.0), sdf.box(0.8)
+    regions = {"skin": ball - core, "core": core}
+    mesh = mesh_of(ball, (0.06, 0.25), regions)
+    check_region_mesh(mesh, ball, regions, 0.06)
+    assert region_volumes(mesh)[1] == pytest.approx(0.512, rel=1e-9)
