@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..distmesh.node_moves import best_candidate
 from ..periodic.face_smoothing import CANDIDATES, MARGIN, ROUNDS, _incidence
 from .interface import interface_faces, onto_rim
 from .partition import RegionSet
@@ -43,8 +44,6 @@ def _smooth_nodes(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.ndarray, regions: RegionSet, model,
                            h: float, targets, seed: int = 0, pinned: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """``(points, moves)``: ``points`` with the interface nodes of bad cells moved (see the module)."""
-    from ..distmesh.tet_shape import signed_volume
-
     points = points.copy()
     n = len(points)
     faces, first, _ = interface_faces(tets, region_ids, n)
@@ -83,17 +82,11 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
             else:
                 candidates = region.project(points[node] + offsets, iterations=20, tol=1e-6 * h, warn=False)
                 on = regions.on_interface(candidates, 1e-4 * h) & (np.asarray(model(candidates)) < -1e-6 * h)
-            cells = points[tets[star]]
-            local = tets[star] == node
-            best, best_score = None, quality[star].min()
-            for candidate in candidates[on]:
-                moved = cells.copy()
-                moved[local] = candidate
-                if signed_volume(moved).min() <= 0:
-                    continue
-                value = score(moved).min()
-                if value > best_score + 1e-9:
-                    best, best_score = candidate, value
+            candidates = candidates[on]
+            moved = np.broadcast_to(points[tets[star]], (len(candidates), len(star), 4, 3)).copy()
+            moved[:, tets[star] == node] = candidates[:, None, :]
+            chosen = best_candidate(moved, quality[star].min(), score) if len(candidates) else None
+            best = None if chosen is None else candidates[chosen]
             if best is not None:
                 points[node] = best
                 quality[star] = score(points[tets[star]])
