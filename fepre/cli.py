@@ -360,9 +360,47 @@ def _configure_mesh(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
     _period_argument(parser, required=False)
+    parser.add_argument("--no-regions", action="store_true",
+                        help="mesh the part as one region even if the model file defines `regions`")
+    parser.add_argument("--material", nargs=3, action="append", metavar=("REGION", "E", "NU"),
+                        help="elastic material of a region (repeat for each; a model file's `materials` is the default); "
+                             "written to an .inp as *MATERIAL and *SOLID SECTION (a mesh of one region: REGION is volume)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
+
+
+def _materials(args: argparse.Namespace, part, regions: dict, format_name: str) -> dict | None:
+    """The materials to write: ``--material`` flags, else the model file's ``materials``; checked
+    against the regions and the format before any meshing."""
+    from .materials import elastic_material
+
+    if args.material:
+        materials = {}
+        for region, young, poisson in args.material:
+            try:
+                materials[region] = (float(young), float(poisson))
+            except ValueError:
+                raise ValueError(f"--material {region} {young} {poisson}: E and NU must be numbers") from None
+        source = "--material"
+    elif not regions or format_name != "abaqus":
+        return None  # the model file's materials are for its regions, written to .inp files only
+    else:
+        materials, source = dict(part.materials), f"`materials` in {part.path}"
+    if not materials:
+        return None
+    names = list(regions) if regions else ["volume"]
+    unknown = [name for name in materials if name not in names]
+    if unknown:
+        raise ValueError(f"{source} names {', '.join(unknown)}, not a region of the mesh (regions: {', '.join(names)})")
+    missing = [name for name in names if name not in materials]
+    if missing:
+        raise ValueError(f"{source} must give every region a material; missing {', '.join(missing)}")
+    if format_name != "abaqus":
+        raise ValueError(f"{source}: only an .inp file carries materials; the output is {format_name}")
+    for name, value in materials.items():
+        elastic_material(value, f"{source} for {name}")
+    return materials
 
 
 def _period_argument(parser: argparse.ArgumentParser, required: bool) -> None:
@@ -436,7 +474,13 @@ def _run_mesh(args: argparse.Namespace) -> int:
         raise ValueError(f"--order {args.order}: format {fmt.name} ({output.suffix}) supports order {fmt.orders[0]} only")
     if fmt.backend is not None:
         require_module(*fmt.backend, fmt.name)
+    regions = {} if args.no_regions else part.regions
+    if regions and period is not None:
+        raise ValueError(f"--period: {part.path} defines `regions`; a periodic cell is meshed as one region (add --no-regions)")
+    materials = _materials(args, part, regions, fmt.name)
     say = (lambda message: None) if args.quiet else _say
+    if regions:
+        say(f"fepre mesh: {len(regions)} regions ({', '.join(regions)}), meshed with conforming interfaces")
     if isinstance(h, tuple):
         say(f"fepre mesh: DistMesh with the automatic size field, h from {h[0]:g} to {h[1]:g} ...")
     elif size is not None:
@@ -445,7 +489,13 @@ def _run_mesh(args: argparse.Namespace) -> int:
         say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
     mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
-                          features=not args.no_features, periodic=period)
+                          features=not args.no_features, periodic=period, regions=regions or None)
+    if regions:
+        names = list(mesh.field_data["region_names"])
+        for index, name in enumerate(names):
+            chosen = np.asarray(mesh["region_id"]) == index
+            say(f"fepre mesh: region {name}: {int(chosen.sum())} tetrahedra, volume {float(mesh['volume'][chosen].sum()):.6g}, "
+                f"worst dihedral {float(mesh['min_dihedral_angle'][chosen].min()):.1f} deg")
     if period is not None:
         say(f"fepre mesh: periodic cell: {len(fepre.periodic_nodes(mesh))} nodes tied to their partners one period away")
     say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
@@ -466,7 +516,8 @@ def _run_mesh(args: argparse.Namespace) -> int:
                 f"where their functions are zero; nothing written"
             )
     say(f"fepre mesh: writing {output} ...")
-    written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model)
+    written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
+                           materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
     return 0
 
@@ -597,7 +648,7 @@ def _configure_view(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", metavar="FILE", help="a mesh or surface file (VTU, VTK, STL, INP, MSH, ...) or a MODEL.py")
     parser.add_argument("--screenshot", metavar="PNG", help="render off screen and save a PNG instead of opening a window")
     parser.add_argument("--metric", default="min_dihedral_angle",
-                        help="cell quality to colour tetrahedra by (default min_dihedral_angle)")
+                        help="cell quality to colour tetrahedra by (default min_dihedral_angle), or region_id for the material regions")
     parser.add_argument("--no-clip", action="store_true", help="show the whole mesh instead of its interior")
     parser.add_argument("--clip", metavar="AXIS[=VALUE]",
                         help="clip plane of a mesh: normal x, y or z, through VALUE (default the centre), e.g. z=0.5")

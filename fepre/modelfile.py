@@ -1,7 +1,9 @@
 """Model files: Python files that define a part for the ``fepre`` command.
 
 A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` (target edge
-length), ``bounds`` (meshing box) and ``boundaries`` (name -> SDF for named boundary sets).
+length), ``bounds`` (meshing box), ``boundaries`` (name -> SDF for named boundary sets),
+``regions`` (name -> SDF: material regions that split the part, meshed conformally) and
+``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files).
 Loading one runs it with ``runpy`` (``__name__`` is not ``"__main__"``, so a file can also be a
 script) and turns every failure into a :class:`ModelFileError` naming the file and the reason.
 
@@ -54,6 +56,10 @@ class ModelFile:
         Meshing/sampling box, if the file sets ``bounds`` (else the model's own bounds).
     boundaries : dict
         Named boundary sets (name -> SDF or callable), possibly empty.
+    regions : dict
+        Material regions (name -> SDF) that split the part, possibly empty.
+    materials : dict
+        Elastic material of each region (name -> ``(E, nu)`` or ``{"E": ..., "nu": ...}``), possibly empty.
     namespace : dict
         Every global the file defined.
     """
@@ -63,6 +69,8 @@ class ModelFile:
     h: float | None = None
     bounds: Any = None
     boundaries: dict[str, Any] = field(default_factory=dict)
+    regions: dict[str, Any] = field(default_factory=dict)
+    materials: dict[str, Any] = field(default_factory=dict)
     namespace: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
@@ -176,4 +184,14 @@ def load_model(path: str | os.PathLike) -> ModelFile:
     boundaries = namespace.get("boundaries") or {}
     if not isinstance(boundaries, dict) or not all(isinstance(k, str) and callable(v) for k, v in boundaries.items()):
         raise ModelFileError(f"{path}: `boundaries` must be a dict of name -> SDF (or callable); got {boundaries!r:.80}")
-    return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), namespace=namespace)
+    regions = namespace.get("regions") or {}
+    if not isinstance(regions, dict) or not all(isinstance(k, str) and isinstance(v, SDF) for k, v in regions.items()):
+        raise ModelFileError(f"{path}: `regions` must be a dict of name -> fepre SDF; got {regions!r:.80}")
+    materials = namespace.get("materials") or {}
+    if not isinstance(materials, dict):
+        raise ModelFileError(f"{path}: `materials` must be a dict of region name -> (E, nu); got {materials!r:.80}")
+    unknown = [name for name in materials if name not in regions]
+    if unknown and regions:
+        raise ModelFileError(f"{path}: `materials` names {unknown}, which are not in `regions` {list(regions)}")
+    return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), regions=dict(regions),
+                     materials=dict(materials), namespace=namespace)

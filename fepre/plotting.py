@@ -26,6 +26,7 @@ QUALITY_METRICS: dict[str, tuple[str, tuple[float, float] | None]] = {
     "radius_ratio": ("radius ratio 3 r_in / R_circ", (0.0, 1.0)),
     "volume_edge_ratio": ("volume-edge ratio", (0.0, 1.0)),
     "volume": ("volume", None),
+    "region_id": ("region", None),  # the material regions of fepre.distmesh(..., regions=)
 }
 
 
@@ -33,6 +34,8 @@ def _with_quality(mesh: Any, metric: str) -> Any:
     """``mesh`` with ``metric`` in its cell data (computed by fepre.quality when missing)."""
     if metric in mesh.cell_data:
         return mesh
+    if metric == "region_id":
+        raise ValueError("metric 'region_id': the mesh has no regions (cell data 'region_id'); mesh with regions= to have them")
     from .quality import add_quality
 
     return add_quality(mesh)
@@ -136,9 +139,17 @@ def quality_plotter(
     scalar_bar = dict(title=bar_title + "\n", color="black", vertical=False, position_x=0.15, position_y=0.03,
                       width=0.7, height=0.1, title_font_size=15, label_font_size=13, n_labels=6, fmt="%.0f"
                       if metric.endswith("angle") else "%.2f")
+    categorical = {}
+    if metric == "region_id":  # one colour per region, named in the bar
+        names = [str(n) for n in np.asarray(mesh.field_data["region_names"]).tolist()] if "region_names" in mesh.field_data else []
+        count = max(len(names), int(np.asarray(mesh.cell_data[metric]).max()) + 1)
+        palette = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
+        cmap, clim = [palette[k % len(palette)] for k in range(count)], (-0.5, count - 0.5)
+        scalar_bar.update(n_labels=0, fmt="%.0f")
+        categorical = dict(categories=True, annotations={k: n for k, n in enumerate(names)})
     plotter.add_mesh(shown, scalars=metric, cmap=cmap, clim=clim, show_edges=True, edge_color="#444444",
                      line_width=0.6, scalar_bar_args=scalar_bar, preference="cell", ambient=0.35, diffuse=0.75,
-                     specular=0.0)
+                     specular=0.0, **categorical)
     if clip:
         removed = mesh.clip(normal="x", origin=mesh.center, invert=False).extract_surface(algorithm="dataset_surface")
         if removed.n_cells:

@@ -310,3 +310,63 @@ def test_an_unbounded_model_gets_the_model_file_hint_everywhere(tmp_path, capsys
     extra = {"surface": ["-o", str(tmp_path / "a.stl")], "mesh": ["-o", str(tmp_path / "a.inp")]}.get(command, [])
     assert main([command, str(model), *extra]) == 1
     assert "the model is unbounded; set `bounds = ((xmin, ymin, zmin), (xmax, ymax, zmax))` in the model file" in capsys.readouterr().err
+
+
+REGIONS_MODEL = """from fepre import sdf
+model = sdf.box((2, 1, 1), center=(1, 0.5, 0.5))
+regions = {"soft": sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5)), "stiff": sdf.box((1, 1, 1), center=(1.5, 0.5, 0.5))}
+materials = {"soft": (1000, 0.3), "stiff": (3000, 0.3)}
+h = 0.25
+"""
+
+
+def test_mesh_with_regions_writes_sections_and_the_interface(tmp_path, capsys):
+    (tmp_path / "bar.py").write_text(REGIONS_MODEL)
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "bar.inp"), "--quiet"]) == 0
+    text = (tmp_path / "bar.inp").read_text()
+    assert "*MATERIAL, NAME=soft" in text and "*SOLID SECTION, ELSET=stiff, MATERIAL=stiff" in text
+    assert "*SURFACE, NAME=interface_soft_stiff, TYPE=ELEMENT" in text
+    grid = pv.read(tmp_path / "bar.inp")
+    volumes = grid.compute_cell_sizes()["Volume"]
+    np.testing.assert_allclose(np.bincount(grid["region_id"], volumes), [1.0, 1.0], rtol=1e-12)
+    # flags override the file's materials; --no-regions meshes one region
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "flags.inp"), "--quiet",
+                 "--material", "soft", "5", "0.2", "--material", "stiff", "7", "0.25"]) == 0
+    assert "5.000000000000e+00, 2.000000000000e-01" in (tmp_path / "flags.inp").read_text()
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "one.vtu"), "--quiet", "--no-regions"]) == 0
+    picture = tmp_path / "regions.png"
+    assert main(["view", str(tmp_path / "bar.inp"), "--metric", "region_id", "--screenshot", str(picture)]) == 0
+    pixels = np.asarray(Image.open(picture).convert("RGB")).reshape(-1, 3).astype(int)
+    for colour in ((0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)):  # one colour per region (shaded)
+        assert (np.abs(pixels - colour).sum(axis=1) < 120).sum() > 500
+    one = pv.read(tmp_path / "one.vtu")
+    assert "volume" in one.field_data and "soft" not in one.field_data and set(np.unique(one["region_id"])) == {0}
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--material", "soft", "1", "0.3"], "must give every region a material; missing stiff"),
+        (["--material", "soft", "1", "0.3", "--material", "core", "1", "0.3", "--material", "stiff", "1", "0.3"],
+         "--material names core, not a region of the mesh"),
+        (["--material", "soft", "x", "0.3", "--material", "stiff", "1", "0.3"], "E and NU must be numbers"),
+        (["--material", "soft", "1", "0.7", "--material", "stiff", "1", "0.3"], "nu must lie in (-1, 0.5)"),
+        (["--period", "2"], "--period: "),
+    ],
+)
+def test_bad_region_flags_fail_before_any_work(tmp_path, capsys, extra, message):
+    (tmp_path / "bar.py").write_text(REGIONS_MODEL)
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "bar.inp"), *extra]) == 1
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "bar.inp").exists()
+
+
+def test_materials_need_an_inp_and_regions_must_split_the_part(tmp_path, capsys):
+    (tmp_path / "bar.py").write_text(REGIONS_MODEL)
+    flags = ["--material", "soft", "1", "0.3", "--material", "stiff", "1", "0.3"]
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "bar.msh"), *flags]) == 1
+    assert "only an .inp file carries materials" in capsys.readouterr().err
+    (tmp_path / "gap.py").write_text(REGIONS_MODEL.replace("center=(1.5, 0.5, 0.5)", "center=(1.7, 0.5, 0.5)"))
+    assert main(["mesh", str(tmp_path / "gap.py"), "-o", str(tmp_path / "gap.inp")]) == 1
+    assert "uncovered" in capsys.readouterr().err
+    assert not list(tmp_path.glob("*.inp")) and not list(tmp_path.glob("*.msh"))

@@ -185,6 +185,8 @@ def expose_shallow_vertices(
     cells, candidates, vertex = cells[chosen], candidates[chosen], vertex[chosen]
     projected = model.project(points[vertex], iterations=20, tol=0.05 * surface_tol, warn=False)
     reached = np.abs(model(projected)) <= surface_tol
+    if guard is not None:
+        reached &= guard.in_own_region(vertex, projected)
     if guard is not None and reached.any():
         check = np.flatnonzero(reached)
         local_of = np.argmax(cells[check] == vertex[check, None], axis=1)

@@ -163,6 +163,13 @@ def _edge_candidates(tets, bad, boundary_edges, n_points, max_ring=MAX_RING):
         yield cells, np.concatenate([up, down], 1), table
 
 
+def _label_values(labels: np.ndarray | None, old: np.ndarray, k: int) -> tuple:
+    """The labels of ``k`` new cells replacing each row of ``old`` (all one label), for ``_apply``."""
+    if labels is None:
+        return ()
+    return (np.repeat(labels[old[:, 0]][:, None], k, axis=1),)
+
+
 def _apply(tets: np.ndarray, candidates: list, cell_values: list[np.ndarray]):
     """Apply the best candidates that replace disjoint sets of cells.
 
@@ -214,7 +221,8 @@ def flip_round(
     active: np.ndarray | None = None,
     *,
     targets: ShapeTargets | None = None,
-) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+    labels: np.ndarray | None = None,
+):
     """One round of flips on the cells whose score is below ``threshold``.
 
     Parameters
@@ -230,20 +238,25 @@ def flip_round(
         changed since the last try); all bad cells when None.
     targets : ShapeTargets, optional
         The score (default targets).
+    labels : (M,) int array, optional
+        A label of each cell (its region): only cells of one label are flipped together, and
+        the new cells take it. It is returned last, updated.
 
     Returns
     -------
     tets, quality : the new cells and their scores
     flips : number of flips applied
     touched : (N,) bool, the vertices of the new cells
+    labels : the new cells' labels (only when ``labels`` is given)
     """
     score = (ShapeTargets() if targets is None else targets).score
     touched = np.zeros(points.shape[0], dtype=bool)
     bad_cells = np.flatnonzero(quality < threshold)
     if active is not None:
         bad_cells = bad_cells[active[tets[bad_cells]].any(axis=1)]
+    unchanged = (tets, quality, 0, touched) + (() if labels is None else (labels,))
     if bad_cells.size == 0:
-        return tets, quality, 0, touched
+        return unchanged
     region, sub, bad = _region(points.shape[0], tets, bad_cells)
     old, new = _face_candidates(sub, face_neighbours(sub, points.shape[0]), bad)
     groups = [(old, new, score(points[new]))]
@@ -260,13 +273,16 @@ def flip_round(
         old = region[old]
         worst_new = q_new.min(axis=1)
         good = worst_new > quality[old].min(axis=1) + MIN_GAIN
+        if labels is not None:
+            good &= (labels[old] == labels[old[:, :1]]).all(axis=1)
         if good.any():
-            candidates.append((old[good], new[good], worst_new[good], (q_new[good],)))
+            values = (q_new[good],) + _label_values(labels, old[good], new.shape[1])
+            candidates.append((old[good], new[good], worst_new[good], values))
     if not candidates:
-        return tets, quality, 0, touched
-    tets, (quality,), applied, new_vertices = _apply(tets, candidates, [quality])
+        return unchanged
+    tets, values, applied, new_vertices = _apply(tets, candidates, [quality] + ([] if labels is None else [labels]))
     touched[new_vertices] = True
-    return tets, quality, applied, touched
+    return (tets, values[0], applied, touched) + tuple(values[1:])
 
 
 def shape_flip_round(
@@ -279,7 +295,8 @@ def shape_flip_round(
     boundary_edges: np.ndarray,
     *,
     targets: ShapeTargets | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    labels: np.ndarray | None = None,
+):
     """One round of flips that raise the radius ratio of the cells below ``ratio_threshold``.
 
     The same flips as :func:`flip_round`, ranked by the smallest radius ratio of the new cells:
@@ -298,6 +315,8 @@ def shape_flip_round(
     boundary_edges : sorted edge keys of the boundary surface; never removed
     targets : ShapeTargets, optional
         The score (default targets).
+    labels : (M,) int array, optional
+        As in :func:`flip_round`; returned last when given.
 
     Returns
     -------
@@ -306,8 +325,9 @@ def shape_flip_round(
     """
     measures = (ShapeTargets() if targets is None else targets).score_and_ratio
     bad_cells = np.flatnonzero(ratio < ratio_threshold)
+    unchanged = (tets, quality, ratio, 0) + (() if labels is None else (labels,))
     if bad_cells.size == 0:
-        return tets, quality, ratio, 0
+        return unchanged
     region, sub, bad = _region(points.shape[0], tets, bad_cells)
     candidates = []
     for old, cells, table in _edge_candidates(sub, bad, boundary_edges, points.shape[0], SHAPE_MAX_RING):
@@ -321,11 +341,14 @@ def shape_flip_round(
         rows = np.arange(old.shape[0])
         score = score[rows, choice]
         good = score > ratio[old].min(axis=1) + MIN_RATIO_GAIN
+        if labels is not None:
+            good &= (labels[old] == labels[old[:, :1]]).all(axis=1)
         if good.any():
             rows = rows[good, None]
             best = table[choice[good]]
-            candidates.append((old[good], cells[rows, best], score[good], (q_cells[rows, best], r_cells[rows, best])))
+            values = (q_cells[rows, best], r_cells[rows, best]) + _label_values(labels, old[good], best.shape[1])
+            candidates.append((old[good], cells[rows, best], score[good], values))
     if not candidates:
-        return tets, quality, ratio, 0
-    tets, (quality, ratio), applied, _ = _apply(tets, candidates, [quality, ratio])
-    return tets, quality, ratio, applied
+        return unchanged
+    tets, values, applied, _ = _apply(tets, candidates, [quality, ratio] + ([] if labels is None else [labels]))
+    return (tets, values[0], values[1], applied) + tuple(values[2:])

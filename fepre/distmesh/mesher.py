@@ -95,6 +95,7 @@ def distmesh(
     size: Any = None,
     fixed: Any = None,
     periodic: Any = None,
+    regions: Any = None,
     options: DistMeshOptions | None = None,
     progress: bool = False,
     callback: Callable[[DistMeshState], object] | None = None,
@@ -131,6 +132,15 @@ def distmesh(
         mesh's field data ``periodic_lower`` and ``periodic_period`` record the cell;
         :func:`fepre.periodic_nodes` gives the node pairs, :func:`fepre.homogenize` the
         effective stiffness. Takes one ``h`` (no ``size``).
+    regions : dict name -> fepre.sdf.SDF, optional
+        Mesh a part made of several materials: two or more regions (e.g. ``{"skin": part -
+        core, "core": core}``) that split ``model`` (no overlap, nothing left over). Each
+        interface between regions is made of faces of the mesh, its nodes on the interface
+        (to ``1e-3 h``; its sharp edges and the curves where it meets the part's surface
+        kept); every cell lies in one region, cell data ``region_id`` indexes field data
+        ``region_names``, and point data ``interface`` marks the interface nodes.
+        :func:`fepre.export` writes one element set per region and each interface as a named
+        face set (``interface_<a>_<b>``).
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
@@ -172,6 +182,8 @@ def distmesh(
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
     if periodic is not None and (size is not None or isinstance(h, (tuple, list, np.ndarray))):
         raise ValueError("periodic meshes take one h (a number); size= and h=(hmin, hmax) are not supported with periodic=")
+    if periodic is not None and regions is not None:
+        raise ValueError("periodic= and regions= cannot be combined yet; mesh the periodic cell of one material")
     if periodic is not None and bounds is None:
         from ..periodic.cell import periodic_cell
 
@@ -189,6 +201,11 @@ def distmesh(
     extent = float((upper - lower).max())
     if h >= extent:
         raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
+    region_set = None
+    if regions is not None:
+        from ..regions import region_set as checked_regions
+
+        region_set = checked_regions(regions, model, h, lower, upper)
     if callback is not None and not callable(callback):
         raise TypeError(f"callback must be a callable or None; got {type(callback).__name__}")
     if fixed is None:
@@ -226,6 +243,19 @@ def distmesh(
         face_nodes = boundary_nodes(periodic_model, cell, h, seed=o.seed)
         periodic_count = len(face_nodes)
         fixed_points = np.concatenate([face_nodes, fixed_points])
+    if region_set is not None:
+        from ..regions import interface_nodes
+
+        on_interface, interface_triangles, interface_inner = interface_nodes(model, region_set, h, (lower, upper), o, progress)
+        if len(fixed_points) and len(on_interface):  # a fixed point on an interface stands for its node
+            from scipy.spatial import cKDTree
+
+            distance, _ = cKDTree(fixed_points).query(on_interface)
+            on_interface = on_interface[distance > 1e-9 * h]
+        fixed_points = np.concatenate([on_interface, fixed_points])
+        from ..regions.protection import InterfaceProtection
+
+        guard = InterfaceProtection(interface_triangles, interface_inner, region_set.region_of)
     found, protection, feature_nodes = None, None, 0
     if o.features:
         found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
@@ -264,6 +294,12 @@ def distmesh(
         near_face = (np.minimum(points - cell.lower, cell.upper - points) < FACE_MARGIN * h).any(axis=1)
         points = points[~(free & near_face)]
         protect = compose(protect, cell.keep_off_faces(FACE_MARGIN * h))
+    if region_set is not None:
+        from ..periodic.cell import compose
+
+        free = np.arange(len(points)) >= len(fixed_points)
+        points = points[~(free & guard.inside(points))]
+        protect = compose(protect, guard.push)
     if len(points) - len(fixed_points) < 4:
         _check_domain(model, lower, upper, h)
     fixed_mask = np.zeros(len(points), bool)
@@ -272,8 +308,26 @@ def distmesh(
     loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
                    protect=protect, local_size=size if absolute else None)
     previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
-    points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
+    if region_set is None:
+        points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
+    else:
+        from ..regions.conform import final_region_mesh
+        from ..regions.protection import drop_protected
+
+        loop_points, loop_fixed, dropped = drop_protected(model, loop.points, loop.fixed_mask, guard, h)
+        points, tets, fixed_mask, region_ids, repaired, crossing = final_region_mesh(
+            model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set)
     loop_seconds = time.perf_counter() - start
+    interface_mask = None
+    if region_set is not None:
+        from ..regions.interface import interface_node_mask
+
+        if crossing.any():
+            raise MeshingError(
+                f"distmesh: {int(crossing.sum())} cell(s) cross an interface between regions after dropping "
+                f"{repaired} node(s) near it; the interfaces are not resolved at h={h:g} (try a smaller h)"
+            )
+        interface_mask = interface_node_mask(tets, region_ids, len(points))
 
     sliver_seconds = 0.0
     if o.slivers:
@@ -285,7 +339,13 @@ def distmesh(
         pinned = stage_pins(points, tets, fixed_mask, None if fixed is None else as_points(fixed, 3, "fixed")[0], model, h)
         try:
             locked = None if cell is None else cell.on_planes(points, cell.tolerance(h)).any(axis=1)
-            points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
+            if region_set is not None:
+                from ..regions.conform import region_quality_stage
+
+                points, tets, region_ids = region_quality_stage(
+                    points, tets, region_ids, region_set, model, h, pinned, interface_mask, o.seed, size)
+            else:
+                points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
         except MeshingError as exc:
             # the stage checks its own result and refuses it; the loop's mesh is valid
             warn_user(
@@ -347,7 +407,16 @@ def distmesh(
                 ResolutionWarning,
             )
         history.update(periodic_nodes=np.array([periodic_count]), periodic_unpaired=np.array([unpaired.size]))
+    if region_set is not None:
+        from ..regions.conform import check_interfaces
+
+        interface_faces, _ = check_interfaces(points, tets, region_ids, region_set, model, h)  # MeshingError
+        history.update(interface_faces=np.array([len(interface_faces)]), interface_nodes_dropped=np.array([repaired]))
     grid = to_grid(points, tets, model, history, found)
+    if region_set is not None:
+        grid.cell_data["region_id"] = region_ids
+        grid.field_data["region_names"] = np.array(region_set.names)
+        grid.point_data["interface"] = interface_node_mask(tets, region_ids, len(points)).astype(np.uint8)
     if cell is not None:
         grid.field_data["periodic_lower"] = cell.lower
         grid.field_data["periodic_period"] = cell.period

@@ -156,6 +156,8 @@ def improve_arrays(
     seed: int = 0,
     deadline_seconds: float | None = None,
     locked: np.ndarray | None = None,
+    labels: np.ndarray | None = None,
+    node_regions: tuple | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -191,6 +193,14 @@ def improve_arrays(
         Boundary vertices whose faces must stay as they are (a periodic cell's face nodes): no
         boundary edge between four of them is flipped and no vertex is exposed through a face
         of three of them. They should be fixed too.
+    labels : (M,) int array, optional
+        A label of each cell (its material region): cells are only flipped with cells of the
+        same label, so the faces between labels stay (their vertices should be fixed and
+        locked). ``info["labels"]`` holds the labels of the returned cells.
+    node_regions : (owner (N,) int, region_of callable), optional
+        With ``labels``: each boundary vertex whose ``owner`` is a region (>= 0; -1 on an
+        interface) only slides to positions where ``region_of`` gives that region, so it never
+        crosses the rim of an interface along the part's surface.
 
     Returns
     -------
@@ -225,6 +235,12 @@ def improve_arrays(
             raise ValueError(f"locked must be a bool array of shape ({points.shape[0]},); got {locked.shape} {locked.dtype}")
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
+    if labels is not None:
+        labels = np.asarray(labels)
+        if labels.shape != (tets.shape[0],) or labels.dtype.kind not in "iu":
+            raise ValueError(f"labels must be an int array of shape ({tets.shape[0]},); got {labels.shape} {labels.dtype}")
+        labels = labels.astype(np.int64)
+    tagged = {} if labels is None else {"labels": labels}
     targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
     target = targets.min_dihedral  # the score of a cell that meets all three targets
     maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
@@ -264,6 +280,7 @@ def improve_arrays(
     boundary_edges = _boundary_edge_keys(faces, n)
     boundary_face_keys = np.unique(face_keys(faces, n))
     guard = SurfaceGuard(model, h, points, on_boundary)
+    guard.regions = node_regions
     threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
     volume_before = float(volumes.sum())
 
@@ -284,8 +301,21 @@ def improve_arrays(
             targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
         )
 
+    def flip(*args, **kwargs):
+        result = timed("flip", flip_round, *args, targets=targets, **tagged, **kwargs)
+        if labels is not None:
+            tagged["labels"] = result[-1]
+        return result[:4]
+
+    def removal(function, *args, **kwargs):
+        result = timed("flip", function, *args, guard=guard, locked=locked, **kwargs)
+        before, after = args[1], result[0 if function is remove_boundary_slivers else 1]
+        if labels is not None and after.shape[0] != before.shape[0]:  # cells were removed, none added
+            tagged["labels"] = tagged["labels"][_kept_rows(before, after)]
+        return result
+
     # Flip the worst slivers away first: they pin their vertices during relaxation.
-    tets, quality, flipped, _ = timed("flip", flip_round, points, tets, quality, threshold, boundary_edges, targets=targets)
+    tets, quality, flipped, _ = flip(points, tets, quality, threshold, boundary_edges)
     counts["flips"] += flipped
     for _ in range(RELAX_ROUNDS):
         points, quality, relaxed = relax(quality)
@@ -296,10 +326,13 @@ def improve_arrays(
     ratio = radius_ratio(points[tets])
     mean_ratio = float(ratio.mean())
     for _ in range(SHAPE_ROUNDS):
-        tets, quality, ratio, flipped = timed(
+        result = timed(
             "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges,
-            targets=targets,
+            targets=targets, **tagged,
         )
+        tets, quality, ratio, flipped = result[:4]
+        if labels is not None:
+            tagged["labels"] = result[4]
         counts["flips"] += flipped
         points, quality, relaxed = relax(quality)
         counts["relaxed"] += relaxed
@@ -318,21 +351,19 @@ def improve_arrays(
         if deadline is not None and time.perf_counter() - start > deadline:
             break
         rounds += 1
-        tets, quality, flipped, touched = timed(
-            "flip", flip_round, points, tets, quality, threshold, boundary_edges, active, targets=targets
-        )
+        tets, quality, flipped, touched = flip(points, tets, quality, threshold, boundary_edges, active)
         # Smoothing retries every bad cell: its random candidates differ from round to round.
         points, quality, moved, moved_vertices = timed(
             "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
             surface_tol, targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
         )
-        tets, quality, removed, boundary_face_keys, boundary_edges = timed(
-            "flip", remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges, model, h, guard=guard, locked=locked,
+        tets, quality, removed, boundary_face_keys, boundary_edges = removal(
+            remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
+            boundary_edges, model, h,
         )
-        points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = timed(
-            "flip", expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
-            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets, guard=guard, locked=locked,
+        points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = removal(
+            expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
+            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets,
         )
         counts["flips"] += flipped
         counts["moves"] += moved
@@ -364,6 +395,7 @@ def improve_arrays(
         **{f"{key}_before": value for key, value in before.items()},
         **{f"{key}_after": value for key, value in after.items()},
         "converged": converged,
+        **tagged,
     }
     if not converged:
         warn_user(
@@ -375,6 +407,12 @@ def improve_arrays(
             ConvergenceWarning,
         )
     return points, tets, info
+
+
+def _kept_rows(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(M,) bool: the rows of ``before`` still in ``after`` (``after`` is ``before`` with rows removed)."""
+    rows = np.dtype((np.void, 4 * before.dtype.itemsize))
+    return np.isin(np.ascontiguousarray(before).view(rows).ravel(), np.ascontiguousarray(after).view(rows).ravel())
 
 
 def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys) -> None:

@@ -90,6 +90,22 @@ class SurfaceGuard:
         self.labels = np.full(n, -1, dtype=np.int64)
         self.normals = np.zeros((n, 3))
         self.add(np.flatnonzero(boundary), points)
+        #: (owner (N,), region_of) of a mesh of several regions: a vertex with an owner (>= 0)
+        #: must stay in that region (``region_of(points) -> (K,)``); see :meth:`in_own_region`
+        self.regions = None
+
+    def in_own_region(self, vertices: np.ndarray, new: np.ndarray) -> np.ndarray:
+        """Mask (K,): ``new`` positions that keep each vertex in its own material region (all
+        True without regions, or for a vertex on an interface)."""
+        if self.regions is None or vertices.size == 0:
+            return np.ones(vertices.size, dtype=bool)
+        owner, region_of = self.regions
+        own = owner[vertices]
+        allowed = own < 0
+        check = np.flatnonzero(~allowed)
+        if check.size:
+            allowed[check] = region_of(new[check]) == own[check]
+        return allowed
 
     def add(self, vertices: np.ndarray, points: np.ndarray) -> None:
         """Record ``vertices`` (which just became boundary vertices) at ``points[vertices]``."""
@@ -108,11 +124,13 @@ class SurfaceGuard:
             return np.zeros(0, dtype=bool)
         _, labels = self.model.patch_labels(new)
         allowed = labels == self.labels[vertices]
-        other = np.flatnonzero(~allowed)
+        within = self.in_own_region(vertices, new)
+        other = np.flatnonzero(~allowed & within)
         if other.size:
             _, gradient = self.model.value_and_gradient(new[other])
             cosine = np.einsum("ij,ij->i", _unit(gradient), self.normals[vertices[other]])
             allowed[other] = cosine >= np.cos(np.radians(CREASE_ANGLE))
+        allowed &= within
         check = np.flatnonzero(allowed)
         if check.size:
             middle = 0.5 * (old[check] + new[check])

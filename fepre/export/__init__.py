@@ -43,8 +43,10 @@ from .boundaries import (
 from .data import ExportData
 from .formats import FORMATS, Format, resolve_format
 from .grid import RESERVED_FIELD_NAMES, boundary_faces, tagged_grid
+from .interfaces import with_interfaces
 from .meshio_formats import require_module
 from .quadratic import quadratic_tetrahedra
+from .sections import mesh_regions, sections
 from .tetmesh import tetra_arrays
 
 __all__ = ["export", "tag_boundaries", "tag_regions", "boundary_faces", "BoundaryWarning", "FORMATS", "Format"]
@@ -92,6 +94,8 @@ def export(
     boundary_tolerance: float = DEFAULT_TOLERANCE,
     boundary_angle: float = DEFAULT_ANGLE,
     default_region: str = DEFAULT_REGION,
+    materials: Mapping[str, Any] | None = None,
+    interfaces: bool | None = None,
 ) -> Any:
     """Write a tetrahedral mesh for a solver, with named boundary and region sets.
 
@@ -116,7 +120,9 @@ def export(
         facet tag) and a node set.
     regions : dict name -> SDF or callable, optional
         Cells whose centroid value is negative (first match wins) form a region (``*ELSET``,
-        physical volume, cell tag); the rest form ``default_region``.
+        physical volume, cell tag); the rest form ``default_region``. Without it, a mesh with
+        cell data ``region_id`` and field data ``region_names`` (``fepre.distmesh(...,
+        regions=)``) keeps its regions.
     model : SDF, optional
         The part's model: named in file headers and used for curved midside nodes.
     overwrite : bool
@@ -128,6 +134,14 @@ def export(
         the face to join that boundary (keeps faces next to sharp edges on their own side).
     default_region : str
         Name of the region of cells in no named region.
+    materials : dict region name -> (E, nu) or {"E": ..., "nu": ...}, optional
+        Isotropic elastic material of every region, written to an Abaqus/CalculiX file as one
+        ``*MATERIAL`` and one ``*SOLID SECTION`` per region (other formats carry no materials).
+    interfaces : bool, optional
+        Write the faces between each pair of regions as a face set ``interface_<a>_<b>``
+        (``*SURFACE`` on the side of region ``a``, physical surface, facet tag). Default: for a
+        mesh that carries its regions (a conformal mesh from ``fepre.distmesh(...,
+        regions=)``), not for regions given here.
 
     Returns
     -------
@@ -171,11 +185,20 @@ def export(
 
     points, cells = tetra_arrays(mesh)
     faces = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
-    region_ids, region_names = assign_regions(points, cells, regions, default_region)
+    carried = regions is None and "region_id" in mesh.cell_data and "region_names" in mesh.field_data
+    if carried:
+        region_ids, region_names = mesh_regions(mesh, len(cells))
+    else:
+        region_ids, region_names = assign_regions(points, cells, regions, default_region)
+    if interfaces is not None and not isinstance(interfaces, bool):
+        raise TypeError(f"interfaces must be True, False or None; got {interfaces!r}")
+    if carried if interfaces is None else interfaces:
+        faces = with_interfaces(faces, cells, region_ids, region_names)
     _check_name_clashes(region_names, faces.names)
+    section_table = sections(materials, region_names, fmt.name)
     midside = None
     if order == 2:
-        quadratic = quadratic_tetrahedra(points, cells, faces.triangles, model)
+        quadratic = quadratic_tetrahedra(points, cells, faces.triangles[faces.on_boundary], model)
         points, cells = quadratic.points, quadratic.cells
         midside = (quadratic.curved, quadratic.straightened)
     title, model_text = _title(model)
@@ -184,7 +207,7 @@ def export(
         points, cells, region_ids, region_names, faces, title, model_text,
         point_arrays={name: np.asarray(mesh.point_data[name]) for name in mesh.point_data.keys()},
         cell_arrays={name: np.asarray(mesh.cell_data[name]) for name in mesh.cell_data.keys()},
-        periodic=periodic, constraints=constraints,
+        periodic=periodic, constraints=constraints, sections=section_table,
     )
     with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
         fmt.writer(stage, path.name, data)

@@ -8,6 +8,10 @@ coordinates wider than the 20 characters CalculiX reads per field. This writer e
 * ``*ELEMENT, TYPE=C3D4`` or ``C3D10, ELSET=EALL`` (element id = cell index + 1, node order of
   VTK which C3D10 shares), then one ``*ELSET`` per region;
 * for every named boundary a ``*NSET`` of its nodes and an element-face ``*SURFACE`` (``S1``..``S4``);
+  likewise for every interface between two regions (``interface_<a>_<b>``, faces of region ``a``'s
+  elements);
+* with ``materials=``, one ``*MATERIAL`` (named after its region, ``*ELASTIC`` E, nu) and one
+  ``*SOLID SECTION`` per region;
 * for a periodic cell (:func:`fepre.distmesh` with ``periodic=``), three reference nodes after the
   mesh's (``*NSET`` ``PBC_REF`` and ``PBC_REFX``, ``PBC_REFY``, ``PBC_REFZ``; their displacements
   are the cell's periods times the columns of the macroscopic displacement gradient), a node
@@ -15,7 +19,8 @@ coordinates wider than the 20 characters CalculiX reads per field. This writer e
   ``PBC_FACES``, and the ``*EQUATION`` constraints tying each upper-face node to its partner
   (:mod:`fepre.periodic.equations`).
 
-The file holds the mesh only (no material or step), ready for ``*INCLUDE, INPUT=part.inp``.
+Without ``materials=`` the file holds the mesh only (no material or step), ready for
+``*INCLUDE, INPUT=part.inp``; with it, a job needs only its steps.
 """
 
 from __future__ import annotations
@@ -79,6 +84,10 @@ def inp_text(data: ExportData) -> str:
         parts.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT\n")
         surface = np.column_stack([faces.elements[members] + 1, faces.local_faces[members] + 1])
         parts.append(_rows("%d, S%d\n", surface))
+    if data.sections is not None:
+        from .sections import section_text
+
+        parts.append(section_text(data.sections))
     if data.periodic is not None:
         parts.append(_periodic_text(data))
     return "".join(parts)

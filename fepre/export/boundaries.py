@@ -66,7 +66,11 @@ class FaceSets:
     set_ids : (K,) int64
         Index into ``names`` of each face's set.
     names : list of str
-        Set names; the named boundaries first in the caller's order, then ``"boundary"``.
+        Set names; the named boundaries first in the caller's order, then ``"boundary"``, then
+        the interfaces between regions (:func:`fepre.export.interfaces.with_interfaces`).
+    interfaces : int
+        How many of the last names are interfaces: faces inside the mesh, between two regions,
+        given from the side of the region listed first.
     """
 
     elements: np.ndarray
@@ -74,6 +78,12 @@ class FaceSets:
     triangles: np.ndarray
     set_ids: np.ndarray
     names: list[str]
+    interfaces: int = 0
+
+    @property
+    def on_boundary(self) -> np.ndarray:
+        """(K,) bool: the face is on the mesh's boundary (not on an interface)."""
+        return self.set_ids < len(self.names) - self.interfaces
 
 
 def check_names(names: list[str], parameter: str) -> None:

@@ -46,6 +46,8 @@ class ExportData:
         The cell of a periodic mesh.
     constraints : fepre.periodic.equations.PeriodicConstraints or None
         Its node pairs (over ``points``, midside nodes included), written as ``*EQUATION``.
+    sections : list of fepre.export.sections.Section or None
+        One elastic material per region, written as ``*MATERIAL`` and ``*SOLID SECTION``.
     """
 
     points: np.ndarray
@@ -59,6 +61,7 @@ class ExportData:
     cell_arrays: dict = field(default_factory=dict)
     periodic: Any = None
     constraints: Any = None
+    sections: Any = None
 
     @property
     def order(self) -> int:

@@ -47,7 +47,7 @@ def _in_plane_projection(model, points: np.ndarray, axis: int) -> np.ndarray:
 def smooth_face_nodes(points: np.ndarray, tets: np.ndarray, cell: PeriodicCell, model, h: float,
                       targets, seed: int = 0) -> tuple[np.ndarray, int]:
     """``(points, moves)``: ``points`` with face nodes of bad cells moved (see the module)."""
-    from ..distmesh.tet_shape import signed_volume
+    from ..distmesh.node_moves import best_candidate
     from .nodes import match_faces
 
     points = points.copy()
@@ -91,20 +91,14 @@ def smooth_face_nodes(points: np.ndarray, tets: np.ndarray, cell: PeriodicCell, 
                 axis = int(np.flatnonzero(~free_axes)[0])
                 candidates = _in_plane_projection(model, candidates, axis)
                 candidates[:, axis] = base[axis]
-            cells = points[tets[star]]
             local = tets[star][..., None] == nodes  # (S, 4, images)
-            best, best_score = None, quality[star].min()
-            for candidate in candidates:
-                moved = cells.copy()
-                for k, node in enumerate(nodes):
-                    position = points[node].copy()
-                    position[free_axes] = candidate[free_axes]
-                    moved[local[..., k]] = position
-                if signed_volume(moved).min() <= 0:
-                    continue
-                value = score(moved).min()
-                if value > best_score + 1e-9:
-                    best, best_score = candidate, value
+            moved = np.broadcast_to(points[tets[star]], (CANDIDATES, len(star), 4, 3)).copy()
+            for k, node in enumerate(nodes):
+                position = np.broadcast_to(points[node], (CANDIDATES, 3)).copy()
+                position[:, free_axes] = candidates[:, free_axes]
+                moved[:, local[..., k]] = position[:, None, :]
+            chosen = best_candidate(moved, quality[star].min(), score)
+            best = None if chosen is None else candidates[chosen]
             if best is not None:
                 for node in nodes:
                     points[node, free_axes] = best[free_axes]

@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import choice, finite_float, positive_float
+from ..arguments import choice, positive_float
+from ..materials import elastic_material
 
 __all__ = ["Homogenized", "homogenize", "VOIGT"]
 
@@ -102,25 +103,6 @@ class Homogenized:
             f"  E = {np.array2string(self.young_moduli, precision=4)}, "
             f"G = {np.array2string(self.shear_moduli, precision=4)}"
         )
-
-
-def _material(material: Any) -> tuple[float, float]:
-    if isinstance(material, dict):
-        keys = {k.lower(): v for k, v in material.items()}
-        young = keys.get("e", keys.get("youngs_modulus"))
-        poisson = keys.get("nu", keys.get("poissons_ratio"))
-        if young is None or poisson is None:
-            raise ValueError(f"material must give E and nu (keys 'E' and 'nu'); got keys {sorted(material)}")
-    else:
-        try:
-            young, poisson = material
-        except (TypeError, ValueError):
-            raise TypeError(f"material must be (E, nu) or {{'E': ..., 'nu': ...}}; got {material!r}") from None
-    young = positive_float(young, "material E")
-    poisson = finite_float(poisson, "material nu")
-    if not -1.0 < poisson < 0.5:
-        raise ValueError(f"material nu must lie in (-1, 0.5) for an isotropic solid; got {poisson!r}")
-    return young, poisson
 
 
 def _ccx(ccx: Any) -> str:
@@ -225,7 +207,7 @@ def homogenize(
     choice(solver, "solver", ("calculix",))
     if isinstance(order, bool) or order not in (1, 2):
         raise ValueError(f"order must be 1 or 2; got {order!r}")
-    young, poisson = _material(material)
+    young, poisson = elastic_material(material)
     executable = _ccx(ccx)
     nodes = periodic_nodes(mesh)  # refuses a mesh that is not a periodic cell
     if len(nodes) == 0:

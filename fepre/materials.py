@@ -1,0 +1,38 @@
+"""Isotropic linear-elastic materials as users give them: ``(E, nu)`` or ``{"E": ..., "nu": ...}``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .arguments import finite_float, positive_float
+
+__all__ = ["elastic_material"]
+
+
+def elastic_material(material: Any, parameter: str = "material") -> tuple[float, float]:
+    """``(E, nu)`` of an isotropic elastic material, checked.
+
+    ``material`` is a pair ``(E, nu)`` or a dict with keys ``E`` and ``nu`` (any case, or
+    ``youngs_modulus`` and ``poissons_ratio``); ``E > 0`` and ``-1 < nu < 0.5``.
+
+    Examples
+    --------
+    >>> elastic_material({"E": 210e3, "nu": 0.3})
+    (210000.0, 0.3)
+    """
+    if isinstance(material, dict):
+        keys = {str(k).lower(): v for k, v in material.items()}
+        young = keys.get("e", keys.get("youngs_modulus"))
+        poisson = keys.get("nu", keys.get("poissons_ratio"))
+        if young is None or poisson is None:
+            raise ValueError(f"{parameter} must give E and nu (keys 'E' and 'nu'); got keys {sorted(material)}")
+    else:
+        try:
+            young, poisson = material
+        except (TypeError, ValueError):
+            raise TypeError(f"{parameter} must be (E, nu) or {{'E': ..., 'nu': ...}}; got {material!r}") from None
+    young = positive_float(young, f"{parameter} E")
+    poisson = finite_float(poisson, f"{parameter} nu")
+    if not -1.0 < poisson < 0.5:
+        raise ValueError(f"{parameter} nu must lie in (-1, 0.5) for an isotropic solid; got {poisson!r}")
+    return young, poisson

@@ -1,0 +1,134 @@
+"""Cells of a region mesh: their region, cells that cross an interface, the per-region quality stage."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .interface import ON_INTERFACE, interface_faces
+from .partition import RegionSet
+
+__all__ = ["cell_regions", "node_regions", "improve_regions", "region_quality_stage", "check_interfaces", "final_region_mesh"]
+
+#: Rounds of dropping the free nodes of cells that cross an interface and triangulating again.
+REPAIR_ROUNDS = 6
+
+
+def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray:
+    """(N,) region of each node, -1 for a node on an interface (it belongs to both sides)."""
+    owner = regions.region_of(points)
+    owner[regions.on_interface(points, ON_INTERFACE * h)] = -1
+    return owner
+
+
+def cell_regions(points: np.ndarray, tets: np.ndarray, regions: RegionSet, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Region of each cell and whether it crosses an interface, ``(region_ids, crossing)``.
+
+    A cell belongs to the region of its nodes that are not on an interface; a cell whose nodes
+    all lie on interfaces, to the region holding its centroid. A cell with nodes strictly inside
+    two regions crosses an interface (``crossing``; its region is then one of the two).
+    """
+    owner = node_regions(points, regions, h)[tets]
+    highest = owner.max(axis=1)
+    lowest = np.where(owner >= 0, owner, len(regions.names)).min(axis=1)
+    region_ids = highest.copy()
+    on_interfaces = highest < 0
+    if on_interfaces.any():
+        region_ids[on_interfaces] = regions.region_of(points[tets[on_interfaces]].mean(axis=1))
+    return region_ids, (highest >= 0) & (lowest != highest)
+
+
+def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions: RegionSet):
+    """The final mesh of a region mesh: :func:`~fepre.distmesh.finalize.final_mesh`, then, while
+    some cell has a node strictly inside another region than its own (it bridges a concave
+    wedge where an interface meets the part's surface at a grazing angle), the free node of
+    each such cell nearest the interface is dropped and the points are triangulated again.
+
+    Returns ``points, tets, fixed, region_ids, dropped, crossing`` (the cells still crossing).
+    """
+    from ..distmesh.finalize import final_mesh
+
+    dropped = 0
+    for repair in range(REPAIR_ROUNDS + 1):
+        points, tets, fixed = final_mesh(model, points, fixed, h, geps, backend, previous)
+        region_ids, crossing = cell_regions(points, tets, regions, h)
+        if not crossing.any() or repair == REPAIR_ROUNDS:
+            break
+        cells = tets[crossing]
+        distance = np.where(fixed[cells], np.inf, regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape))
+        nearest = cells[np.arange(len(cells)), np.argmin(distance, axis=1)]
+        nearest = np.unique(nearest[~fixed[nearest]])
+        if nearest.size == 0:
+            break
+        keep = np.ones(len(points), dtype=bool)
+        keep[nearest] = False
+        points, fixed, previous = points[keep], fixed[keep], None
+        dropped += nearest.size
+    return points, tets, fixed, region_ids, dropped, crossing
+
+
+def improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size=None, regions=None):
+    """The quality stage on the whole mesh, each cell flipped only with cells of its region.
+
+    The interface nodes are fixed and flips never join cells of two regions (the stage's
+    ``labels``), so the faces between regions stay as they are (removing a flat cell on the
+    part's surface may move the rim of an interface, never off the interface). Returns ``points,
+    tets, region_ids`` (the stage may remove flat cells on the part's surface).
+    """
+    from ..distmesh.slivers import improve_arrays
+
+    points, tets, info = improve_arrays(
+        points, tets, model, h, fixed_mask=pinned | on_interface, size=size, seed=seed, labels=region_ids,
+        node_regions=None if regions is None else (node_regions(points, regions, h), regions.region_of),
+    )
+    return points, tets, info["labels"]
+
+
+def region_quality_stage(points, tets, region_ids, regions: RegionSet, model, h, pinned, on_interface, seed, size=None):
+    """:func:`improve_regions`, then the interface nodes of cells still under the targets move
+    along their interface (:func:`~fepre.regions.interface_smoothing.smooth_interface_nodes`)
+    and the regions are improved once more. Only the last pass's warnings are shown."""
+    import warnings
+
+    from ..distmesh.tet_shape import ShapeTargets
+    from .interface_smoothing import smooth_interface_nodes
+
+    with warnings.catch_warnings(record=True) as first:
+        warnings.simplefilter("always")
+        points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size, regions)
+    points, moves = smooth_interface_nodes(points, tets, region_ids, regions, model, h, ShapeTargets(), seed=seed, pinned=pinned)
+    if not moves:
+        shown = first
+    else:
+        with warnings.catch_warnings(record=True) as shown:
+            warnings.simplefilter("always")
+            points, tets, region_ids = improve_regions(points, tets, region_ids, model, h, pinned, on_interface, seed, size, regions)
+    for record in shown:
+        warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
+    return points, tets, region_ids
+
+
+def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> tuple[np.ndarray, np.ndarray]:
+    """Check that regions meet only on interface faces and that those faces lie on the interfaces.
+
+    Returns the interface faces and the pair of regions on either side of each. Raises
+    ``MeshingError`` when a face between two regions has a node off the interface (more than
+    ``ON_INTERFACE h``) or a face of the part's surface has all its nodes on an interface
+    strictly inside the part (a region's cell removed next to the interface).
+    """
+    from ..distmesh.topology import boundary_faces
+    from ..errors import MeshingError
+
+    faces, first, second = interface_faces(tets, region_ids, len(points))
+    on = regions.on_interface(points, ON_INTERFACE * h)
+    off = ~on[faces].all(axis=1)
+    if off.any():
+        worst = faces[off][0]
+        raise MeshingError(
+            f"distmesh: {int(off.sum())} face(s) between regions have a node off the interface "
+            f"(e.g. at {np.round(points[worst[~on[worst]][0]], 6).tolist()}); the interface is not resolved at h={h:g}"
+        )
+    outer = boundary_faces(tets)
+    inner = on[outer].all(axis=1) & (np.asarray(model(points[outer].mean(axis=1))) < -0.1 * h)
+    if inner.any():
+        raise MeshingError(f"distmesh: {int(inner.sum())} face(s) on an interface have a cell on one side only")
+    return faces, np.column_stack([region_ids[first], region_ids[second]])

@@ -1,0 +1,197 @@
+"""The interfaces between regions: their nodes before meshing, their faces after."""
+
+from __future__ import annotations
+
+import sys
+import warnings
+
+import numpy as np
+
+from .partition import RegionSet
+
+__all__ = ["interface_nodes", "interface_faces", "interface_node_mask", "onto_rim", "ON_INTERFACE", "RIM_ANGLE"]
+
+#: A node lies on an interface when two regions' values are within this (times h) of zero.
+ON_INTERFACE = 1e-3
+#: Crease angle (degrees) down to which the curves where an interface meets the part's surface
+#: get nodes of their own (the part's sharp features use the mesher's ``feature_angle``).
+RIM_ANGLE = 10.0
+#: Interface nodes this close (times h) under the part's surface are moved onto it.
+RIM_SNAP = 0.05
+
+
+def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nodes and triangles of every interface between regions, about ``h`` apart.
+
+    Each region but the last of :meth:`RegionSet.meshing_order` (smallest first) is meshed by
+    DistMesh on its own (the part ``model & region``). Its fixed nodes are the interface nodes
+    found so far that lie on it and the sharp features of the later regions' parts that lie on
+    its interfaces with them (where a lattice meets a
+    skin, the rim of each contact patch is a sharp edge of the lattice's part, not of the
+    skin's). The boundary faces of its mesh on the interfaces with the later regions (nodes on
+    both zero sets, centroid inside the model) are kept.
+
+    Returns
+    -------
+    nodes : (K, 3) float64
+    triangles : (F, 3, 3) float64, oriented out of their region
+    inner : (F,) int64, the region each triangle bounds
+    """
+    from scipy.spatial import cKDTree
+
+    from ..distmesh.mesher import distmesh
+    from ..distmesh.topology import boundary_faces
+    from ..errors import MeshingError
+    from ..features import features as detect_features
+
+    nodes, triangles, inner = [np.zeros((0, 3))], [np.zeros((0, 3, 3))], [np.zeros(0, np.int64)]
+    tol = ON_INTERFACE * h
+    parts = [model & region for region in regions.models]
+    creases = [np.zeros((0, 3))] * len(parts)
+    part_features = np.zeros((0, 3))
+    if options.features:
+        found_part = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False)
+        part_features = _corners_first(found_part.corners, found_part.nodes)
+        for j in range(len(parts)):
+            # a rim (interface meeting the part's surface) is kept however shallow its crease
+            found_j = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False)
+            creases[j] = _corners_first(found_j.corners, found_j.nodes)
+    order = regions.meshing_order()
+    for position, i in enumerate(order[:-1].tolist()):
+        later = order[position + 1:]
+        found = np.concatenate(nodes)
+        laid = found[np.asarray(parts[i](found)) <= tol] if len(found) else found
+        extra = [np.zeros((0, 3))]
+        for j in [i] + later.tolist():
+            candidates = creases[j]
+            if len(candidates) == 0:
+                continue
+            values = np.abs(regions.values(candidates))
+            shared = (values[:, i] <= tol) & (values[:, later].min(axis=1) <= tol) & (np.asarray(model(candidates)) <= tol)
+            if j == i:  # the region's own shallow creases: only those on a rim
+                shared &= np.abs(np.asarray(model(candidates))) <= tol
+            extra.append(candidates[shared])
+        # the whole part's own sharp features on this region's boundary (an edge of a skin's
+        # inner face between patches where a lattice touches it), so the whole mesh keeps them
+        if len(part_features):
+            extra.append(part_features[np.abs(np.asarray(parts[i](part_features))) <= tol])
+        extra = np.concatenate(extra)
+        extra = extra[np.sort(np.unique(extra, axis=0, return_index=True)[1])]  # first copy, order kept
+        if len(laid) and len(extra):
+            extra = extra[cKDTree(laid).query(extra)[0] >= 0.5 * h]
+        fixed = np.concatenate([laid, _thinned(extra, 0, 0.5 * h)])
+        if progress:
+            sys.stderr.write(f"distmesh: region {regions.names[i]!r} meshed on its own to lay its interfaces ...\n")
+            sys.stderr.flush()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the whole mesh reports on itself
+            try:
+                mesh = distmesh(parts[i], h, bounds=bounds, fixed=fixed if len(fixed) else None,
+                                options=options, check_resolution=False)
+            except (MeshingError, ValueError) as exc:
+                raise MeshingError(f"distmesh: region {regions.names[i]!r} could not be meshed to lay its interface nodes: {exc}") from exc
+        points = snap_to_rims(np.array(mesh.points, dtype=np.float64), model, regions.models[i], h)
+        values = np.abs(regions.values(points))
+        shared = (values[:, later].min(axis=1) <= tol) & (values[:, i] <= tol) & (np.asarray(model(points)) <= tol)
+        faces = boundary_faces(np.asarray(mesh.cells_dict[10], dtype=np.int64))
+        faces = faces[shared[faces].all(axis=1)]
+        faces = faces[np.asarray(model(points[faces].mean(axis=1))) < -tol]
+        nodes.append(points[np.unique(faces)])
+        triangles.append(points[faces])
+        inner.append(np.full(len(faces), i, dtype=np.int64))
+        if progress:
+            sys.stderr.write(f"distmesh: {len(faces)} interface triangles, {len(np.unique(faces))} nodes\n")
+            sys.stderr.flush()
+    found, index = np.unique(np.concatenate(nodes), axis=0, return_index=True)
+    return found[np.argsort(index)], np.concatenate(triangles), np.concatenate(inner)
+
+
+def _corners_first(corners: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Feature nodes with the corners first, so that thinning keeps a corner over a curve node."""
+    if len(corners) == 0 or len(nodes) == 0:
+        return np.concatenate([corners.reshape(-1, 3), nodes.reshape(-1, 3)])
+    from scipy.spatial import cKDTree
+
+    others = nodes[cKDTree(corners).query(nodes)[0] > 0.0]
+    return np.concatenate([corners, others])
+
+
+def _thinned(points: np.ndarray, keep_first: int, spacing: float) -> np.ndarray:
+    """``points`` without those closer than ``spacing`` to a point kept before them (the first
+    ``keep_first`` always stay): creases found on several parts, or a curve's end next to a
+    corner, would otherwise make interface triangles a fraction of ``h`` wide."""
+    from scipy.spatial import cKDTree
+
+    if len(points) < 2:
+        return points
+    pairs = cKDTree(points).query_pairs(spacing, output_type="ndarray")
+    if len(pairs) == 0:
+        return points
+    keep = np.ones(len(points), dtype=bool)
+    for a, b in np.sort(pairs, axis=1)[np.lexsort((pairs.max(axis=1), pairs.min(axis=1)))].tolist():
+        if keep[a] and keep[b] and b >= keep_first:  # a few pairs: the near-coincident creases
+            keep[b] = False
+    return points[keep]
+
+
+def onto_rim(points: np.ndarray, model, region, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Newton steps of ``points`` onto the curve where the zero sets of ``model`` and
+    ``region`` meet (the smallest step satisfying both, linearised); returns the points and
+    whether each reached the curve (both values within ``1e-6 h``)."""
+    moved = points.copy()
+    for _ in range(12):
+        f1, g1 = model.value_and_gradient(moved)
+        f2, g2 = region.value_and_gradient(moved)
+        a11, a12, a22 = (g1 * g1).sum(axis=1), (g1 * g2).sum(axis=1), (g2 * g2).sum(axis=1)
+        det = a11 * a22 - a12 * a12
+        det = np.where(np.abs(det) > 1e-12 * np.maximum(a11 * a22, 1e-300), det, np.inf)  # parallel: no curve
+        c1 = (a22 * f1 - a12 * f2) / det
+        c2 = (a11 * f2 - a12 * f1) / det
+        moved = moved - c1[:, None] * g1 - c2[:, None] * g2
+    reached = (np.abs(np.asarray(model(moved))) <= 1e-6 * h) & (np.abs(np.asarray(region(moved))) <= 1e-6 * h)
+    return moved, reached
+
+
+def snap_to_rims(points: np.ndarray, model, region, h: float) -> np.ndarray:
+    """``points`` with the nodes on ``region``'s zero set that lie just inside the part (within
+    ``RIM_SNAP h`` of its surface) moved onto the curve where the two zero sets meet.
+
+    A region's own DistMesh leaves its surface nodes next to that curve (the rim of an
+    interface) a little off it; in the whole part's mesh such a node would sit just under the
+    surface and make flat cells. A node is moved only if alternating projections reach the curve
+    within ``RIM_SNAP h`` of it."""
+    values = np.asarray(model(points))
+    near = np.flatnonzero((values < 0) & (values > -RIM_SNAP * h) & (np.abs(np.asarray(region(points))) <= ON_INTERFACE * h))
+    if near.size == 0:
+        return points
+    moved, on_both = onto_rim(points[near], model, region, h)
+    close = np.linalg.norm(moved - points[near], axis=1) <= RIM_SNAP * h
+    snapped = on_both & close
+    points[near[snapped]] = moved[snapped]
+    return points
+
+
+def interface_faces(tets: np.ndarray, region_ids: np.ndarray, n_points: int):
+    """Faces shared by cells of two regions.
+
+    Returns
+    -------
+    faces : (F, 3) int64, oriented out of the first cell
+    first, second : (F,) int64, the cells on either side (``region_ids[first] < region_ids[second]``)
+    """
+    from ..distmesh.tet_topology import FACE_OF_TET, face_neighbours
+
+    neighbours = face_neighbours(tets, n_points)
+    cell, local = np.nonzero(neighbours >= 0)
+    other = neighbours[cell, local]
+    keep = region_ids[cell] < region_ids[other]
+    cell, local, other = cell[keep], local[keep], other[keep]
+    return tets[cell[:, None], FACE_OF_TET[local]], cell, other
+
+
+def interface_node_mask(tets: np.ndarray, region_ids: np.ndarray, n_points: int) -> np.ndarray:
+    """(N,) bool: the node lies on a face between two regions."""
+    faces, _, _ = interface_faces(tets, region_ids, n_points)
+    mask = np.zeros(n_points, dtype=bool)
+    mask[faces.ravel()] = True
+    return mask
