@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 
 import fepre
 from fepre import sdf
-from fepre.distmesh.tet_topology import EDGE_OF_TET
 from fepre.regions import interface_faces
 
 BAR = sdf.box((2, 1, 1), center=(1, 0.5, 0.5))

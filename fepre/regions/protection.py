@@ -81,16 +81,18 @@ class InterfaceProtection:
 
         Returns the indices of the moved points and how far each moved in all.
         """
-        index = np.flatnonzero(movable)
-        if self.tree is None or index.size == 0:
+        active = np.flatnonzero(movable)
+        if self.tree is None or active.size == 0:
             return np.zeros(0, dtype=np.int64), np.zeros(0)
-        start = points[index].copy()
-        for _ in range(_ROUNDS):
-            depth, ball = self._deepest(points[index])
+        touched, origins = [], []
+        for _ in range(_ROUNDS):  # after the first round only the pushed points can be inside a ball
+            depth, ball = self._deepest(points[active])
             close = depth > 0
             if not close.any():
                 break
-            rows, ball = index[close], ball[close]
+            rows, ball = active[close], ball[close]
+            touched.append(rows)
+            origins.append(points[rows].copy())
             offset = points[rows] - self.centre[ball]
             length = np.linalg.norm(offset, axis=1)
             along_normal = np.einsum("ij,ij->i", offset, self.normal[ball])
@@ -100,9 +102,11 @@ class InterfaceProtection:
                 offset[flat] += sign[:, None] * self.normal[ball[flat]] * (0.1 * self.radius[ball[flat]])[:, None]
                 length = np.linalg.norm(offset, axis=1)
             points[rows] = self.centre[ball] + offset * (RATIO * self.radius[ball] / np.maximum(length, 1e-300))[:, None]
-        moved = np.linalg.norm(points[index] - start, axis=1)
-        changed = moved > 0
-        return index[changed], moved[changed]
+            active = rows
+        if not touched:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        rows, first = np.unique(np.concatenate(touched), return_index=True)  # first: the original position
+        return rows, np.linalg.norm(points[rows] - np.concatenate(origins)[first], axis=1)
 
 
 def drop_protected(model, points: np.ndarray, fixed: np.ndarray, protection: InterfaceProtection, h: float):
