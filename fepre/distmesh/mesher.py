@@ -236,6 +236,7 @@ def distmesh(
         )
 
     t0 = time.perf_counter()
+    found = None
     periodic_count = 0
     if cell is not None:
         from ..periodic.boundary_nodes import boundary_nodes
@@ -246,7 +247,10 @@ def distmesh(
     if region_set is not None:
         from ..regions import interface_nodes
 
-        on_interface, interface_triangles, interface_inner = interface_nodes(model, region_set, h, (lower, upper), o, progress)
+        if o.features:  # the part's features, laid on the interfaces too
+            found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
+        on_interface, interface_triangles, interface_inner = interface_nodes(
+            model, region_set, h, (lower, upper), o, progress, part_features=found)
         if len(fixed_points) and len(on_interface):  # a fixed point on an interface stands for its node
             from scipy.spatial import cKDTree
 
@@ -256,9 +260,10 @@ def distmesh(
         from ..regions.protection import InterfaceProtection
 
         guard = InterfaceProtection(interface_triangles, interface_inner, region_set.region_of)
-    found, protection, feature_nodes = None, None, 0
+    protection, feature_nodes = None, 0
     if o.features:
-        found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
+        if found is None:
+            found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
         # a periodic cell's faces get their own nodes: warn only of the model's own features
         skipped = found.skipped if cell is None else detect_features(
             periodic_model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False).skipped

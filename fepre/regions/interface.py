@@ -20,7 +20,8 @@ RIM_ANGLE = 10.0
 RIM_SNAP = 0.05
 
 
-def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False,
+                    part_features=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes and triangles of every interface between regions, about ``h`` apart.
 
     Each region but the last of :meth:`RegionSet.meshing_order` (smallest first) is meshed by
@@ -48,14 +49,16 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
     tol = ON_INTERFACE * h
     parts = [model & region for region in regions.models]
     creases = [np.zeros((0, 3))] * len(parts)
-    part_features = np.zeros((0, 3))
     if options.features:
-        found_part = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False)
-        part_features = _corners_first(found_part.corners, found_part.nodes)
+        if part_features is None:
+            part_features = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False)
+        part_features = _corners_first(part_features.corners, part_features.nodes)
         for j in range(len(parts)):
             # a rim (interface meeting the part's surface) is kept however shallow its crease
             found_j = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False)
             creases[j] = _corners_first(found_j.corners, found_j.nodes)
+    else:
+        part_features = np.zeros((0, 3))
     order = regions.meshing_order()
     for position, i in enumerate(order[:-1].tolist()):
         later = order[position + 1:]
