@@ -321,7 +321,8 @@ def distmesh(
 
         loop_points, loop_fixed, dropped = drop_protected(model, loop.points, loop.fixed_mask, guard, h)
         points, tets, fixed_mask, region_ids, repaired, crossing = final_region_mesh(
-            model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set)
+            model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set,
+            kept=np.concatenate([on_interface] + ([] if fixed is None else [as_points(fixed, 3, "fixed")[0]])))
     loop_seconds = time.perf_counter() - start
     interface_mask = None
     if region_set is not None:
@@ -330,7 +331,9 @@ def distmesh(
         if crossing.any():
             raise MeshingError(
                 f"distmesh: {int(crossing.sum())} cell(s) cross an interface between regions after dropping "
-                f"{repaired} node(s) near it; the interfaces are not resolved at h={h:g} (try a smaller h)"
+                f"{repaired} node(s) near it (e.g. at {np.round(points[tets[crossing][0]].mean(axis=0), 6).tolist()}: "
+                f"a gap or wedge of the part thinner than h next to an interface); the interfaces are not "
+                f"resolved at h={h:g} (try a smaller h)"
             )
         interface_mask = interface_node_mask(tets, region_ids, len(points))
 

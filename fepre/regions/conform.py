@@ -37,26 +37,38 @@ def cell_regions(points: np.ndarray, tets: np.ndarray, regions: RegionSet, h: fl
     return region_ids, (highest >= 0) & (lowest != highest)
 
 
-def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions: RegionSet):
+def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions: RegionSet, kept: np.ndarray):
     """The final mesh of a region mesh: :func:`~fepre.distmesh.finalize.final_mesh`, then, while
     some cell has a node strictly inside another region than its own (it bridges a concave
-    wedge where an interface meets the part's surface at a grazing angle), the free node of
-    each such cell nearest the interface is dropped and the points are triangulated again.
+    wedge where an interface meets the part's surface at a grazing angle, or joins a feature
+    node of the part next to an interface), the node of each such cell nearest the interface is
+    dropped and the points are triangulated again (a free node before a feature node). Nodes at
+    the ``kept`` (K, 3) positions (the interface nodes and the user's fixed points) are never dropped.
 
     Returns ``points, tets, fixed, region_ids, dropped, crossing`` (the cells still crossing).
     """
+    from scipy.spatial import cKDTree
+
     from ..distmesh.finalize import final_mesh
 
+    kept_tree = cKDTree(kept) if len(kept) else None
     dropped = 0
     for repair in range(REPAIR_ROUNDS + 1):
         points, tets, fixed = final_mesh(model, points, fixed, h, geps, backend, previous)
         region_ids, crossing = cell_regions(points, tets, regions, h)
         if not crossing.any() or repair == REPAIR_ROUNDS:
             break
+        droppable = ~fixed
+        if kept_tree is not None and fixed.any():
+            at_kept = kept_tree.query(points[fixed], distance_upper_bound=1e-9 * h)[0] <= 1e-9 * h
+            droppable[np.flatnonzero(fixed)[~at_kept]] = True
+        else:
+            droppable |= fixed
         cells = tets[crossing]
-        distance = np.where(fixed[cells], np.inf, regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape))
+        distance = regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape)
+        distance = np.where(droppable[cells], distance + np.where(fixed[cells], 1e3 * h, 0.0), np.inf)  # free nodes first
         nearest = cells[np.arange(len(cells)), np.argmin(distance, axis=1)]
-        nearest = np.unique(nearest[~fixed[nearest]])
+        nearest = np.unique(nearest[droppable[nearest]])
         if nearest.size == 0:
             break
         keep = np.ones(len(points), dtype=bool)

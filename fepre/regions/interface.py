@@ -9,7 +9,7 @@ import numpy as np
 
 from .partition import RegionSet
 
-__all__ = ["interface_nodes", "interface_faces", "interface_node_mask", "onto_rim", "ON_INTERFACE", "RIM_ANGLE"]
+__all__ = ["interface_nodes", "interface_faces", "interface_node_mask", "onto_rim", "onto_interface_rim", "ON_INTERFACE", "RIM_ANGLE"]
 
 #: A node lies on an interface when two regions' values are within this (times h) of zero.
 ON_INTERFACE = 1e-3
@@ -93,7 +93,9 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
                                 options=options, check_resolution=False)
             except (MeshingError, ValueError) as exc:
                 raise MeshingError(f"distmesh: region {regions.names[i]!r} could not be meshed to lay its interface nodes: {exc}") from exc
-        points = snap_to_rims(np.array(mesh.points, dtype=np.float64), model, regions.models[i], h)
+        points = np.array(mesh.points, dtype=np.float64)
+        for j in later.tolist():
+            points = snap_to_rims(points, model, regions, (i, j), h)
         values = np.abs(regions.values(points))
         shared = (values[:, later].min(axis=1) <= tol) & (values[:, i] <= tol) & (np.asarray(model(points)) <= tol)
         faces = boundary_faces(np.asarray(mesh.cells_dict[10], dtype=np.int64))
@@ -155,21 +157,40 @@ def onto_rim(points: np.ndarray, model, region, h: float) -> tuple[np.ndarray, n
     return moved, reached
 
 
-def snap_to_rims(points: np.ndarray, model, region, h: float) -> np.ndarray:
-    """``points`` with the nodes on ``region``'s zero set that lie just inside the part (within
-    ``RIM_SNAP h`` of its surface) moved onto the curve where the two zero sets meet.
+def onto_interface_rim(points: np.ndarray, model, regions: RegionSet, pair: tuple[int, int], h: float):
+    """``points`` moved onto the rim of the interface between regions ``pair``: the curve where
+    it meets the part's surface. :func:`onto_rim` with each region of the pair in turn (one of
+    them, a part minus an insert say, is zero on the whole surface of the part, so alone it does
+    not pin the curve); returns the points and whether each reached the rim (the part's zero set
+    and both regions' to ``1e-6 h``)."""
+    moved = points.copy()
+    reached = np.zeros(len(points), dtype=bool)
+    for k in pair:
+        todo = np.flatnonzero(~reached)
+        if todo.size == 0:
+            break
+        candidate, ok = onto_rim(points[todo], model, regions.models[k], h)
+        values = np.abs(regions.values(candidate)[:, list(pair)])
+        ok &= (values <= 1e-6 * h).all(axis=1)
+        moved[todo[ok]] = candidate[ok]
+        reached[todo[ok]] = True
+    return moved, reached
 
-    A region's own DistMesh leaves its surface nodes next to that curve (the rim of an
-    interface) a little off it; in the whole part's mesh such a node would sit just under the
-    surface and make flat cells. A node is moved only if alternating projections reach the curve
-    within ``RIM_SNAP h`` of it."""
+
+def snap_to_rims(points: np.ndarray, model, regions: RegionSet, pair: tuple[int, int], h: float) -> np.ndarray:
+    """``points`` with the nodes on the interface between regions ``pair`` that lie just inside
+    the part (within ``RIM_SNAP h`` of its surface) moved onto the interface's rim.
+
+    A region's own DistMesh leaves its surface nodes next to that curve a little off it; in the
+    whole part's mesh such a node would sit just under the surface and make flat cells. A node is
+    moved only if it reaches the rim within ``RIM_SNAP h`` of where it was."""
     values = np.asarray(model(points))
-    near = np.flatnonzero((values < 0) & (values > -RIM_SNAP * h) & (np.abs(np.asarray(region(points))) <= ON_INTERFACE * h))
+    on = (np.abs(regions.values(points)[:, list(pair)]) <= ON_INTERFACE * h).all(axis=1)
+    near = np.flatnonzero((values < 0) & (values > -RIM_SNAP * h) & on)
     if near.size == 0:
         return points
-    moved, on_both = onto_rim(points[near], model, region, h)
-    close = np.linalg.norm(moved - points[near], axis=1) <= RIM_SNAP * h
-    snapped = on_both & close
+    moved, reached = onto_interface_rim(points[near], model, regions, pair, h)
+    snapped = reached & (np.linalg.norm(moved - points[near], axis=1) <= RIM_SNAP * h)
     points[near[snapped]] = moved[snapped]
     return points
 

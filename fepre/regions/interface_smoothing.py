@@ -17,7 +17,7 @@ import numpy as np
 
 from ..distmesh.node_moves import best_candidate
 from ..periodic.face_smoothing import CANDIDATES, MARGIN, ROUNDS, _incidence
-from .interface import interface_faces, onto_rim
+from .interface import interface_faces, onto_interface_rim
 from .partition import RegionSet
 
 __all__ = ["smooth_interface_nodes", "EDGE_ANGLE"]
@@ -46,13 +46,15 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
     """``(points, moves)``: ``points`` with the interface nodes of bad cells moved (see the module)."""
     points = points.copy()
     n = len(points)
-    faces, first, _ = interface_faces(tets, region_ids, n)
+    faces, first, second = interface_faces(tets, region_ids, n)
     if len(faces) == 0:
         return points, 0
     on_interface = np.zeros(n, dtype=bool)
     on_interface[faces.ravel()] = True
     side = np.full(n, -1, np.int64)
     side[faces.ravel()] = np.repeat(region_ids[first], 3)
+    other = np.full(n, -1, np.int64)
+    other[faces.ravel()] = np.repeat(region_ids[second], 3)
     rim = on_interface & (np.abs(np.asarray(model(points))) <= 1e-6 * h)
     movable = on_interface & (_smooth_nodes(points, faces) | rim)
     if pinned is not None:
@@ -78,7 +80,7 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
             offsets -= np.outer(offsets @ normal, normal)
             offsets *= (rng.uniform(0.02, 0.25, CANDIDATES) * h / np.maximum(np.linalg.norm(offsets, axis=1), 1e-300))[:, None]
             if rim[node]:
-                candidates, on = onto_rim(points[node] + offsets, model, region, h)
+                candidates, on = onto_interface_rim(points[node] + offsets, model, regions, (side[node], other[node]), h)
             else:
                 candidates = region.project(points[node] + offsets, iterations=20, tol=1e-6 * h, warn=False)
                 on = regions.on_interface(candidates, 1e-4 * h) & (np.asarray(model(candidates)) < -1e-6 * h)
