@@ -17,7 +17,6 @@ pytestmark = pytest.mark.skipif(not gmsh_available(), reason="the slabs are tria
 @pytest.fixture
 def small_threshold(monkeypatch):
     monkeypatch.setattr(slab_delaunay, "PARALLEL_MIN_POINTS", 1000)
-    monkeypatch.delenv(slab_delaunay.ENVIRONMENT, raising=False)
     monkeypatch.setattr(slab_delaunay.os, "cpu_count", lambda: 2)
 
 
@@ -42,13 +41,16 @@ def test_the_slabs_give_the_whole_triangulation_inside(small_threshold):
     assert signed_volumes(points, split).sum() == pytest.approx(signed_volumes(points, whole).sum(), rel=1e-2)
 
 
-def test_small_sets_one_core_and_wide_overlaps_use_one_triangulation(small_threshold, monkeypatch):
+def test_small_sets_one_core_wide_overlaps_and_parallel_false_use_one_triangulation(small_threshold, monkeypatch):
     points = np.random.default_rng(0).random((5000, 3))
     assert slab_delaunay.split_delaunay(points, 0.01, "scipy") is None  # gmsh only
     assert slab_delaunay.split_delaunay(points, 0.3, "gmsh") is None  # the slabs would overlap too much
-    monkeypatch.setenv(slab_delaunay.ENVIRONMENT, "1")
+    monkeypatch.setattr(slab_delaunay.os, "cpu_count", lambda: 1)
     assert slab_delaunay.split_delaunay(points, 0.01, "gmsh") is None
     tets, exact = loop_tetrahedralize(points, "gmsh", 0.05, 0.01)
+    assert exact and np.array_equal(tets, tetrahedralize(points, "gmsh", 0.05))
+    monkeypatch.setattr(slab_delaunay.os, "cpu_count", lambda: 2)
+    tets, exact = loop_tetrahedralize(points, "gmsh", 0.05, 0.01, parallel=False)
     assert exact and np.array_equal(tets, tetrahedralize(points, "gmsh", 0.05))
 
 
@@ -75,3 +77,29 @@ def test_the_worker_protocol_answers_each_request_and_reports_errors(monkeypatch
     status, length = np.frombuffer(data[8 + 16 * count : 24 + 16 * count], np.int64)
     assert status == -1 and data[24 + 16 * count :].decode() == "gmsh tetrahedralize failed on 5 points: test"
     assert length == len(data) - (24 + 16 * count)
+
+
+def test_a_mesh_runs_the_same_loop_with_and_without_the_second_process(small_threshold, monkeypatch):
+    import fepre
+    from fepre import sdf
+
+    splits = []
+    real = slab_delaunay.split_delaunay
+
+    def counted(*args):
+        result = real(*args)
+        splits.append(result is not None)
+        return result
+
+    monkeypatch.setattr(slab_delaunay, "split_delaunay", counted)
+    model = sdf.box((2.0, 1.0, 1.0)) - sdf.cylinder(0.25, 2.0)
+    both = fepre.distmesh(model, 0.12, parallel=True)
+    assert splits and all(splits)
+    one = fepre.distmesh(model, 0.12, parallel=False)
+    # the same loop; the final mesh triangulates anew where one process would reuse the loop's
+    # last (still nearly Delaunay) triangulation, so the quality stage may start from other cells
+    for key in ("distmesh_iterations", "distmesh_triangulations"):
+        assert both.field_data[key][0] == one.field_data[key][0]
+    assert abs(both.n_cells / one.n_cells - 1) < 0.02
+    assert both.volume == pytest.approx(one.volume, rel=2e-3)
+    assert both["min_dihedral_angle"].min() >= 28.0 and both["radius_ratio"].min() >= 0.3

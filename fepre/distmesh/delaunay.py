@@ -120,9 +120,11 @@ def tetrahedralize(
     return _canonical(points, tets, scale, keep_flat)
 
 
-def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, spacing: float) -> tuple[np.ndarray, bool]:
-    """The DistMesh loop's triangulation and whether it is the exact one: on large point sets
-    with gmsh and two cores, two overlapping slabs at once
+def loop_tetrahedralize(
+    points: np.ndarray, backend: str, scale: float, spacing: float, parallel: bool = True
+) -> tuple[np.ndarray, bool]:
+    """The DistMesh loop's triangulation and whether it is the exact one: with ``parallel``, on
+    large point sets with gmsh and two cores, two overlapping slabs at once
     (:func:`~fepre.distmesh.slab_delaunay.split_delaunay`, ``spacing`` the largest edge length
     at the cut), else :func:`tetrahedralize`.
 
@@ -135,7 +137,7 @@ def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, spacing:
     """
     from .slab_delaunay import split_delaunay
 
-    if len(points) >= 4:
+    if parallel and len(points) >= 4:
         tets = split_delaunay(points, spacing, backend)
         if tets is not None:
             return _canonical(points, tets, scale, False), False

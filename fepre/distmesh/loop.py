@@ -120,10 +120,10 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
     return keep
 
 
-def _time_left(history: dict, options: DistMeshOptions, iteration_seconds: list[float], delaunay_seconds: float) -> str:
+def _time_left(history: dict, options: DistMeshOptions, iteration_seconds: list[float], force_seconds: float) -> str:
     """``", about N s left"`` for the progress line (the loop's end from its quality trend, then
     the stages after it), or ``""`` while the trend cannot tell."""
-    from .estimate import iterations_left, seconds_after_loop
+    from .estimate import iterations_left, seconds_after
 
     if options.termination != "quality":
         return ""
@@ -133,18 +133,24 @@ def _time_left(history: dict, options: DistMeshOptions, iteration_seconds: list[
         return ""
     iterations = left[0] if left[1] is None else max(left)
     recent = iteration_seconds[-options.quality_window :]
-    seconds = iterations * sum(recent) / len(recent) + seconds_after_loop(delaunay_seconds)
+    seconds = iterations * sum(recent) / len(recent) + seconds_after(None, force_seconds)
     return f", about {seconds:.0f} s left"
 
 
-def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, seconds: float, done: bool,
-                    left: str = "") -> None:
-    """One line: iteration, points, the worst dihedral angle of the current cells, time (and the
-    time left)."""
+#: the progress line measures the dihedral angles of this many of the worst cells by the loop's
+#: volume-edge ratio (all cells took a quarter of the loop's time)
+PROGRESS_CELLS = 512
+
+
+def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, quality: np.ndarray, seconds: float,
+                    done: bool, left: str = "") -> None:
+    """One line: iteration, points, the worst dihedral angle of the current cells (among the
+    worst by ``quality``, the volume-edge ratios), time (and the time left)."""
     from ..quality import dihedral_angles, signed_volumes
 
-    positive = signed_volumes(points, tets) > 0
-    worst = float(dihedral_angles(points, tets[positive]).min()) if positive.any() else 0.0
+    worst_cells = tets[np.argpartition(quality, PROGRESS_CELLS)[:PROGRESS_CELLS]] if len(tets) > PROGRESS_CELLS else tets
+    positive = signed_volumes(points, worst_cells) > 0
+    worst = float(dihedral_angles(points, worst_cells[positive]).min()) if positive.any() else 0.0
     inverted = int(np.count_nonzero(~positive))
     flipped = f"  ({inverted} cells inverted)" if inverted else ""
     # one line rewritten in place on a terminal; whole lines in a log file
@@ -214,7 +220,7 @@ def iterate(
                 p, bound, fixed = p[order], bound[order], fixed[order]
             scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
             spacing = float(np.max(scale)) if local_size is not None else h
-            delaunay_tets, exact = loop_tetrahedralize(p, o.delaunay, h, spacing)
+            delaunay_tets, exact = loop_tetrahedralize(p, o.delaunay, h, spacing, o.parallel)
             tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
             t1 = time.perf_counter()
             bars = bars_of(tets, n)
@@ -287,14 +293,14 @@ def iterate(
             )
         if progress and (converged or seconds - last_print > 0.5):
             last_print = seconds
-            left = "" if converged else _time_left(history, o, iteration_seconds, timings["delaunay"] / triangulations)
-            _print_progress(iteration, p, tets, seconds, converged, left)
+            left = "" if converged else _time_left(history, o, iteration_seconds, timings["forces"] / iteration)
+            _print_progress(iteration, p, tets, q, seconds, converged, left)
         if converged:
             break
 
     seconds = time.perf_counter() - start
     if progress and not converged:
-        _print_progress(iteration, p, tets, seconds, True)
+        _print_progress(iteration, p, tets, q, seconds, True)
     return LoopResult(
         points=p,
         fixed_mask=fixed,

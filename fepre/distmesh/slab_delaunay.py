@@ -29,8 +29,6 @@ PARALLEL_MIN_POINTS = 150_000
 OVERLAP = 3.0
 #: a slab may hold at most this share of the points (else the overlap is most of the part)
 MAX_SHARE = 0.65
-#: FEPRE_THREADS=1 keeps every stage on one core
-ENVIRONMENT = "FEPRE_THREADS"
 
 
 class _Worker:
@@ -93,11 +91,8 @@ def close_worker() -> None:
     _Worker.close()
 
 
-def parallel_enabled() -> bool:
-    """Whether a second core is there to use (and ``FEPRE_THREADS`` does not say 1)."""
-    setting = os.environ.get(ENVIRONMENT, "").strip()
-    if setting:
-        return setting != "1"
+def second_core() -> bool:
+    """Whether the machine has a second core for the worker."""
     return (os.cpu_count() or 1) > 1
 
 
@@ -117,7 +112,7 @@ def split_delaunay(points: np.ndarray, spacing: float, backend: str) -> np.ndarr
     """
     if backend not in ("gmsh", "auto") or not gmsh_available():
         return None
-    if len(points) < PARALLEL_MIN_POINTS or not parallel_enabled():
+    if len(points) < PARALLEL_MIN_POINTS or not second_core():
         return None
     axis = int(np.argmax(np.ptp(points, axis=0)))
     coordinate = points[:, axis]
