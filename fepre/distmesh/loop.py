@@ -299,6 +299,11 @@ def iterate(
             break
 
     seconds = time.perf_counter() - start
+    moved_since = float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h)
+    if not exact and moved_since < ttol:  # the final mesh would reuse it: if it is a whole triangulation
+        from .slab_delaunay import tiles_hull
+
+        exact = tiles_hull(p_triangulated, delaunay_tets)
     if progress and not converged:
         _print_progress(iteration, p, tets, q, seconds, True)
     return LoopResult(
@@ -311,5 +316,5 @@ def iterate(
         triangulations=triangulations,
         timings=timings,
         delaunay_tets=delaunay_tets if exact else None,
-        moved_since_delaunay=float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h),
+        moved_since_delaunay=moved_since,
     )

@@ -88,7 +88,7 @@ class DistMeshOptions:
         faster). ``"auto"``: gmsh when it can be imported, scipy otherwise.
     parallel : bool, default True
         Use the machine's second core for the loop's triangulations of large point sets (gmsh,
-        at least 150,000 points): two overlapping halves at once, one in a worker process
+        at least 50,000 points): two overlapping halves at once, one in a worker process
         (:mod:`fepre.distmesh.slab_delaunay`). The loop runs the same; the final mesh then
         triangulates its points anew instead of reusing the loop's last triangulation, so the
         cells may differ slightly (same quality). ``False`` keeps to one process (the compiled
