@@ -8,9 +8,10 @@ import numpy as np
 __all__ = ["iterations_left", "seconds_after", "StageLog"]
 
 #: what the stages after the loop cost, in units of one loop iteration's bar forces (a single-core
-#: numpy pass over the bars, so a measure of this machine and this mesh's size); measured on the
-#: sphere, a box with holes and a gyroid block from 50k to 1.4M cells
-AFTER_LOOP = {"final mesh": 68.0, "quality stage": 72.0, "checks and output": 22.0}
+#: numpy pass over the bars, so a measure of this machine and this mesh's size); measured on a
+#: sphere (1.5M cells: 62, 74, 10), a box with 20 holes (1.1M: 150, 80, 13) and a gyroid block
+#: (550k: 260, 124, 22): the middles, so an estimate within about a factor of two
+AFTER_LOOP = {"final mesh": 100.0, "quality stage": 85.0, "checks and output": 15.0}
 
 
 def iterations_left(mean_quality, window: int, tol: float, maxiter: int) -> float | None:
@@ -67,7 +68,7 @@ class StageLog:
     >>> log("final mesh", "9 nodes, 12 cells")
     >>> stream.getvalue().startswith("distmesh: final mesh: 9 nodes, 12 cells")
     True
-    >>> "about 1 s left" in stream.getvalue()  # (72 + 22) x 0.01 s
+    >>> "about 1 s left" in stream.getvalue()  # (85 + 15) x 0.01 s
     True
     """
 
