@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import MeshingError
 from .._cell_kernels import canonical_cells
 
-__all__ = ["tetrahedralize", "gmsh_available"]
+__all__ = ["tetrahedralize", "loop_tetrahedralize", "gmsh_available"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -117,6 +117,34 @@ def tetrahedralize(
     if backend == "auto":
         backend = "gmsh" if gmsh_available() else "scipy"
     tets = _gmsh(points) if backend == "gmsh" else _scipy(points)
+    return _canonical(points, tets, scale, keep_flat)
+
+
+def loop_tetrahedralize(
+    points: np.ndarray, backend: str, scale: float, spacing: float, parallel: bool = True
+) -> tuple[np.ndarray, bool]:
+    """The DistMesh loop's triangulation and whether it is the exact one: with ``parallel``, on
+    large point sets with gmsh and two cores, two overlapping slabs at once
+    (:func:`~fepre.distmesh.slab_delaunay.split_delaunay`, ``spacing`` the largest edge length
+    at the cut), else :func:`tetrahedralize`.
+
+    Examples
+    --------
+    >>> cube = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
+    >>> tets, exact = loop_tetrahedralize(cube, "scipy", 1.0, 1.0)
+    >>> len(tets), exact
+    (6, True)
+    """
+    from .slab_delaunay import split_delaunay
+
+    if parallel and len(points) >= 4:
+        tets = split_delaunay(points, spacing, backend)
+        if tets is not None:
+            return _canonical(points, tets, scale, False), False
+    return tetrahedralize(points, backend, scale), True
+
+
+def _canonical(points: np.ndarray, tets: np.ndarray, scale: float, keep_flat: bool) -> np.ndarray:
     # canonical form (sorted corners, then the orientation fixed by swapping the last two, rows
     # sorted): the result does not depend on the backend's output order
     tets = np.ascontiguousarray(tets, dtype=np.int64)

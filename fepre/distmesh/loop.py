@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .delaunay import tetrahedralize
+from .delaunay import loop_tetrahedralize
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
 from .initial_points import evaluate_size
@@ -120,19 +120,44 @@ def centroid_inside(model, points, tets, bound, limit) -> np.ndarray:
     return keep
 
 
-def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, seconds: float, done: bool) -> None:
-    """One line: iteration, points, the worst dihedral angle of the current cells, time."""
+def _time_left(history: dict, options: DistMeshOptions, iteration_seconds: list[float], force_seconds: float) -> str:
+    """``", about N s left"`` for the progress line (the loop's end from its quality trend, then
+    the stages after it), or ``""`` while the trend cannot tell."""
+    from .estimate import iterations_left, seconds_after
+
+    if options.termination != "quality":
+        return ""
+    left = [iterations_left(history[k], options.quality_window, options.quality_tol, options.maxiter)
+            for k in ("mean_quality", "min_quality")]
+    if left[0] is None:
+        return ""
+    iterations = left[0] if left[1] is None else max(left)
+    recent = iteration_seconds[-options.quality_window :]
+    seconds = iterations * sum(recent) / len(recent) + seconds_after(None, force_seconds)
+    return f", about {seconds:.0f} s left"
+
+
+#: the progress line measures the dihedral angles of this many of the worst cells by the loop's
+#: volume-edge ratio (all cells took a quarter of the loop's time)
+PROGRESS_CELLS = 512
+
+
+def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, quality: np.ndarray, seconds: float,
+                    done: bool, left: str = "") -> None:
+    """One line: iteration, points, the worst dihedral angle of the current cells (among the
+    worst by ``quality``, the volume-edge ratios), time (and the time left)."""
     from ..quality import dihedral_angles, signed_volumes
 
-    positive = signed_volumes(points, tets) > 0
-    worst = float(dihedral_angles(points, tets[positive]).min()) if positive.any() else 0.0
+    worst_cells = tets[np.argpartition(quality, PROGRESS_CELLS)[:PROGRESS_CELLS]] if len(tets) > PROGRESS_CELLS else tets
+    positive = signed_volumes(points, worst_cells) > 0
+    worst = float(dihedral_angles(points, worst_cells[positive]).min()) if positive.any() else 0.0
     inverted = int(np.count_nonzero(~positive))
     flipped = f"  ({inverted} cells inverted)" if inverted else ""
     # one line rewritten in place on a terminal; whole lines in a log file
     end = "\n" if done or not sys.stderr.isatty() else "\r"
     sys.stderr.write(
         f"distmesh: iteration {iteration:5d}  {len(points):8d} points  worst dihedral {worst:5.1f} deg"
-        f"{flipped}  {seconds:7.2f} s{end}"
+        f"{flipped}  {seconds:7.2f} s{left}{end}"
     )
     sys.stderr.flush()
 
@@ -173,8 +198,11 @@ def iterate(
     converged = False
     last_print = 0.0
     tets = delaunay_tets = np.zeros((0, 4), np.int64)
+    exact = True
     iteration = 0
     scale: np.ndarray | float = h
+    iteration_seconds: list[float] = []
+    previous_end = 0.0
 
     for iteration in range(1, o.maxiter + 1):
         # -- retriangulate when points moved far enough (or move averaging asks for it)
@@ -191,7 +219,8 @@ def iterate(
                 order = hilbert_order(p)
                 p, bound, fixed = p[order], bound[order], fixed[order]
             scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
-            delaunay_tets = tetrahedralize(p, o.delaunay, h)
+            spacing = float(np.max(scale)) if local_size is not None else h
+            delaunay_tets, exact = loop_tetrahedralize(p, o.delaunay, h, spacing, o.parallel)
             tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
             t1 = time.perf_counter()
             bars = bars_of(tets, n)
@@ -248,6 +277,8 @@ def iterate(
         history["retriangulated"].append(bool(retriangulate))
 
         seconds = time.perf_counter() - start
+        iteration_seconds.append(seconds - previous_end)
+        previous_end = seconds
         if callback is not None:
             callback(
                 DistMeshState(iteration, p, tets, max_move, max_dp, history["min_quality"][-1],
@@ -262,13 +293,19 @@ def iterate(
             )
         if progress and (converged or seconds - last_print > 0.5):
             last_print = seconds
-            _print_progress(iteration, p, tets, seconds, converged)
+            left = "" if converged else _time_left(history, o, iteration_seconds, timings["forces"] / iteration)
+            _print_progress(iteration, p, tets, q, seconds, converged, left)
         if converged:
             break
 
     seconds = time.perf_counter() - start
+    moved_since = float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h)
+    if not exact and moved_since < ttol:  # the final mesh would reuse it: if it is a whole triangulation
+        from .slab_delaunay import tiles_hull
+
+        exact = tiles_hull(p_triangulated, delaunay_tets)
     if progress and not converged:
-        _print_progress(iteration, p, tets, seconds, True)
+        _print_progress(iteration, p, tets, q, seconds, True)
     return LoopResult(
         points=p,
         fixed_mask=fixed,
@@ -278,6 +315,6 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        delaunay_tets=delaunay_tets,
-        moved_since_delaunay=float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h),
+        delaunay_tets=delaunay_tets if exact else None,
+        moved_since_delaunay=moved_since,
     )

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from typing import Any, Callable
 
@@ -324,6 +323,11 @@ def distmesh(
             model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set,
             kept=np.concatenate([on_interface] + ([] if fixed is None else [as_points(fixed, 3, "fixed")[0]])))
     loop_seconds = time.perf_counter() - start
+    from .estimate import StageLog
+
+    stage_log = StageLog(progress, loop.timings["forces"] / max(loop.iterations, 1))
+    stage_log.started = start + loop.seconds  # the final mesh began when the loop ended
+    stage_log("final mesh", f"{len(points):,} nodes, {len(tets):,} cells")
     interface_mask = None
     if region_set is not None:
         from ..regions.interface import interface_node_mask
@@ -376,12 +380,10 @@ def distmesh(
             from ..quality import tet_quality
 
             measured = tet_quality(points, tets)
-            sys.stderr.write(
-                f"distmesh: quality stage: worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, "
-                f"largest {measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
-                f"{measured['radius_ratio'].min():.3f}  {sliver_seconds:7.2f} s\n"
-            )
-            sys.stderr.flush()
+            stage_log.started = t0
+            stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
+                      f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
+                      f"{measured['radius_ratio'].min():.3f}")
 
     from .lost_material import added_material_message, lost_material_message, material_checks
 
@@ -428,6 +430,7 @@ def distmesh(
     if cell is not None:
         grid.field_data["periodic_lower"] = cell.lower
         grid.field_data["periodic_period"] = cell.period
+    stage_log("checks and output", f"{grid.n_points:,} nodes, {grid.n_cells:,} cells, {time.perf_counter() - start:.1f} s in all")
     if not loop.converged:
         warn_user(
             f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "

@@ -86,6 +86,13 @@ class DistMeshOptions:
         Triangulation backend: ``scipy.spatial.Delaunay`` (Qhull) or
         ``gmsh.algorithm.tetrahedralize`` (needs the optional ``gmsh`` package; about 2.5 times
         faster). ``"auto"``: gmsh when it can be imported, scipy otherwise.
+    parallel : bool, default True
+        Use the machine's second core for the loop's triangulations of large point sets (gmsh,
+        at least 50,000 points): two overlapping halves at once, one in a worker process
+        (:mod:`fepre.distmesh.slab_delaunay`). The loop runs the same; the final mesh then
+        triangulates its points anew instead of reusing the loop's last triangulation, so the
+        cells may differ slightly (same quality). ``False`` keeps to one process (the compiled
+        quality kernels still use every core numba is allowed).
     seed : int, default 0
         Seed of every random choice (lattice jitter, size rejection); same seed, same mesh.
     slivers : bool, default True
@@ -127,6 +134,7 @@ class DistMeshOptions:
     retriangulation: str = "movement"
     move_average_window: int = 7
     delaunay: str = "auto"
+    parallel: bool = True
     seed: int = 0
     slivers: bool = True
     features: bool = True
@@ -154,7 +162,8 @@ class DistMeshOptions:
         put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
         if self.feature_angle >= 180.0:
             raise ValueError(f"feature_angle must be in (0, 180) degrees; got {self.feature_angle!r}")
-        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features", "check_resolution"):
+        for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features", "check_resolution",
+                     "parallel"):
             value = getattr(self, name)
             if not isinstance(value, (bool, numbers.Integral)) or value not in (0, 1):
                 raise TypeError(f"{name} must be True or False; got {value!r}")

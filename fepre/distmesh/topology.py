@@ -128,8 +128,8 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
     >>> check_topology(np.array([[0, 1, 2, 3]]), 4).ok
     True
     """
-    _, counts, _ = tet_faces(tets)
-    faces = boundary_faces(tets)
+    _, counts, inverse = tet_faces(tets)
+    faces = tets[:, _FACES].reshape(-1, 3)[counts[inverse] == 1]
     edges, pinched = nonmanifold_items(faces, n_points)
     used = np.zeros(n_points, bool)
     used[tets.ravel()] = True
@@ -220,8 +220,13 @@ def repair_selection(
     pairs = tets[:, _TET_EDGES]
     edge_codes = (np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64) * n
                   + np.maximum(pairs[..., 0], pairs[..., 1]))
+    # each cell's four faces numbered once; a round counts the selected cells on each face
+    _, _, inverse = tet_faces(tets)
+    slots = inverse.reshape(-1, 4)
+    oriented = tets[:, _FACES]
     for round_ in range(rounds):
-        faces = boundary_faces(tets[selected]) if selected.any() else np.zeros((0, 3), np.int64)
+        uses = np.bincount(slots[selected].ravel(), minlength=int(inverse.max()) + 1 if len(inverse) else 0)
+        faces = oriented[(uses[slots] == 1) & selected[:, None]]  # boundary_faces(tets[selected])
         bad_edges, pinched = nonmanifold_items(faces, n_points)
         if len(bad_edges) == 0 and len(pinched) == 0:
             break

@@ -1,0 +1,73 @@
+"""The time left of a DistMesh run (issue 15): the loop's end from its quality trend, the stages after it."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+import io
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.distmesh.estimate import AFTER_LOOP, StageLog, iterations_left, seconds_after
+
+
+def stop_of(quality: np.ndarray, window: int, tol: float) -> int:
+    """The iteration at which the loop's quality criterion (one history) stops it."""
+    for done in range(2 * window, len(quality) + 1):
+        history = quality[:done]
+        if max(history[-window:]) - max(history[:-window]) < tol:
+            return done
+    raise AssertionError("never stops")
+
+
+@pytest.mark.parametrize("tau", [4.0, 8.0, 20.0])
+def test_a_geometric_settling_is_predicted_to_the_iteration(tau):
+    quality = 0.9 - 0.06 * np.exp(-np.arange(400) / tau)
+    stop = stop_of(quality, 10, 0.002)
+    for done in range(14, stop - 1, 3):
+        left = iterations_left(quality[:done], 10, 0.002, 1000)
+        assert left is not None and abs(done + left - stop) <= 1.5
+
+
+def test_short_histories_stalls_and_maxiter():
+    assert iterations_left(np.linspace(0.5, 0.6, 12), 10, 0.002, 1000) is None  # too short to tell
+    flat = np.full(15, 0.8)
+    assert iterations_left(flat, 10, 0.002, 1000) == 5  # no gain: stops once the window allows
+    assert iterations_left(np.full(40, 0.8), 10, 0.002, 1000) == 0
+    rising = 0.5 + 0.01 * np.arange(30)  # gains that do not shrink: cannot tell
+    assert iterations_left(rising, 10, 0.002, 1000) is None
+    slow = 0.9 - 0.3 * np.exp(-np.arange(30) / 200.0)  # the criterion would stop it near 400
+    assert iterations_left(slow, 10, 0.002, 100) == 70  # never past maxiter
+
+
+def test_stage_lines_say_what_is_left():
+    stream = io.StringIO()
+    log = StageLog(True, force_seconds=0.1, stream=stream)
+    for stage in AFTER_LOOP:
+        log(stage, "done")
+    lines = stream.getvalue().splitlines()
+    assert [line.split(":")[1].strip() for line in lines] == list(AFTER_LOOP)
+    assert lines[0].endswith(f"about {seconds_after('final mesh', 0.1):.0f} s left")
+    assert seconds_after("final mesh", 0.1) == pytest.approx(0.1 * (AFTER_LOOP["quality stage"] + AFTER_LOOP["checks and output"]))
+    assert "left" not in lines[-1]
+    silent = io.StringIO()
+    StageLog(False, 0.1, stream=silent)("final mesh", "x")
+    assert silent.getvalue() == ""
+
+
+def test_a_run_prints_each_stage_after_the_loop_with_the_time_left(capsys):
+    mesh = fepre.distmesh(sdf.box((2.0, 1.0, 1.0)) - sdf.cylinder(0.3, 2.0), 0.15, progress=True)
+    lines = [line for line in capsys.readouterr().err.replace("\r", "\n").splitlines() if line.startswith("distmesh:")]
+    stages = [line.split(":")[1].strip() for line in lines if "iteration" not in line]
+    assert stages == list(AFTER_LOOP)
+    assert any("s left" in line for line in lines if "iteration" in line)
+    assert f"{mesh.n_cells:,} cells" in lines[-1]
+
+
+@pytest.mark.parametrize("name", ["fepre.distmesh.estimate", "fepre.distmesh.slab_delaunay", "fepre.distmesh.delaunay"])
+def test_docstring_examples_run(name):
+    result = doctest.testmod(importlib.import_module(name))
+    assert result.failed == 0 and result.attempted > 0
