@@ -63,8 +63,21 @@ def test_a_run_prints_each_stage_after_the_loop_with_the_time_left(capsys):
     lines = [line for line in capsys.readouterr().err.replace("\r", "\n").splitlines() if line.startswith("distmesh:")]
     stages = [line.split(":")[1].strip() for line in lines if "iteration" not in line]
     assert stages == list(AFTER_LOOP)
-    assert any("s left" in line for line in lines if "iteration" in line)
     assert f"{mesh.n_cells:,} cells" in lines[-1]
+
+
+def test_the_loop_line_adds_the_loop_and_the_stages_after_it():
+    from fepre.distmesh.loop import _time_left
+    from fepre.distmesh.options import DistMeshOptions
+
+    options = DistMeshOptions()
+    quality = 0.9 - 0.06 * np.exp(-np.arange(25) / 8.0)
+    history = {"mean_quality": list(quality), "min_quality": list(quality - 0.5)}
+    left = iterations_left(quality, options.quality_window, options.quality_tol, options.maxiter)
+    text = _time_left(history, options, [0.5] * 25, force_seconds=0.01)
+    assert text == f", about {left * 0.5 + seconds_after(None, 0.01):.0f} s left"
+    assert _time_left({"mean_quality": [0.5] * 5, "min_quality": [0.1] * 5}, options, [0.5] * 5, 0.01) == ""
+    assert _time_left(history, DistMeshOptions(termination="displacement"), [0.5] * 25, 0.01) == ""
 
 
 @pytest.mark.parametrize("name", ["fepre.distmesh.estimate", "fepre.distmesh.slab_delaunay", "fepre.distmesh.delaunay"])

@@ -103,3 +103,16 @@ def test_a_mesh_runs_the_same_loop_with_and_without_the_second_process(small_thr
     assert abs(both.n_cells / one.n_cells - 1) < 0.02
     assert both.volume == pytest.approx(one.volume, rel=2e-3)
     assert both["min_dihedral_angle"].min() >= 28.0 and both["radius_ratio"].min() >= 0.3
+
+
+def test_a_busy_worker_or_a_forked_child_does_not_share_requests(small_threshold, monkeypatch):
+    points = np.random.default_rng(5).random((5000, 3)) * [2.0, 1.0, 1.0]
+    with slab_delaunay._Worker.busy:  # another thread's request is under way
+        assert slab_delaunay.split_delaunay(points, 0.02, "gmsh") is None
+    assert slab_delaunay.split_delaunay(points, 0.02, "gmsh") is not None
+    first = slab_delaunay._Worker.process()
+    monkeypatch.setattr(slab_delaunay._Worker, "_owner", -1)  # as seen from a forked child
+    second = slab_delaunay._Worker.process()
+    assert second is not first and second.poll() is None
+    first.stdin.close()
+    first.wait(timeout=5)

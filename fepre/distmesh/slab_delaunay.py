@@ -35,12 +35,16 @@ class _Worker:
     """The child process of :mod:`fepre.distmesh.delaunay_worker`, started on first use."""
 
     _lock = threading.Lock()
+    #: held from a request to its answer; another thread meanwhile triangulates on its own
+    busy = threading.Lock()
     _process: subprocess.Popen | None = None
+    _owner = 0  # the process that started it: a forked child starts its own
 
     @classmethod
     def process(cls) -> subprocess.Popen:
         with cls._lock:
-            if cls._process is None or cls._process.poll() is not None:
+            if cls._process is None or cls._owner != os.getpid() or cls._process.poll() is not None:
+                cls._owner = os.getpid()
                 cls._process = subprocess.Popen(
                     [sys.executable, "-m", "fepre.distmesh.delaunay_worker"],
                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0,
@@ -51,7 +55,7 @@ class _Worker:
     @classmethod
     def close(cls) -> None:
         with cls._lock:
-            if cls._process is not None and cls._process.poll() is None:
+            if cls._process is not None and cls._owner == os.getpid() and cls._process.poll() is None:
                 cls._process.stdin.close()
                 try:
                     cls._process.wait(timeout=5)
@@ -98,7 +102,8 @@ def second_core() -> bool:
 
 def split_delaunay(points: np.ndarray, spacing: float, backend: str) -> np.ndarray | None:
     """Delaunay cells (M, 4) of ``points`` from two overlapping slabs triangulated at once, or
-    None where that does not pay (few points, one core, no gmsh, slabs mostly overlap).
+    None where that does not pay (few points, one core, no gmsh, slabs mostly overlap) or
+    another thread is using the worker.
 
     ``spacing`` is the largest edge length expected at the cut: the slabs overlap by
     ``OVERLAP * spacing`` on each side. Cells are returned in the backend's order (see
@@ -122,9 +127,14 @@ def split_delaunay(points: np.ndarray, spacing: float, backend: str) -> np.ndarr
     high = np.flatnonzero(coordinate > cut - reach)
     if max(len(low), len(high)) > MAX_SHARE * len(points) or min(len(low), len(high)) < 4:
         return None
-    process = _Worker.submit(points[high])
-    own = low[_gmsh(points[low])]
-    other = high[_Worker.result(process)]
+    if not _Worker.busy.acquire(blocking=False):
+        return None
+    try:
+        process = _Worker.submit(points[high])
+        own = low[_gmsh(points[low])]
+        other = high[_Worker.result(process)]
+    finally:
+        _Worker.busy.release()
     own = own[points[own, axis].mean(axis=1) <= cut] if len(own) else own
     other = other[points[other, axis].mean(axis=1) > cut] if len(other) else other
     return np.concatenate([own, other.astype(np.int64)])
