@@ -116,3 +116,33 @@ def test_a_busy_worker_or_a_forked_child_does_not_share_requests(small_threshold
     assert second is not first and second.poll() is None
     first.stdin.close()
     first.wait(timeout=5)
+
+
+def test_a_failing_worker_leaves_the_triangulation_to_this_process(small_threshold, monkeypatch):
+    points = np.random.default_rng(6).random((5000, 3)) * [2.0, 1.0, 1.0]
+    slab_delaunay._Worker.process().kill()  # the worker dies between two requests
+    slab_delaunay._Worker.process().wait(timeout=5)
+    monkeypatch.setattr(slab_delaunay._Worker, "process", classmethod(lambda cls: cls._process))
+    assert slab_delaunay.split_delaunay(points, 0.02, "gmsh") is None
+    monkeypatch.undo()
+    monkeypatch.setattr(slab_delaunay, "PARALLEL_MIN_POINTS", 1000)
+    monkeypatch.setattr(slab_delaunay.os, "cpu_count", lambda: 2)
+    assert slab_delaunay.split_delaunay(points, 0.02, "gmsh") is not None  # a new worker
+
+
+def test_a_write_to_a_closed_pipe_raises_after_meshing_with_gmsh():
+    # gmsh.initialize sets SIGPIPE to its default action: after any DistMesh, writing to a pipe
+    # whose reader had gone (a dead worker, a socket, `| head`) killed Python with exit 141
+    import subprocess
+    import sys
+
+    script = (
+        "import subprocess, fepre\n"
+        "from fepre import sdf\n"
+        "fepre.distmesh(sdf.sphere(1.0), 0.5, delaunay='gmsh')\n"
+        "p = subprocess.Popen(['true'], stdin=subprocess.PIPE); p.wait()\n"
+        "try:\n    p.stdin.write(b'x' * 100000); p.stdin.flush()\n"
+        "except BrokenPipeError:\n    print('raised')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "raised", (done.returncode, done.stderr[-500:])

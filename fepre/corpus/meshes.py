@@ -70,7 +70,9 @@ def _occ(build: Callable, size: float) -> tuple[np.ndarray, np.ndarray]:
     """Surface triangles of an OpenCASCADE solid built by ``build(occ)``, meshed by gmsh."""
     import gmsh
 
-    gmsh.initialize()
+    from ..distmesh.delaunay import initialize_gmsh
+
+    initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("corpus")

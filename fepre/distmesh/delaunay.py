@@ -55,6 +55,29 @@ def _c_library():
     return None
 
 
+def initialize_gmsh(**options) -> None:
+    """``gmsh.initialize(**options)``, keeping Python's SIGPIPE disposition.
+
+    gmsh sets SIGPIPE to the default action (end the process), so after any DistMesh a write to
+    a closed pipe or socket killed the user's Python (exit 141) instead of raising
+    ``BrokenPipeError``; Python ignores SIGPIPE unless told otherwise, and so does fepre's process
+    after this.
+    """
+    import signal
+
+    import gmsh
+
+    before = signal.getsignal(signal.SIGPIPE) if hasattr(signal, "SIGPIPE") else None
+    gmsh.initialize(**options)
+    library = _c_library()
+    if before == signal.SIG_IGN and library is not None:
+        import ctypes
+
+        library.signal.restype = ctypes.c_void_p
+        library.signal.argtypes = [ctypes.c_int, ctypes.c_void_p]
+        library.signal(int(signal.SIGPIPE), 1)  # SIG_IGN
+
+
 def _reset_c_random() -> None:
     """Seed the C library's ``rand``: gmsh's Delaunay kernel breaks ties on co-spherical points
     (lattices, nodes on one plane or circle) with it, so without this the same points gave a
@@ -79,7 +102,7 @@ def _gmsh(points: np.ndarray) -> np.ndarray:
     points = points[order]
     started = gmsh.isInitialized()
     if not started:
-        gmsh.initialize(readConfigFiles=False)
+        initialize_gmsh(readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
     _reset_c_random()
     try:

@@ -56,10 +56,10 @@ class _Worker:
     def close(cls) -> None:
         with cls._lock:
             if cls._process is not None and cls._owner == os.getpid() and cls._process.poll() is None:
-                cls._process.stdin.close()
                 try:
+                    cls._process.stdin.close()
                     cls._process.wait(timeout=5)
-                except subprocess.TimeoutExpired:
+                except (OSError, subprocess.TimeoutExpired):
                     cls._process.kill()
             cls._process = None
 
@@ -133,6 +133,10 @@ def split_delaunay(points: np.ndarray, spacing: float, backend: str) -> np.ndarr
         process = _Worker.submit(points[high])
         own = low[_gmsh(points[low])]
         other = high[_Worker.result(process)]
+    except (OSError, MeshingError):
+        # the worker died or failed (its pipes closed, gmsh's error): triangulate here instead
+        _Worker.close()
+        return None
     finally:
         _Worker.busy.release()
     own = own[points[own, axis].mean(axis=1) <= cut] if len(own) else own
