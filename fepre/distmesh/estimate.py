@@ -3,6 +3,9 @@ from the loop's own Delaunay time."""
 
 from __future__ import annotations
 
+import sys
+import time
+
 import numpy as np
 
 __all__ = ["iterations_left", "seconds_after", "StageLog"]
@@ -73,16 +76,11 @@ class StageLog:
     """
 
     def __init__(self, enabled: bool, force_seconds: float, stream=None) -> None:
-        import time
-
         self.enabled, self.force_seconds, self.stream = enabled, force_seconds, stream
-        self._clock = time.perf_counter
-        self.started = self._clock()
+        self.started = time.perf_counter()
 
     def __call__(self, stage: str, detail: str) -> None:
-        import sys
-
-        now = self._clock()
+        now = time.perf_counter()
         seconds, self.started = now - self.started, now
         if not self.enabled:
             return

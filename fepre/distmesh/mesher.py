@@ -11,6 +11,7 @@ from ..arguments import as_points, domain_bounds, positive_float
 from ..errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning, warn_user
 from ..features import features as detect_features
 from ..sdf.core import SDF
+from .estimate import StageLog
 from .feature_protection import FeatureProtection
 from .finalize import final_mesh
 from .initial_points import evaluate_size, initial_points
@@ -311,6 +312,7 @@ def distmesh(
 
     loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
                    protect=protect, local_size=size if absolute else None)
+    stage_log = StageLog(progress, loop.timings["forces"] / max(loop.iterations, 1))  # the final mesh starts now
     previous = loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None
     if region_set is None:
         points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
@@ -323,10 +325,6 @@ def distmesh(
             model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set,
             kept=np.concatenate([on_interface] + ([] if fixed is None else [as_points(fixed, 3, "fixed")[0]])))
     loop_seconds = time.perf_counter() - start
-    from .estimate import StageLog
-
-    stage_log = StageLog(progress, loop.timings["forces"] / max(loop.iterations, 1))
-    stage_log.started = start + loop.seconds  # the final mesh began when the loop ended
     stage_log("final mesh", f"{len(points):,} nodes, {len(tets):,} cells")
     interface_mask = None
     if region_set is not None:
