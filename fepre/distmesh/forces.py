@@ -37,22 +37,14 @@ def bar_forces(
 
     ``L0 = hbar * fscale * (sum L^3 / sum hbar^3)^(1/3)``, ``F = max(L0 - L, 0)`` (times
     ``(L + L0) / (2 L0)`` when ``nonlinear``); bars push their ends apart, never pull. Forces are
-    assembled with ``np.bincount``, no per-bar Python work. ``hbars`` None means uniform size.
+    assembled by a compiled loop over the bars (:mod:`._bar_kernels`), in bar order as
+    ``np.bincount`` adds them. ``hbars`` None means uniform size.
     """
-    a = points[ends[:, 0]]
-    vectors = points[ends[:, 1]] - a
-    lengths = np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
+    from ._bar_kernels import assemble_forces, bar_vectors
+
+    vectors, lengths = bar_vectors(points, ends)
     if hbars is None:
         l0 = fscale * np.cbrt(np.mean(lengths**3))
     else:
         l0 = hbars * (fscale * np.cbrt(np.sum(lengths**3) / np.sum(hbars**3)))
-    magnitude = np.maximum(l0 - lengths, 0.0)
-    if nonlinear:
-        magnitude *= (lengths + l0) / (2.0 * l0)
-    scale = magnitude / np.where(lengths > 0, lengths, 1.0)
-    n = points.shape[0]
-    total = np.empty_like(points)
-    for axis in range(3):
-        component = scale * vectors[:, axis]
-        total[:, axis] = np.bincount(ends[:, 1], component, n) - np.bincount(ends[:, 0], component, n)
-    return total, lengths
+    return assemble_forces(ends, vectors, lengths, l0, nonlinear, points.shape[0]), lengths
