@@ -9,10 +9,7 @@ import numpy as np
 from ..errors import MeshingError
 from .._cell_kernels import canonical_cells
 
-__all__ = ["tetrahedralize", "loop_tetrahedralize", "gmsh_available", "HXT_BACKEND"]
-
-#: :func:`tetrahedralize`'s backend name for gmsh's HXT kernel (``"gmsh"`` is its default kernel)
-HXT_BACKEND = "gmsh-hxt"
+__all__ = ["tetrahedralize", "loop_tetrahedralize", "gmsh_available"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -161,9 +158,8 @@ def tetrahedralize(
     (``|V| <= 1e-10 scale^3``), which is harmless inside the DistMesh loop where only the edges
     matter. The final mesh is checked separately. ``keep_flat=True`` keeps them (in the
     backend's vertex order, so their orientation is undetermined), for the final mesh to flip
-    them away (:func:`fepre.distmesh.finalize.final_mesh`). ``backend`` is ``"scipy"``,
-    ``"gmsh"`` (gmsh's default kernel), :data:`HXT_BACKEND` (gmsh's HXT kernel on every core
-    fepre may use) or ``"auto"`` (gmsh when it can be imported); see :func:`_gmsh`.
+    them away (:func:`fepre.distmesh.finalize.final_mesh`). gmsh runs its default kernel here
+    (see :func:`_gmsh`); the loop's :func:`loop_tetrahedralize` runs HXT.
 
     Examples
     --------
@@ -173,8 +169,7 @@ def tetrahedralize(
     >>> bool((signed_volumes(cube, tets) > 0).all()), round(float(signed_volumes(cube, tets).sum()), 9)
     (True, 1.0)
     """
-    hxt = backend == HXT_BACKEND
-    return _canonical(points, _triangulate(points, "gmsh" if hxt else backend, hxt, None), scale, keep_flat)
+    return _canonical(points, _triangulate(points, backend, False, None), scale, keep_flat)
 
 
 def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel: bool = True) -> np.ndarray:

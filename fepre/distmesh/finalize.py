@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import MeshingError
 from ..quality import signed_volumes
-from .delaunay import HXT_BACKEND, resolve_backend, tetrahedralize
+from .delaunay import tetrahedralize
 from .topology import boundary_faces, check_topology, repair_selection
 
 __all__ = ["final_mesh", "compact", "crease_nodes"]
@@ -326,14 +326,13 @@ def final_mesh(
 ):
     """Triangulate ``points`` and choose the cells of a valid solid.
 
-    ``backend`` triangulates (gmsh: its HXT kernel, then its default kernel). Nodes on sharp
-    features lie exactly on lines and planes, co-spherical sets on which gmsh can return
-    overlapping cells: such a triangulation (and a ``previous`` one) is refused and the points
-    are triangulated by ``FALLBACK_BACKEND`` (Qhull) instead.
+    ``backend`` triangulates. Nodes on sharp features lie exactly on lines and planes,
+    co-spherical sets on which gmsh can return overlapping cells: such a triangulation (and a
+    ``previous`` one) is refused and the points are triangulated by ``FALLBACK_BACKEND``
+    (Qhull) instead.
 
-    ``previous`` is a triangulation of (nearly) the same points by the first attempt's kernel
-    (HXT for gmsh, else Qhull), the loop's last one: it is reused when no point had to move or
-    go and every cell is still positive. Returns
+    ``previous`` is a triangulation of (nearly) the same points, the loop's last one: it is
+    reused when no point had to move or go and every cell is still positive. Returns
     ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
     solid can be chosen.
     """
@@ -344,37 +343,29 @@ def final_mesh(
     changed = len(state.points) != n_before or not np.array_equal(state.points, points)
     previous = previous if not changed and previous is not None and _manifold(previous, len(state.points)) else None
 
-    # gmsh's HXT first (the loop's own kernel, so its last triangulation is reused): it covers
-    # the whole hull, and where the cells chosen from that do not make a valid solid (a closed
-    # one with a face across a concave region at the hull) gmsh's default kernel follows, which
-    # leaves such cells out (see delaunay._gmsh).
-    # Then the backend's own triangulation, even when dropping its flat cells left cracks: a
+    # The backend's own triangulation first, even when dropping its flat cells left cracks: a
     # crack outside the part, or on its surface, is left out with the outside cells. (Qhull's
     # full triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds
     # stacks of slivers as long as the cylinder.) When the solid chosen from it is not valid,
     # the cracks are mended by flipping the flat cells away and the choice is made again.
-    backend = resolve_backend(backend)
-    first = [(HXT_BACKEND, False)] if backend == "gmsh" else []
-    attempts = first + [(backend, False), (backend, True)]
+    attempts = [(backend, False), (backend, True)]
     if backend != FALLBACK_BACKEND:  # another triangulation of the same points
         attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
-    own = len(first)  # the backend's first attempt
     mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
     for number, (triangulator, mend_cracks) in enumerate(attempts):
         trial = state.copy()
-        # the loop triangulated with the first attempt's kernel
-        tets = _star_rounds(model, trial, previous if number == 0 else None, triangulator, h, mend_cracks=mend_cracks)
+        tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
         chosen = _choose(model, trial, tets, geps, h)
         if _valid_solid(model, trial, chosen, h):
             break
-        if number == own + 1:
+        if number == 1:
             mended = (trial, chosen)
         # a closed solid refused only for a face far from the surface: another triangulation of
         # the same points is the same Delaunay one but for ties, and mending changes nothing
         # where nothing is cracked, so the same face comes back (a gyroid block's four attempts
         # took 20 s, all alike)
-        if own <= number <= own + 1 and _valid_selection(trial.points, chosen):
-            if number == own + 1 or not _cracked(tets, len(trial.points)):
+        if number < 2 and _valid_selection(trial.points, chosen):
+            if number == 1 or not _cracked(tets, len(trial.points)):
                 break
     else:
         trial, chosen = mended

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .delaunay import loop_tetrahedralize, sorted_cells
+from .delaunay import loop_tetrahedralize, resolve_backend, sorted_cells
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
 from .initial_points import evaluate_size
@@ -309,6 +309,8 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        delaunay_tets=sorted_cells(delaunay_tets, len(p)),
+        # the final mesh triangulates with gmsh's default kernel, not the loop's HXT (see
+        # delaunay._gmsh): only Qhull's triangulation is one it would make itself
+        delaunay_tets=sorted_cells(delaunay_tets, len(p)) if resolve_backend(o.delaunay) == "scipy" else None,
         moved_since_delaunay=moved_since,
     )
