@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fepre._cell_kernels import packed_face_keys, quality_arrays, volume_edge_ratios
+from fepre._cell_kernels import face_uses, packed_face_keys, quality_arrays, volume_edge_ratios
 from fepre.quality import dihedral_angles, signed_volumes, tet_quality
 
 
@@ -67,3 +67,26 @@ def test_packed_face_keys_ignore_vertex_order():
     faces = np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)
     assert (keys == (faces[:, 0] * 1000 + faces[:, 1]) * 1000 + faces[:, 2]).all()
     assert (packed_face_keys(tets[:, [3, 1, 2, 0]], 1000).reshape(-1, 4)[:, [3, 1, 2, 0]].ravel() == keys).all()
+
+
+def test_face_uses_match_a_dictionary_of_faces():
+    """Each face slot's use count and lowest other slot, against a dict of sorted triples, on
+    a Delaunay triangulation (faces in one or two cells) plus a face in three and cells that
+    repeat a face in all four slots."""
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(5)
+    points = rng.random((300, 3))
+    tets = Delaunay(points).simplices.astype(np.int64)
+    tets = np.concatenate([tets, tets[:1, [1, 0, 2, 3]], tets[5:7]])  # face in three, two whole cells twice
+    mate, uses = face_uses(tets, len(points))
+    slots: dict = {}
+    for slot, face in enumerate(np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)):
+        slots.setdefault(tuple(face), []).append(slot)
+    for group in slots.values():
+        for slot in group:
+            others = [other for other in group if other != slot]
+            assert uses[slot] == len(group)
+            assert mate[slot] == (min(others) if others else -1)
+    assert max(len(group) for group in slots.values()) == 3
+    assert face_uses(np.zeros((0, 4), np.int64), 0)[0].shape == (0,)

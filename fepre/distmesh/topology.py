@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._cell_kernels import packed_face_keys
+from .._cell_kernels import face_uses, packed_face_keys
 from .tet_topology import MAX_PACKED_POINTS
 
 __all__ = ["tet_faces", "boundary_faces", "TopologyReport", "check_topology", "nonmanifold_items", "repair_selection"]
@@ -42,6 +42,15 @@ def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return keys, counts, inverse
 
 
+def _face_numbers(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """A number per face slot ``4 t + i``, the same for the slots of one face, 0..F-1."""
+    mate, _ = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    slot = np.arange(len(mate))
+    lowest = np.where((mate >= 0) & (mate < slot), mate, slot)
+    first = lowest == slot
+    return (np.cumsum(first) - 1)[lowest]
+
+
 def boundary_faces(tets: np.ndarray) -> np.ndarray:
     """Faces used by exactly one tetrahedron, (B, 3), oriented outward.
 
@@ -51,8 +60,8 @@ def boundary_faces(tets: np.ndarray) -> np.ndarray:
     (4, 3)
     """
     oriented = tets[:, _FACES].reshape(-1, 3)
-    _, counts, inverse = tet_faces(tets)
-    return oriented[counts[inverse] == 1]
+    _, uses = face_uses(tets, int(tets.max()) + 1 if len(tets) else 0)
+    return oriented[uses == 1]
 
 
 @dataclass(frozen=True)
@@ -128,13 +137,14 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
     >>> check_topology(np.array([[0, 1, 2, 3]]), 4).ok
     True
     """
-    _, counts, inverse = tet_faces(tets)
-    faces = tets[:, _FACES].reshape(-1, 3)[counts[inverse] == 1]
+    mate, uses = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    faces = tets[:, _FACES].reshape(-1, 3)[uses == 1]
     edges, pinched = nonmanifold_items(faces, n_points)
     used = np.zeros(n_points, bool)
     used[tets.ravel()] = True
     return TopologyReport(
-        overused_faces=int((counts > 2).sum()),
+        # a face's lowest slot has no lower mate: count each overused face once
+        overused_faces=int(((uses > 2) & ((mate < 0) | (mate > np.arange(len(mate))))).sum()),
         nonmanifold_edges=len(edges),
         pinched_vertices=len(pinched),
         unused_points=int((~used).sum()),
@@ -221,7 +231,7 @@ def repair_selection(
     edge_codes = (np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64) * n
                   + np.maximum(pairs[..., 0], pairs[..., 1]))
     # each cell's four faces numbered once; a round counts the selected cells on each face
-    _, _, inverse = tet_faces(tets)
+    inverse = _face_numbers(tets, n_points)
     slots = inverse.reshape(-1, 4)
     oriented = tets[:, _FACES]
     for round_ in range(rounds):
