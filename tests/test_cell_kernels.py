@@ -90,3 +90,22 @@ def test_face_uses_match_a_dictionary_of_faces():
             assert mate[slot] == (min(others) if others else -1)
     assert max(len(group) for group in slots.values()) == 3
     assert face_uses(np.zeros((0, 4), np.int64), 0)[0].shape == (0,)
+
+
+def test_shape_extremes_match_fepre_quality():
+    """The quality stage's one-pass measures against fepre.quality's (independent formulas) on
+    positive cells, and -1 for the flat, inverted and degenerate ones."""
+    from fepre._cell_kernels import shape_extremes
+
+    points, tets = _cells(2)
+    corners = points[tets]
+    smallest, largest, ratio = shape_extremes(corners, 1e-9)
+    reference = tet_quality(points, tets)
+    positive = signed_volumes(points, tets) > 1e-6
+    assert positive.sum() > 900 and (~positive).sum() > 900
+    assert np.allclose(smallest[positive], reference["min_dihedral_angle"][positive], atol=1e-9)
+    assert np.allclose(largest[positive], reference["max_dihedral_angle"][positive], atol=1e-9)
+    assert np.allclose(ratio[positive], reference["radius_ratio"][positive], atol=1e-12)
+    invalid = signed_volumes(points, tets) <= 0
+    assert (smallest[invalid] == -1).all() and (largest[invalid] == -1).all() and (ratio[invalid] == -1).all()
+    assert smallest[:3].tolist() == [-1.0, -1.0, -1.0]  # flat, repeated corner, needle
