@@ -5,10 +5,11 @@ configurations) per round. It needs only the orientation, the smallest dihedral 
 radius ratio of each, so these kernels compute just those from stacked corner coordinates; the
 full set of reported metrics comes from :mod:`fepre.quality`.
 
-The kernels run over blocks of ``BLOCK`` cells: their few dozen temporaries then stay in the
-CPU cache and their memory is reused, which makes them several times faster on large inputs
-than whole-array numpy expressions (measured: 1.1 million cells, 0.73 s whole, 0.09-0.11 s in
-blocks of 4096-8192).
+The dihedral extremes and the radius ratio come from one compiled pass over the cells
+(:func:`fepre._cell_kernels.shape_extremes`, bit-identical to the array form it replaced and
+3.3 times faster); :func:`ideal_vertex_positions` runs over blocks of ``BLOCK`` cells, whose
+few dozen temporaries then stay in the CPU cache (1.1 million cells: 0.73 s whole, 0.09-0.11 s
+in blocks of 4096-8192).
 """
 
 from __future__ import annotations
