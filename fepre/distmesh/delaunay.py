@@ -41,14 +41,14 @@ def _scipy(points: np.ndarray) -> np.ndarray:
 
 @functools.lru_cache(maxsize=1)
 def _c_library():
-    """The C library gmsh draws its random numbers from (``rand``), or None where it cannot be loaded."""
+    """The C library (for its ``signal``), or None where it cannot be loaded."""
     import ctypes
     import ctypes.util
 
     for name in (None, ctypes.util.find_library("c"), "msvcrt"):
         try:
             library = ctypes.CDLL(name)
-            library.srand  # noqa: B018 - the attribute lookup is the check
+            library.signal  # noqa: B018 - the attribute lookup is the check
             return library
         except (OSError, AttributeError, TypeError):
             continue
@@ -78,29 +78,22 @@ def initialize_gmsh(**options) -> None:
         library.signal(int(signal.SIGPIPE), 1)  # SIG_IGN
 
 
-def _reset_c_random() -> None:
-    """Seed the C library's ``rand``: gmsh's Delaunay kernel breaks ties on co-spherical points
-    (lattices, nodes on one plane or circle) with it, so without this the same points gave a
-    different triangulation on every call in a process (the same in each fresh process)."""
-    library = _c_library()
-    if library is not None:
-        library.srand(1)
-
-
 #: gmsh options ``_gmsh`` sets for its call (and puts back)
 _GMSH_OPTIONS = ("Mesh.Algorithm3D", "General.NumThreads", "General.Verbosity")
 
 
-def _gmsh(points: np.ndarray, threads: int | None = None, hxt: bool = False) -> np.ndarray:
-    """Delaunay cells of ``points`` by gmsh: its default kernel, or with ``hxt`` its HXT kernel
-    on ``threads`` threads (default: ``fepre.config.workers``).
+def _gmsh(points: np.ndarray, threads: int | None = None) -> np.ndarray:
+    """Delaunay cells of ``points`` by gmsh's HXT kernel on ``threads`` threads (default:
+    ``fepre.config.workers``), without the cells next to the convex hull that gmsh's default
+    kernel leaves out.
 
-    HXT (``Mesh.Algorithm3D = 10``) is 3.5-4 times faster on DistMesh's point sets, breaks ties
-    between co-spherical points symbolically (the same cells for any number of threads) and
-    returns the whole triangulation of the convex hull. The default kernel leaves out cells next
-    to the hull (those its bounding box's corners would have taken), often the long cells
-    across a concave region at the hull, which the final mesh's choice of cells has relied on:
-    it stays there.
+    HXT (``Mesh.Algorithm3D = 10``) is 3.5-4 times faster than gmsh's default kernel on
+    DistMesh's point sets and breaks ties between co-spherical points symbolically (the same
+    cells for any number of threads, in any run). It returns the whole triangulation of the
+    convex hull, whose long cells across a concave region at the hull (and near-flat ones on a
+    planar hull face) the final mesh's choice of cells is not made for: the default kernel
+    starts from a box 1.3 times the points' bounding box and drops the cells at its corners,
+    so the same eight corners go in here and their cells come out.
     """
     try:
         import gmsh
@@ -114,19 +107,13 @@ def _gmsh(points: np.ndarray, threads: int | None = None, hxt: bool = False) -> 
         initialize_gmsh(readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
     saved = [gmsh.option.getNumber(name) for name in _GMSH_OPTIONS]
-    order = None
-    if not hxt:
-        # the default kernel inserts the points in the order given: lattice or sorted order is
-        # its worst case (3.7 times slower than random order on 52k points of the h=0.05
-        # sphere); a fixed pseudo-random order keeps the result reproducible (HXT sorts them)
-        order = np.random.default_rng(0).permutation(len(points))
-        points = points[order]
-    _reset_c_random()
+    n = len(points)
+    boxed = np.concatenate([np.asarray(points, dtype=np.float64), _box_corners(points)])
     try:
-        gmsh.option.setNumber("Mesh.Algorithm3D", 10 if hxt else 1)
-        gmsh.option.setNumber("General.NumThreads", (threads or _cores()) if hxt else 1)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+        gmsh.option.setNumber("General.NumThreads", threads or _cores())
         gmsh.option.setNumber("General.Verbosity", 0)  # HXT reports skipped duplicates one line each
-        result = gmsh.algorithm.tetrahedralize(np.ascontiguousarray(points, dtype=np.float64).ravel())
+        result = gmsh.algorithm.tetrahedralize(boxed.ravel())
         tets = np.asarray(result[0] if isinstance(result, tuple) else result, dtype=np.int64)
     except Exception as exc:  # gmsh raises plain Exception
         raise MeshingError(f"gmsh tetrahedralize failed on {len(points)} points: {exc}") from exc
@@ -137,10 +124,20 @@ def _gmsh(points: np.ndarray, threads: int | None = None, hxt: bool = False) -> 
         else:
             gmsh.finalize()
     tets = tets.reshape(-1, 4) - 1
-    if len(tets) == 0 and len(points) >= 4:
-        # HXT returns nothing for (nearly) coplanar input: Qhull says why
+    tets = tets[(tets < n).all(axis=1)]
+    if len(tets) == 0 and n >= 4:
+        # nothing but box cells: (nearly) coplanar input; Qhull says why
         return _scipy(points)
-    return tets if order is None else order[tets]
+    return tets
+
+
+def _box_corners(points: np.ndarray) -> np.ndarray:
+    """The corners of the points' bounding box scaled by 1.3 about its centre: the box gmsh's
+    default kernel starts from (``initialCube`` in gmsh's delaunay3d.cpp)."""
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    centre, half = 0.5 * (lower + upper), 0.65 * (upper - lower)
+    low, high = centre - half, centre + half
+    return np.array([[x, y, z] for z in (low[2], high[2]) for y in (low[1], high[1]) for x in (low[0], high[0])])
 
 
 def _cores() -> int:
@@ -158,8 +155,9 @@ def tetrahedralize(
     (``|V| <= 1e-10 scale^3``), which is harmless inside the DistMesh loop where only the edges
     matter. The final mesh is checked separately. ``keep_flat=True`` keeps them (in the
     backend's vertex order, so their orientation is undetermined), for the final mesh to flip
-    them away (:func:`fepre.distmesh.finalize.final_mesh`). gmsh runs its default kernel here
-    (see :func:`_gmsh`); the loop's :func:`loop_tetrahedralize` runs HXT.
+    them away (:func:`fepre.distmesh.finalize.final_mesh`). ``backend`` is ``"scipy"``,
+    ``"gmsh"`` (gmsh's HXT kernel on every core fepre may use, see :func:`_gmsh`) or ``"auto"``
+    (gmsh when it can be imported).
 
     Examples
     --------
@@ -169,15 +167,14 @@ def tetrahedralize(
     >>> bool((signed_volumes(cube, tets) > 0).all()), round(float(signed_volumes(cube, tets).sum()), 9)
     (True, 1.0)
     """
-    return _canonical(points, _triangulate(points, backend, False, None), scale, keep_flat)
+    return _canonical(points, _triangulate(points, backend, None), scale, keep_flat)
 
 
 def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel: bool = True) -> np.ndarray:
-    """The DistMesh loop's triangulation: gmsh's HXT kernel (:func:`_gmsh`) on every core fepre
-    may use (``fepre.config.workers``) with ``parallel``, else on one, or Qhull; cells in
-    canonical form without their flat ones, as :func:`tetrahedralize`'s, but in the backend's
-    order (the loop needs their bars, whose order :func:`~fepre.distmesh.forces.bars_of` fixes;
-    sorting the rows took a third of the triangulation's time); :func:`sorted_cells` sorts them.
+    """The DistMesh loop's triangulation: :func:`tetrahedralize`'s cells (gmsh's on every core
+    fepre may use with ``parallel``, else on one), but in the backend's order: the loop needs
+    their bars, whose order :func:`~fepre.distmesh.forces.bars_of` fixes, and sorting the rows
+    took a third of the triangulation's time; :func:`sorted_cells` sorts them.
 
     Examples
     --------
@@ -185,15 +182,15 @@ def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel
     >>> len(loop_tetrahedralize(cube, "scipy", 1.0))
     6
     """
-    tets = _triangulate(points, backend, True, None if parallel else 1)
+    tets = _triangulate(points, backend, None if parallel else 1)
     return _canonical(points, tets, scale, False, ordered=False)
 
 
-def _triangulate(points: np.ndarray, backend: str, hxt: bool, threads: int | None) -> np.ndarray:
-    """The backend's cells of ``points``, as it returns them (gmsh's HXT kernel with ``hxt``)."""
+def _triangulate(points: np.ndarray, backend: str, threads: int | None) -> np.ndarray:
+    """The backend's cells of ``points``, as it returns them."""
     if len(points) < 4:
         raise MeshingError(f"Delaunay triangulation needs at least 4 points; got {len(points)}")
-    return _gmsh(points, threads, hxt) if resolve_backend(backend) == "gmsh" else _scipy(points)
+    return _gmsh(points, threads) if resolve_backend(backend) == "gmsh" else _scipy(points)
 
 
 def resolve_backend(backend: str) -> str:
