@@ -8,22 +8,20 @@ __all__ = ["bars_of", "bar_forces"]
 
 
 def bars_of(tets: np.ndarray, n_points: int) -> np.ndarray:
-    """Unique bars (E, 2) of ``tets``, first index < second.
+    """Unique bars (E, 2) of ``tets``, first index < second, sorted.
 
-    Each edge (i, j) is encoded as one int64 ``i * n + j``; one ``np.sort`` and a comparison
-    of neighbours find the unique codes (no per-edge Python work, no argsort).
+    Edges are grouped by their lower end and each group sorted and thinned in place by a
+    compiled kernel (:func:`~fepre.distmesh._bar_kernels.unique_bars`), no per-edge Python work.
 
     Examples
     --------
     >>> bars_of(np.array([[0, 1, 2, 3], [1, 2, 3, 4]]), 5).shape
     (9, 2)
     """
-    from .._cell_kernels import packed_edge_keys
+    from .._cell_kernels import _EDGES
+    from ._bar_kernels import unique_bars
 
-    codes = np.sort(packed_edge_keys(tets, n_points))
-    if len(codes):
-        codes = codes[np.concatenate([[True], codes[1:] != codes[:-1]])]
-    return np.stack([codes // n_points, codes % n_points], axis=1)
+    return unique_bars(tets, n_points, _EDGES)
 
 
 def bar_forces(
