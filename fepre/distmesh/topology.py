@@ -156,14 +156,36 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
 _TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
-def _defect_cells(tets: np.ndarray, edge_codes: np.ndarray, bad_edges: np.ndarray, pinched: np.ndarray, n: np.int64):
+class _Incidences:
+    """Where each value occurs in an (M, k) array (its flat positions, row-major), found by
+    binary search in one sort made up front instead of scanning the array on every call."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.width = values.shape[1]
+        flat = values.ravel()
+        self.order = np.argsort(flat, kind="stable")
+        self.sorted = flat[self.order]
+
+    def __call__(self, wanted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, column) of every occurrence of the ``wanted`` values, in row-major order (as
+        ``np.nonzero(np.isin(values, wanted))``)."""
+        first = np.searchsorted(self.sorted, wanted, side="left")
+        last = np.searchsorted(self.sorted, wanted, side="right")
+        counts = last - first
+        positions = np.repeat(first - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+        flat = np.sort(self.order[positions])
+        return flat // self.width, flat % self.width
+
+
+def _defect_cells(tets: np.ndarray, edge_codes: np.ndarray, bad_edges: np.ndarray, pinched: np.ndarray, n: np.int64,
+                  edges_at: _Incidences, vertices_at: _Incidences):
     """(cell, defect) incidences: the cells holding each bad edge, then each pinched vertex
     (defects numbered edges first); and the defect's vertices, (D, 2) with -1 for a vertex."""
     bad_codes = bad_edges[:, 0].astype(np.int64) * n + bad_edges[:, 1]
     order = np.argsort(bad_codes)
-    edge_cell, edge_slot = np.nonzero(np.isin(edge_codes, bad_codes))
+    edge_cell, edge_slot = edges_at(bad_codes)
     edge_defect = order[np.searchsorted(bad_codes[order], edge_codes[edge_cell, edge_slot])]
-    vertex_cell, vertex_slot = np.nonzero(np.isin(tets, pinched))
+    vertex_cell, vertex_slot = vertices_at(pinched)
     vertex_defect = len(bad_codes) + np.searchsorted(pinched, tets[vertex_cell, vertex_slot])
     items = np.concatenate([bad_edges, np.stack([pinched, np.full(len(pinched), -1)], axis=1)]).astype(np.int64)
     return np.concatenate([edge_cell, vertex_cell]), np.concatenate([edge_defect, vertex_defect]), items
@@ -234,13 +256,16 @@ def repair_selection(
     inverse = _face_numbers(tets, n_points)
     slots = inverse.reshape(-1, 4)
     oriented = tets[:, _FACES]
+    edges_at, vertices_at = None, None  # made when the first defect is found
     for round_ in range(rounds):
         uses = np.bincount(slots[selected].ravel(), minlength=int(inverse.max()) + 1 if len(inverse) else 0)
         faces = oriented[(uses[slots] == 1) & selected[:, None]]  # boundary_faces(tets[selected])
         bad_edges, pinched = nonmanifold_items(faces, n_points)
         if len(bad_edges) == 0 and len(pinched) == 0:
             break
-        cell, defect, items = _defect_cells(tets, edge_codes, bad_edges, pinched, n)
+        if edges_at is None:
+            edges_at, vertices_at = _Incidences(edge_codes), _Incidences(tets)
+        cell, defect, items = _defect_cells(tets, edge_codes, bad_edges, pinched, n, edges_at, vertices_at)
         n_defects = len(items)
         inside = selected[cell]
         fill_cost = np.bincount(defect, np.where(inside, 0.0, add_cost[cell]), n_defects)
