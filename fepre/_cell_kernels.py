@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds"]
+__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes"]
 
 # faces opposite vertex 0..3 (outward for a positive cell); the two faces at edges 01 02 03 12 13 23
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -214,3 +214,144 @@ def packed_edge_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
     if len(tets):
         _edge_keys(np.ascontiguousarray(tets, np.int64), _EDGES, np.int64(n_points), out)
     return out
+
+
+@njit(cache=True, parallel=True)
+def _sorted_faces(tets, faces, lo, mid, hi):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        for f in range(4):
+            a, b, c = tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]]
+            if a > b:
+                a, b = b, a
+            if b > c:
+                b, c = c, b
+            if a > b:
+                a, b = b, a
+            slot = 4 * t + f
+            lo[slot], mid[slot], hi[slot] = a, b, c
+
+
+@njit(cache=True)
+def _bucket_by_lowest(lo, mid, hi, n_points):  # pragma: no cover - compiled
+    start = np.zeros(n_points + 1, np.int64)
+    for slot in range(lo.shape[0]):
+        start[lo[slot] + 1] += 1
+    for v in range(n_points):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    key = np.empty(lo.shape[0], np.int64)
+    slots = np.empty(lo.shape[0], np.int64)
+    for slot in range(lo.shape[0]):  # ascending slots within each bucket
+        position = fill[lo[slot]]
+        key[position] = np.int64(mid[slot]) * n_points + hi[slot]
+        slots[position] = slot
+        fill[lo[slot]] += 1
+    return start, key, slots
+
+
+@njit(cache=True, parallel=True)
+def _match(start, key, slots, mate, uses):  # pragma: no cover - compiled
+    for v in prange(start.shape[0] - 1):
+        s, e = start[v], start[v + 1]
+        for i in range(s + 1, e):  # insertion sort of the bucket by key, stable
+            k, slot = key[i], slots[i]
+            j = i - 1
+            while j >= s and key[j] > k:
+                key[j + 1], slots[j + 1] = key[j], slots[j]
+                j -= 1
+            key[j + 1], slots[j + 1] = k, slot
+        i = s
+        while i < e:
+            j = i + 1
+            while j < e and key[j] == key[i]:
+                j += 1
+            # slots i..j-1 hold one face, in ascending order: each one's mate is the lowest other
+            for r in range(i, j):
+                uses[slots[r]] = j - i
+                if j - i > 1:
+                    mate[slots[r]] = slots[i + 1] if r == i else slots[i]
+            i = j
+
+
+def face_uses(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each face slot ``4 t + i`` (the face opposite vertex ``i`` of cell ``t``): the lowest
+    other slot holding the same three vertices (-1 if none) and how many slots hold them.
+
+    Faces are grouped by their lowest vertex and sorted within the group (a few dozen slots),
+    instead of sorting all ``4 M`` face keys together.
+    """
+    m = len(tets)
+    mate = np.full(4 * m, -1, np.int64)
+    uses = np.ones(4 * m, np.int32)
+    if m:
+        small = np.int32 if n_points < 2**31 else np.int64  # the three corners: memory at millions of cells
+        lo, mid, hi = (np.empty(4 * m, small) for _ in range(3))
+        _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)
+        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points))
+        del lo, mid, hi
+        _match(start, key, slots, mate, uses)
+    return mate, uses
+
+
+@njit(cache=True, parallel=True)
+def _shape_extremes(corners, flat_volume, smallest, largest, ratio, valid):  # pragma: no cover - compiled
+    for t in prange(corners.shape[0]):
+        ax, ay, az = corners[t, 0, 0], corners[t, 0, 1], corners[t, 0, 2]
+        ux, uy, uz = corners[t, 1, 0] - ax, corners[t, 1, 1] - ay, corners[t, 1, 2] - az
+        vx, vy, vz = corners[t, 2, 0] - ax, corners[t, 2, 1] - ay, corners[t, 2, 2] - az
+        wx, wy, wz = corners[t, 3, 0] - ax, corners[t, 3, 1] - ay, corners[t, 3, 2] - az
+        bcx, bcy, bcz = vx - ux, vy - uy, vz - uz
+        bdx, bdy, bdz = wx - ux, wy - uy, wz - uz
+        cdx, cdy, cdz = wx - vx, wy - vy, wz - vz
+        n = np.empty((4, 3))
+        n[0, 0], n[0, 1], n[0, 2] = bdy * bcz - bdz * bcy, bdz * bcx - bdx * bcz, bdx * bcy - bdy * bcx
+        n[1, 0], n[1, 1], n[1, 2] = vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx
+        n[2, 0], n[2, 1], n[2, 2] = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
+        n[3, 0], n[3, 1], n[3, 2] = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        norm = np.empty(4)
+        inverse = np.empty(4)
+        for i in range(4):
+            norm[i] = math.sqrt(n[i, 0] * n[i, 0] + n[i, 1] * n[i, 1] + n[i, 2] * n[i, 2])
+            inverse[i] = 1.0 / (norm[i] if norm[i] > 0 else 1.0)
+        largest_cos = smallest_cos = 0.0
+        first = True
+        for i in range(4):
+            for j in range(i + 1, 4):
+                cos = -(n[i, 0] * n[j, 0] + n[i, 1] * n[j, 1] + n[i, 2] * n[j, 2]) * (inverse[i] * inverse[j])
+                if first:
+                    largest_cos = smallest_cos = cos
+                    first = False
+                else:
+                    largest_cos = max(largest_cos, cos)
+                    smallest_cos = min(smallest_cos, cos)
+        lu = math.sqrt(ux * ux + uy * uy + uz * uz)
+        lv = math.sqrt(vx * vx + vy * vy + vz * vz)
+        lw = math.sqrt(wx * wx + wy * wy + wz * wz)
+        lbc = math.sqrt(bcx * bcx + bcy * bcy + bcz * bcz)
+        lbd = math.sqrt(bdx * bdx + bdy * bdy + bdz * bdz)
+        lcd = math.sqrt(cdx * cdx + cdy * cdy + cdz * cdz)
+        p, q, r = lu * lcd, lv * lbd, lw * lbc
+        s = 0.5 * (p + q + r)
+        heron = math.sqrt(max(s * (s - p) * (s - q) * (s - r), 0.0))
+        volume6 = ux * n[1, 0] + uy * n[1, 1] + uz * n[1, 2]
+        denominator = (norm[0] + norm[1] + norm[2] + norm[3]) * heron
+        mean_edge = (lu + lv + lw + lbc + lbd + lcd) / 6.0
+        # the angles are left as cosines: numpy's arccos, as in the array form
+        smallest[t], largest[t] = largest_cos, smallest_cos
+        ratio[t] = 3.0 * (volume6 * volume6) / (denominator if denominator > 0 else 1.0)
+        valid[t] = volume6 > 6.0 * flat_volume * mean_edge**3
+
+
+def shape_extremes(corners: np.ndarray, flat_volume: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smallest and largest dihedral angle (degrees) and radius ratio of (K, 4, 3) ``corners``,
+    ``-1`` for all three where the cell's volume is at most ``flat_volume`` times its mean
+    edge length cubed (inverted or flat): :func:`fepre.distmesh.tet_shape.dihedral_extremes`
+    in one pass."""
+    corners = np.ascontiguousarray(corners, np.float64).reshape(-1, 4, 3)
+    largest_cos, smallest_cos, ratio = (np.empty(len(corners)) for _ in range(3))
+    valid = np.empty(len(corners), bool)
+    if len(corners):
+        _shape_extremes(corners, float(flat_volume), largest_cos, smallest_cos, ratio, valid)
+    smallest = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
+    largest = np.degrees(np.arccos(np.clip(smallest_cos, -1.0, 1.0)))
+    return np.where(valid, smallest, -1.0), np.where(valid, largest, -1.0), np.where(valid, ratio, -1.0)

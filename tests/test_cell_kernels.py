@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fepre._cell_kernels import packed_face_keys, quality_arrays, volume_edge_ratios
+from fepre._cell_kernels import face_uses, packed_face_keys, quality_arrays, volume_edge_ratios
 from fepre.quality import dihedral_angles, signed_volumes, tet_quality
 
 
@@ -67,3 +67,45 @@ def test_packed_face_keys_ignore_vertex_order():
     faces = np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)
     assert (keys == (faces[:, 0] * 1000 + faces[:, 1]) * 1000 + faces[:, 2]).all()
     assert (packed_face_keys(tets[:, [3, 1, 2, 0]], 1000).reshape(-1, 4)[:, [3, 1, 2, 0]].ravel() == keys).all()
+
+
+def test_face_uses_match_a_dictionary_of_faces():
+    """Each face slot's use count and lowest other slot, against a dict of sorted triples, on
+    a Delaunay triangulation (faces in one or two cells) plus a face in three and cells that
+    repeat a face in all four slots."""
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(5)
+    points = rng.random((300, 3))
+    tets = Delaunay(points).simplices.astype(np.int64)
+    tets = np.concatenate([tets, tets[:1, [1, 0, 2, 3]], tets[5:7]])  # face in three, two whole cells twice
+    mate, uses = face_uses(tets, len(points))
+    slots: dict = {}
+    for slot, face in enumerate(np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)):
+        slots.setdefault(tuple(face), []).append(slot)
+    for group in slots.values():
+        for slot in group:
+            others = [other for other in group if other != slot]
+            assert uses[slot] == len(group)
+            assert mate[slot] == (min(others) if others else -1)
+    assert max(len(group) for group in slots.values()) == 3
+    assert face_uses(np.zeros((0, 4), np.int64), 0)[0].shape == (0,)
+
+
+def test_shape_extremes_match_fepre_quality():
+    """The quality stage's one-pass measures against fepre.quality's (independent formulas) on
+    positive cells, and -1 for the flat, inverted and degenerate ones."""
+    from fepre._cell_kernels import shape_extremes
+
+    points, tets = _cells(2)
+    corners = points[tets]
+    smallest, largest, ratio = shape_extremes(corners, 1e-9)
+    reference = tet_quality(points, tets)
+    positive = signed_volumes(points, tets) > 1e-6
+    assert positive.sum() > 900 and (~positive).sum() > 900
+    assert np.allclose(smallest[positive], reference["min_dihedral_angle"][positive], atol=1e-9)
+    assert np.allclose(largest[positive], reference["max_dihedral_angle"][positive], atol=1e-9)
+    assert np.allclose(ratio[positive], reference["radius_ratio"][positive], atol=1e-12)
+    invalid = signed_volumes(points, tets) <= 0
+    assert (smallest[invalid] == -1).all() and (largest[invalid] == -1).all() and (ratio[invalid] == -1).all()
+    assert smallest[:3].tolist() == [-1.0, -1.0, -1.0]  # flat, repeated corner, needle

@@ -161,3 +161,16 @@ def test_quality_stage_keeps_sharp_edges(name):
         mesh = fepre.distmesh(model, h)
     assert_valid_solid(mesh, model, h, volume, 0.025)
     assert mesh["min_dihedral_angle"].min() >= 15.0
+
+
+def test_incidences_find_what_isin_finds():
+    """The selection repair's lookup of cells by edge code or vertex, against ``np.isin``."""
+    from fepre.distmesh.topology import _Incidences
+
+    rng = np.random.default_rng(0)
+    values = rng.integers(0, 50, (300, 6))
+    find = _Incidences(values)
+    for wanted in (np.array([3, 7, 49]), np.zeros(0, np.int64), np.arange(50), np.array([51])):
+        rows, columns = find(wanted)
+        expected_rows, expected_columns = np.nonzero(np.isin(values, wanted))
+        assert rows.tolist() == expected_rows.tolist() and columns.tolist() == expected_columns.tolist()

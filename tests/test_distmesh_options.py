@@ -163,6 +163,10 @@ def test_bars_match_a_set_of_edges():
     expected = {tuple(sorted(pair)) for tet in tets for pair in itertools.combinations(tet, 2)}
     bars = bars_of(tets, len(points))
     assert {tuple(b) for b in bars.tolist()} == expected and len(bars) == len(expected)
+    assert bars.tolist() == sorted([int(a), int(b)] for a, b in expected)  # by first, then second end
+    assert bars_of(np.zeros((0, 4), int), 3).shape == (0, 2)
+    # unused points and repeated cells
+    assert bars_of(np.array([[5, 1, 3, 7], [7, 3, 1, 5]]), 9).tolist() == [[1, 3], [1, 5], [1, 7], [3, 5], [3, 7], [5, 7]]
 
 
 def test_bar_forces_match_a_loop():

@@ -80,7 +80,7 @@ def test_the_loop_line_adds_the_loop_and_the_stages_after_it():
     assert _time_left(history, DistMeshOptions(termination="displacement"), [0.5] * 25, 0.01) == ""
 
 
-@pytest.mark.parametrize("name", ["fepre.distmesh.estimate", "fepre.distmesh.slab_delaunay", "fepre.distmesh.delaunay"])
+@pytest.mark.parametrize("name", ["fepre.distmesh.estimate", "fepre.distmesh.delaunay"])
 def test_docstring_examples_run(name):
     result = doctest.testmod(importlib.import_module(name))
     assert result.failed == 0 and result.attempted > 0

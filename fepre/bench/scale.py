@@ -79,13 +79,8 @@ def _child(kind: str, part: str, h: float) -> dict:
         ratio = float(mesh["radius_ratio"].min())
     else:
         cells, points, worst, ratio = _gmsh_sphere(h, netgen=kind == "gmsh-netgen")
-    from ..distmesh.slab_delaunay import close_worker
-
-    close_worker()  # its time and memory count: a finished child's are in RUSAGE_CHILDREN
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu + children.ru_utime + children.ru_stime
-    # the worker's peak added to this process's: an upper bound of the two together
-    peak = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss + children.ru_maxrss) * 1024
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return dict(kind=kind, part=part, h=h, cells=cells, points=points, wall=wall, cpu=cpu, peak=peak,
                 baseline=baseline, worst=worst, ratio=ratio)
 

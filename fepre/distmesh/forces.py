@@ -8,22 +8,20 @@ __all__ = ["bars_of", "bar_forces"]
 
 
 def bars_of(tets: np.ndarray, n_points: int) -> np.ndarray:
-    """Unique bars (E, 2) of ``tets``, first index < second.
+    """Unique bars (E, 2) of ``tets``, first index < second, sorted.
 
-    Each edge (i, j) is encoded as one int64 ``i * n + j``; one ``np.sort`` and a comparison
-    of neighbours find the unique codes (no per-edge Python work, no argsort).
+    Edges are grouped by their lower end and each group sorted and thinned in place by a
+    compiled kernel (:func:`~fepre.distmesh._bar_kernels.unique_bars`), no per-edge Python work.
 
     Examples
     --------
     >>> bars_of(np.array([[0, 1, 2, 3], [1, 2, 3, 4]]), 5).shape
     (9, 2)
     """
-    from .._cell_kernels import packed_edge_keys
+    from .._cell_kernels import _EDGES
+    from ._bar_kernels import unique_bars
 
-    codes = np.sort(packed_edge_keys(tets, n_points))
-    if len(codes):
-        codes = codes[np.concatenate([[True], codes[1:] != codes[:-1]])]
-    return np.stack([codes // n_points, codes % n_points], axis=1)
+    return unique_bars(tets, n_points, _EDGES)
 
 
 def bar_forces(
@@ -37,22 +35,14 @@ def bar_forces(
 
     ``L0 = hbar * fscale * (sum L^3 / sum hbar^3)^(1/3)``, ``F = max(L0 - L, 0)`` (times
     ``(L + L0) / (2 L0)`` when ``nonlinear``); bars push their ends apart, never pull. Forces are
-    assembled with ``np.bincount``, no per-bar Python work. ``hbars`` None means uniform size.
+    assembled by a compiled loop over the bars (:mod:`._bar_kernels`), in bar order as
+    ``np.bincount`` adds them. ``hbars`` None means uniform size.
     """
-    a = points[ends[:, 0]]
-    vectors = points[ends[:, 1]] - a
-    lengths = np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
+    from ._bar_kernels import assemble_forces, bar_vectors
+
+    vectors, lengths = bar_vectors(points, ends)
     if hbars is None:
         l0 = fscale * np.cbrt(np.mean(lengths**3))
     else:
         l0 = hbars * (fscale * np.cbrt(np.sum(lengths**3) / np.sum(hbars**3)))
-    magnitude = np.maximum(l0 - lengths, 0.0)
-    if nonlinear:
-        magnitude *= (lengths + l0) / (2.0 * l0)
-    scale = magnitude / np.where(lengths > 0, lengths, 1.0)
-    n = points.shape[0]
-    total = np.empty_like(points)
-    for axis in range(3):
-        component = scale * vectors[:, axis]
-        total[:, axis] = np.bincount(ends[:, 1], component, n) - np.bincount(ends[:, 0], component, n)
-    return total, lengths
+    return assemble_forces(ends, vectors, lengths, l0, nonlinear, points.shape[0]), lengths

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .delaunay import loop_tetrahedralize
+from .delaunay import loop_tetrahedralize, resolve_backend, sorted_cells
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
 from .initial_points import evaluate_size
@@ -198,7 +198,6 @@ def iterate(
     converged = False
     last_print = 0.0
     tets = delaunay_tets = np.zeros((0, 4), np.int64)
-    exact = True
     iteration = 0
     scale: np.ndarray | float = h
     iteration_seconds: list[float] = []
@@ -219,8 +218,7 @@ def iterate(
                 order = hilbert_order(p)
                 p, bound, fixed = p[order], bound[order], fixed[order]
             scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
-            spacing = float(np.max(scale)) if local_size is not None else h
-            delaunay_tets, exact = loop_tetrahedralize(p, o.delaunay, h, spacing, o.parallel)
+            delaunay_tets = loop_tetrahedralize(p, o.delaunay, h, o.parallel)
             tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
             t1 = time.perf_counter()
             bars = bars_of(tets, n)
@@ -300,10 +298,6 @@ def iterate(
 
     seconds = time.perf_counter() - start
     moved_since = float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h)
-    if not exact and moved_since < ttol:  # the final mesh would reuse it: if it is a whole triangulation
-        from .slab_delaunay import tiles_hull
-
-        exact = tiles_hull(p_triangulated, delaunay_tets)
     if progress and not converged:
         _print_progress(iteration, p, tets, q, seconds, True)
     return LoopResult(
@@ -315,6 +309,8 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        delaunay_tets=delaunay_tets if exact else None,
+        # the final mesh triangulates with gmsh's default kernel, not the loop's HXT (see
+        # delaunay._gmsh): only Qhull's triangulation is one it would make itself
+        delaunay_tets=sorted_cells(delaunay_tets, len(p)) if resolve_backend(o.delaunay) == "scipy" else None,
         moved_since_delaunay=moved_since,
     )

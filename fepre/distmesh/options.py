@@ -87,12 +87,10 @@ class DistMeshOptions:
         ``gmsh.algorithm.tetrahedralize`` (needs the optional ``gmsh`` package; about 2.5 times
         faster). ``"auto"``: gmsh when it can be imported, scipy otherwise.
     parallel : bool, default True
-        Use the machine's second core for the loop's triangulations of large point sets (gmsh,
-        at least 50,000 points): two overlapping halves at once, one in a worker process
-        (:mod:`fepre.distmesh.slab_delaunay`). The loop runs the same; the final mesh then
-        triangulates its points anew instead of reusing the loop's last triangulation, so the
-        cells may differ slightly (same quality). ``False`` keeps to one process (the compiled
-        quality kernels still use every core numba is allowed).
+        Triangulate on every core fepre may use (``fepre.config.workers``; gmsh's HXT kernel
+        is multithreaded, Qhull is not). The result is the same either way. ``False`` keeps
+        the triangulations on one thread (the compiled quality kernels still use every core
+        numba is allowed).
     seed : int, default 0
         Seed of every random choice (lattice jitter, size rejection); same seed, same mesh.
     slivers : bool, default True

@@ -283,7 +283,7 @@ def relax_round(
         worse = q < allowed[check] - 1e-12
         revert = np.unique(tets[check[worse]])
         if guard is not None:
-            faces, _ = boundary_faces_of_cells(tets, check, boundary_face_keys, n)
+            faces, _ = boundary_faces_of_cells(tets, check, boundary_face_keys, n, on_boundary)
             faces = faces[changed[faces].any(axis=1)]
             refused = ~guard.faces_allowed(points[faces], new_points[faces])
             revert = np.union1d(revert, faces[refused].ravel())

@@ -46,13 +46,18 @@ def _unit(vectors: np.ndarray) -> np.ndarray:
 
 
 def boundary_faces_of_cells(
-    tets: np.ndarray, cells: np.ndarray, boundary_face_keys: np.ndarray, n_points: int
+    tets: np.ndarray, cells: np.ndarray, boundary_face_keys: np.ndarray, n_points: int,
+    boundary_vertices: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The boundary faces among the faces of ``cells`` (indices into ``tets``).
 
-    Returns ``(faces (F, 3), owner (F,))``: the faces oriented outwards (as in
-    :data:`~fepre.distmesh.tet_topology.FACE_OF_TET`) and the index of each one's cell.
+    ``boundary_vertices`` (N,) bool, when given, holds at least every vertex of a boundary
+    face: only faces with three such vertices are looked up (most cells of a large mesh have
+    none on the boundary). Returns ``(faces (F, 3), owner (F,))``: the faces oriented outwards
+    (as in :data:`~fepre.distmesh.tet_topology.FACE_OF_TET`) and the index of each one's cell.
     """
+    if boundary_vertices is not None:
+        cells = cells[boundary_vertices[tets[cells]].sum(axis=1) >= 3]
     corners = tets[cells][:, FACE_OF_TET]  # (K, 4, 3)
     keys = face_keys(corners.reshape(-1, 3), n_points)
     on_surface = in_sorted(keys, boundary_face_keys).reshape(-1, 4)

@@ -93,19 +93,12 @@ def face_neighbours(tets: np.ndarray, n_points: int) -> np.ndarray:
     ValueError
         If a face is shared by more than two tetrahedra (not a manifold mesh).
     """
-    m = tets.shape[0]
-    keys = face_keys(tets[:, FACE_OF_TET].reshape(-1, 3), n_points)
-    order = np.argsort(keys, kind="stable")
-    sorted_keys = keys[order]
-    same = sorted_keys[1:] == sorted_keys[:-1]
-    if np.any(same[1:] & same[:-1]):
+    from .._cell_kernels import face_uses
+
+    mate, uses = face_uses(tets, n_points)
+    if np.any(uses > 2):
         raise ValueError("tets must form a manifold mesh; a face is shared by more than two tetrahedra")
-    neighbours = np.full(4 * m, -1, dtype=np.int64)
-    first = order[:-1][same]
-    second = order[1:][same]
-    neighbours[first] = second // 4
-    neighbours[second] = first // 4
-    return neighbours.reshape(m, 4)
+    return np.where(mate >= 0, mate // 4, -1).reshape(-1, 4)
 
 
 def vertex_stars(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._cell_kernels import packed_face_keys
+from .._cell_kernels import face_uses, packed_face_keys
 from .tet_topology import MAX_PACKED_POINTS
 
 __all__ = ["tet_faces", "boundary_faces", "TopologyReport", "check_topology", "nonmanifold_items", "repair_selection"]
@@ -42,6 +42,15 @@ def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return keys, counts, inverse
 
 
+def _face_numbers(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """A number per face slot ``4 t + i``, the same for the slots of one face, 0..F-1."""
+    mate, _ = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    slot = np.arange(len(mate))
+    lowest = np.where((mate >= 0) & (mate < slot), mate, slot)
+    first = lowest == slot
+    return (np.cumsum(first) - 1)[lowest]
+
+
 def boundary_faces(tets: np.ndarray) -> np.ndarray:
     """Faces used by exactly one tetrahedron, (B, 3), oriented outward.
 
@@ -51,8 +60,8 @@ def boundary_faces(tets: np.ndarray) -> np.ndarray:
     (4, 3)
     """
     oriented = tets[:, _FACES].reshape(-1, 3)
-    _, counts, inverse = tet_faces(tets)
-    return oriented[counts[inverse] == 1]
+    _, uses = face_uses(tets, int(tets.max()) + 1 if len(tets) else 0)
+    return oriented[uses == 1]
 
 
 @dataclass(frozen=True)
@@ -128,13 +137,14 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
     >>> check_topology(np.array([[0, 1, 2, 3]]), 4).ok
     True
     """
-    _, counts, inverse = tet_faces(tets)
-    faces = tets[:, _FACES].reshape(-1, 3)[counts[inverse] == 1]
+    mate, uses = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    faces = tets[:, _FACES].reshape(-1, 3)[uses == 1]
     edges, pinched = nonmanifold_items(faces, n_points)
     used = np.zeros(n_points, bool)
     used[tets.ravel()] = True
     return TopologyReport(
-        overused_faces=int((counts > 2).sum()),
+        # a face's lowest slot has no lower mate: count each overused face once
+        overused_faces=int(((uses > 2) & ((mate < 0) | (mate > np.arange(len(mate))))).sum()),
         nonmanifold_edges=len(edges),
         pinched_vertices=len(pinched),
         unused_points=int((~used).sum()),
@@ -146,14 +156,36 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
 _TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
-def _defect_cells(tets: np.ndarray, edge_codes: np.ndarray, bad_edges: np.ndarray, pinched: np.ndarray, n: np.int64):
+class _Incidences:
+    """Where each value occurs in an (M, k) array (its flat positions, row-major), found by
+    binary search in one sort made up front instead of scanning the array on every call."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.width = values.shape[1]
+        flat = values.ravel()
+        self.order = np.argsort(flat, kind="stable")
+        self.sorted = flat[self.order]
+
+    def __call__(self, wanted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, column) of every occurrence of the ``wanted`` values, in row-major order (as
+        ``np.nonzero(np.isin(values, wanted))``)."""
+        first = np.searchsorted(self.sorted, wanted, side="left")
+        last = np.searchsorted(self.sorted, wanted, side="right")
+        counts = last - first
+        positions = np.repeat(first - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+        flat = np.sort(self.order[positions])
+        return flat // self.width, flat % self.width
+
+
+def _defect_cells(tets: np.ndarray, edge_codes: np.ndarray, bad_edges: np.ndarray, pinched: np.ndarray, n: np.int64,
+                  edges_at: _Incidences, vertices_at: _Incidences):
     """(cell, defect) incidences: the cells holding each bad edge, then each pinched vertex
     (defects numbered edges first); and the defect's vertices, (D, 2) with -1 for a vertex."""
     bad_codes = bad_edges[:, 0].astype(np.int64) * n + bad_edges[:, 1]
     order = np.argsort(bad_codes)
-    edge_cell, edge_slot = np.nonzero(np.isin(edge_codes, bad_codes))
+    edge_cell, edge_slot = edges_at(bad_codes)
     edge_defect = order[np.searchsorted(bad_codes[order], edge_codes[edge_cell, edge_slot])]
-    vertex_cell, vertex_slot = np.nonzero(np.isin(tets, pinched))
+    vertex_cell, vertex_slot = vertices_at(pinched)
     vertex_defect = len(bad_codes) + np.searchsorted(pinched, tets[vertex_cell, vertex_slot])
     items = np.concatenate([bad_edges, np.stack([pinched, np.full(len(pinched), -1)], axis=1)]).astype(np.int64)
     return np.concatenate([edge_cell, vertex_cell]), np.concatenate([edge_defect, vertex_defect]), items
@@ -221,16 +253,19 @@ def repair_selection(
     edge_codes = (np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64) * n
                   + np.maximum(pairs[..., 0], pairs[..., 1]))
     # each cell's four faces numbered once; a round counts the selected cells on each face
-    _, _, inverse = tet_faces(tets)
+    inverse = _face_numbers(tets, n_points)
     slots = inverse.reshape(-1, 4)
     oriented = tets[:, _FACES]
+    edges_at, vertices_at = None, None  # made when the first defect is found
     for round_ in range(rounds):
         uses = np.bincount(slots[selected].ravel(), minlength=int(inverse.max()) + 1 if len(inverse) else 0)
         faces = oriented[(uses[slots] == 1) & selected[:, None]]  # boundary_faces(tets[selected])
         bad_edges, pinched = nonmanifold_items(faces, n_points)
         if len(bad_edges) == 0 and len(pinched) == 0:
             break
-        cell, defect, items = _defect_cells(tets, edge_codes, bad_edges, pinched, n)
+        if edges_at is None:
+            edges_at, vertices_at = _Incidences(edge_codes), _Incidences(tets)
+        cell, defect, items = _defect_cells(tets, edge_codes, bad_edges, pinched, n, edges_at, vertices_at)
         n_defects = len(items)
         inside = selected[cell]
         fill_cost = np.bincount(defect, np.where(inside, 0.0, add_cost[cell]), n_defects)
