@@ -115,17 +115,22 @@ def volume_edge_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(cache=True, inline="always")
+def _sorted3(a, b, c):  # pragma: no cover - compiled
+    if a > b:
+        a, b = b, a
+    if b > c:
+        b, c = c, b
+    if a > b:
+        a, b = b, a
+    return a, b, c
+
+
 @njit(cache=True, parallel=True)
 def _face_keys(tets, faces, n, out):  # pragma: no cover - compiled
     for t in prange(tets.shape[0]):
         for f in range(4):
-            a, b, c = tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]]
-            if a > b:
-                a, b = b, a
-            if b > c:
-                b, c = c, b
-            if a > b:
-                a, b = b, a
+            a, b, c = _sorted3(tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]])
             out[4 * t + f] = (a * n + b) * n + c
 
 
@@ -220,15 +225,8 @@ def packed_edge_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
 def _sorted_faces(tets, faces, lo, mid, hi):  # pragma: no cover - compiled
     for t in prange(tets.shape[0]):
         for f in range(4):
-            a, b, c = tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]]
-            if a > b:
-                a, b = b, a
-            if b > c:
-                b, c = c, b
-            if a > b:
-                a, b = b, a
             slot = 4 * t + f
-            lo[slot], mid[slot], hi[slot] = a, b, c
+            lo[slot], mid[slot], hi[slot] = _sorted3(tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]])
 
 
 @njit(cache=True)
