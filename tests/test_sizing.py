@@ -227,3 +227,19 @@ def test_the_cli_writes_a_size_field_and_meshes_with_it(tmp_path, capsys):
     assert main(["mesh", str(model), "--hmax", "0.1", "-o", str(tmp_path / "c.vtu")]) == 1
     assert "--hmax must be larger than --h" in capsys.readouterr().err
     assert main(["size", str(model), "--hmax", "2", "-o", str(tmp_path / "size.txt")]) == 1
+
+
+def test_a_background_mesh_gives_the_same_field_on_every_call():
+    """Grid nodes on faces between cells: with VTK's threads each thread's cell search decided
+    which cell's size they took, so the field (and the adapted mesh) changed from run to run."""
+    import pyvista as pv
+
+    from fepre.surface.flying_edges import use_smp_threads
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+
+    use_smp_threads(2)
+    background = pv.ImageData(dimensions=(13, 13, 13), spacing=(1 / 12,) * 3).triangulate()
+    background.cell_data["size"] = np.random.default_rng(0).uniform(0.05, 0.2, background.n_cells)
+    fields = [SizeField.from_mesh(background, spacing=1 / 24) for _ in range(5)]
+    assert all(np.array_equal(field.values, fields[0].values) for field in fields)
+    assert vtkSMPTools().GetBackend() == "STDThread"  # put back

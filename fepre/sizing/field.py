@@ -203,7 +203,10 @@ class SizeField:
             carrier.point_data["size"] = sizes
         else:
             carrier.cell_data["size"] = sizes
-        probed = image.sample(carrier)
+        from ..surface.flying_edges import sequential_smp
+
+        with sequential_smp():  # threads made nodes on a face between cells take either cell's size
+            probed = image.sample(carrier)
         values = np.asarray(probed.point_data["size"], dtype=np.float64)
         covered = np.asarray(probed.point_data["vtkValidPointMask"]).astype(bool)
         if not covered.any():

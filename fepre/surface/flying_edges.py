@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from ..config import config
 
-__all__ = ["flying_edges", "use_smp_threads"]
+__all__ = ["flying_edges", "use_smp_threads", "sequential_smp"]
 
 _smp_workers: int | None = None
 
@@ -23,6 +25,25 @@ def use_smp_threads(workers: int | None = None) -> int:
         tools.Initialize(workers)
         _smp_workers = workers
     return workers
+
+
+@contextmanager
+def sequential_smp():
+    """Run the VTK filters inside on one thread (vtkSMPTools' Sequential backend), then put the
+    backend back. For filters whose result depends on how points are shared among threads:
+    probing a mesh at points on a face between two cells gives whichever cell each thread's
+    search met first (a background size field came out different on every run)."""
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+
+    tools = vtkSMPTools()
+    before = tools.GetBackend()
+    tools.SetBackend("Sequential")
+    try:
+        yield
+    finally:
+        tools.SetBackend(before)
+        if before == "STDThread" and _smp_workers is not None:
+            tools.Initialize(_smp_workers)
 
 
 def flying_edges(grid, scalars: str, level: float, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
