@@ -282,6 +282,7 @@ def face_uses(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     mate = np.full(4 * m, -1, np.int64)
     uses = np.ones(4 * m, np.int32)
     if m:
+        n_points = max(int(n_points), int(tets.max()) + 1)  # the groups are indexed by vertex
         small = np.int32 if n_points < 2**31 else np.int64  # the three corners: memory at millions of cells
         lo, mid, hi = (np.empty(4 * m, small) for _ in range(3))
         _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)

@@ -237,7 +237,9 @@ def _star_rounds(model, state: _PointSet, previous, backend: str, h: float, mend
             if not _manifold(tets, len(state.points)):
                 tets = tetrahedralize(state.points, FALLBACK_BACKEND, h)
             if mend_cracks and _cracked(tets, len(state.points)):
-                for candidate in {backend, FALLBACK_BACKEND}:
+                # the backend's first, then Qhull's (a set's order changed with Python's hash seed:
+                # the same part came out at 28.9 or 4.7 deg from one process to the next)
+                for candidate in dict.fromkeys((backend, FALLBACK_BACKEND)):
                     whole = tetrahedralize(state.points, candidate, h, keep_flat=True)
                     if _manifold(whole, len(state.points)):
                         hull = float(np.abs(signed_volumes(state.points, whole)).sum())
