@@ -309,8 +309,8 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        # the final mesh triangulates with gmsh's default kernel, not the loop's HXT (see
-        # delaunay._gmsh): only Qhull's triangulation is one it would make itself
+        # gmsh's final triangulation is made anew (0.3-1.5 s at 100k-440k points): reusing the
+        # loop's last one, as with Qhull, has not been validated with HXT's ties
         delaunay_tets=sorted_cells(delaunay_tets, len(p)) if resolve_backend(o.delaunay) == "scipy" else None,
         moved_since_delaunay=moved_since,
     )
