@@ -118,6 +118,7 @@ def unique_bars(tets: np.ndarray, n_points: int, edges: np.ndarray) -> np.ndarra
     pass) and each group of a few dozen sorted in place, instead of one sort of all ``6 M``."""
     if len(tets) == 0:
         return np.zeros((0, 2), np.int64)
+    n_points = max(int(n_points), int(tets.max()) + 1)  # the groups are indexed by vertex
     start, other = _edges_by_lowest(np.ascontiguousarray(tets, np.int64), edges, np.int64(n_points))
     unique = np.empty(n_points, np.int64)
     _dedupe_buckets(start, other, unique, 4 * get_num_threads())

@@ -93,7 +93,7 @@ class FeatureProtection:
         return index, moved
 
 
-#: Largest dense voxel grid of :class:`_VoxelFilter` (bytes); above it, sorted voxel codes.
+#: Most voxels of :class:`_VoxelFilter`'s dense grid (one byte each); above it, sorted voxel codes.
 _DENSE_VOXELS = 1 << 24
 
 
@@ -122,11 +122,12 @@ class _VoxelFilter:
         self.shape = cells.max(axis=0) + 3
         around = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
         cells = (cells[:, None, :] + around[None]).reshape(-1, 3)
-        self.marked = None
+        self.marked = self.codes = None
         if np.prod(self.shape) <= _DENSE_VOXELS:
             self.marked = np.zeros(tuple(self.shape), dtype=np.bool_)
             self.marked[cells[:, 0], cells[:, 1], cells[:, 2]] = True
-        self.codes = np.unique(self._code(cells))
+        else:
+            self.codes = np.unique(self._code(cells))
 
     def _code(self, cells: np.ndarray) -> np.ndarray:
         return (cells[:, 0] * self.shape[1] + cells[:, 1]) * self.shape[2] + cells[:, 2]

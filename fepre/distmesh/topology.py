@@ -44,7 +44,7 @@ def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _face_numbers(tets: np.ndarray, n_points: int) -> np.ndarray:
     """A number per face slot ``4 t + i``, the same for the slots of one face, 0..F-1."""
-    mate, _ = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    mate, _ = face_uses(tets, n_points)
     slot = np.arange(len(mate))
     lowest = np.where((mate >= 0) & (mate < slot), mate, slot)
     first = lowest == slot
@@ -60,7 +60,7 @@ def boundary_faces(tets: np.ndarray) -> np.ndarray:
     (4, 3)
     """
     oriented = tets[:, _FACES].reshape(-1, 3)
-    _, uses = face_uses(tets, int(tets.max()) + 1 if len(tets) else 0)
+    _, uses = face_uses(tets, 0)  # sized from the cells
     return oriented[uses == 1]
 
 
@@ -137,7 +137,7 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
     >>> check_topology(np.array([[0, 1, 2, 3]]), 4).ok
     True
     """
-    mate, uses = face_uses(tets, max(n_points, int(tets.max()) + 1 if len(tets) else 0))
+    mate, uses = face_uses(tets, n_points)
     faces = tets[:, _FACES].reshape(-1, 3)[uses == 1]
     edges, pinched = nonmanifold_items(faces, n_points)
     used = np.zeros(n_points, bool)
