@@ -8,7 +8,7 @@ import numpy as np
 
 from ..arguments import evaluate_size
 
-__all__ = ["lattice", "initial_points", "evaluate_size", "surface_points"]
+__all__ = ["lattice", "initial_points", "evaluate_size", "surface_points", "snapped_layer", "boundary_layer_points", "ALIGNED_DEGREES"]
 
 # lattice constant (cube side) per unit edge length, chosen so that every lattice has about
 # the point density of a regular-ish tetrahedral mesh with edges h (1.4 points per h^3)
@@ -18,6 +18,11 @@ _BASIS = {
     "bcc": np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]),
     "fcc": np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]]),
 }
+# half the spacing of a lattice's layers across an axis, per lattice constant: a slab this far
+# either side of a surface holds one layer of points where the surface follows the lattice
+_HALF_LAYER = {"cubic": 0.5, "bcc": 0.25, "fcc": 0.25}
+#: A flat face whose normal is within this angle of an axis gets the lattice's own layer.
+ALIGNED_DEGREES = 2.0
 
 
 def lattice(lower: np.ndarray, upper: np.ndarray, h: float, distribution: str) -> np.ndarray:
@@ -37,6 +42,16 @@ def lattice(lower: np.ndarray, upper: np.ndarray, h: float, distribution: str) -
     return points[inside]
 
 
+def _crowded(points: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of the later point of every pair closer than ``radius``."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    crowded = np.zeros(len(points), bool)
+    crowded[pairs.max(axis=1) if len(pairs) else []] = True
+    return crowded
+
+
 def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -> np.ndarray:
     """Points on the zero set about ``h`` apart: ``candidates`` (lattice points near the
     surface) are projected, one is kept per cube of side ``1.1 h`` (the one nearest the cube's
@@ -45,8 +60,6 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
     """
     if len(candidates) == 0:
         return candidates
-    from scipy.spatial import cKDTree
-
     projected = model.project(candidates, iterations=8, tol=1e-6 * h, warn=False)
     projected = projected[np.abs(model(projected)) < 1e-3 * h]
     if len(projected) == 0:
@@ -66,16 +79,82 @@ def surface_points(model, candidates: np.ndarray, lower: np.ndarray, h: float) -
     order = np.lexsort((offset, codes))
     _, first = np.unique(codes[order], return_index=True)
     surface = projected[np.sort(order[first])]
-    pairs = cKDTree(surface).query_pairs(0.5 * h, output_type="ndarray")
-    keep = np.ones(len(surface), bool)
-    keep[pairs.max(axis=1) if len(pairs) else []] = False
-    return surface[keep]
+    return surface[~_crowded(surface, 0.5 * h)]
+
+
+def snapped_layer(model, candidates: np.ndarray, h: float) -> np.ndarray:
+    """``candidates`` (a lattice's points within half a layer spacing of the surface) projected
+    onto the zero set; of any pair closer than ``h/2`` the later is dropped."""
+    if len(candidates) == 0:
+        return candidates
+    projected = model.project(candidates, iterations=8, tol=1e-6 * h, warn=False)
+    projected = projected[np.abs(model(projected)) < 1e-3 * h]
+    return projected[~_crowded(projected, 0.5 * h)]
+
+
+def _flat_along_axis(model, points: np.ndarray, gradient: np.ndarray, length: np.ndarray, h: float) -> np.ndarray:
+    """Mask of ``points`` where the surface faces along an axis (the unit ``gradient`` within
+    ``ALIGNED_DEGREES`` of it) over ``h`` either way across it: a flat face, not the strip of a
+    cylinder along an axis where its normal passes the axis (there snapped points stack in
+    columns along the generators, and the cells between the columns are slivers)."""
+    cosine = np.cos(np.radians(ALIGNED_DEGREES))
+    axis = np.argmax(np.abs(gradient), axis=1)
+    rows = np.arange(len(points))
+    sign = np.sign(gradient[rows, axis])
+    flat = np.abs(gradient[rows, axis]) > cosine * length
+    for turn in (1, 2):
+        for step in (-h, h):
+            candidates = np.flatnonzero(flat)
+            shifted = points[candidates].copy()
+            shifted[np.arange(len(candidates)), (axis[candidates] + turn) % 3] += step
+            _, there = model.value_and_gradient(shifted)
+            along = there[np.arange(len(candidates)), axis[candidates]] * sign[candidates]
+            flat[candidates] = along > cosine * np.linalg.norm(there, axis=1)
+    return flat
+
+
+def boundary_layer_points(model, points: np.ndarray, values: np.ndarray, lower: np.ndarray, h: float,
+                          distribution: str) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the surface for a lattice of edge ``h``, and the mask of the lattice ``points``
+    (model ``values``) kept inside.
+
+    On a flat face along an axis (:func:`_flat_along_axis`) the lattice's layer nearest the
+    surface is snapped onto it (:func:`snapped_layer`) and the next layer is kept: the cells
+    between them are the lattice's own regular ones. Points picked one per cube
+    (:func:`surface_points`) sit right over the next layer in places and start the loop with
+    flat cells along every such face: a box with 20 holes at 200k cells started at a mean
+    volume-edge ratio of 0.83 and took 80 iterations, against 0.88 and 42 with its faces
+    snapped. Elsewhere a snapped layer is too sparse (one point per ``a^2`` for the lattice
+    constant ``a``, against the 1.4 of equilateral triangles of side ``h``: concave walls were
+    bridged) and stacks in columns on a cylinder along an axis, so :func:`surface_points` places
+    the surface's points, over lattice points deeper than ``h/2``.
+    """
+    half = _HALF_LAYER[distribution] * _CELL[distribution] * h
+    band = np.abs(values) < h
+    shallow = (values > -0.5 * h) & (values <= -half)
+    look = np.flatnonzero(band | shallow)
+    aligned = np.zeros(len(points), bool)
+    next_layer = np.zeros(len(points), bool)
+    if len(look):
+        _, gradient = model.value_and_gradient(points[look])
+        length = np.maximum(np.linalg.norm(gradient, axis=1), 1e-300)
+        aligned[look] = _flat_along_axis(model, points[look], gradient, length, h)
+        # the next layer, but for walls thinner than about 1.5 h, which keep one cell across as
+        # elsewhere: there a point half an h further in is not deeper by a quarter h
+        under = np.flatnonzero(aligned[look] & shallow[look])
+        further = points[look[under]] - 0.5 * h * gradient[under] / length[under, None]
+        next_layer[look[under]] = model(further) <= values[look[under]] - 0.25 * h
+    snapped = snapped_layer(model, points[aligned & (np.abs(values) < half)], h)
+    placed = surface_points(model, points[band & ~aligned], lower, h)
+    surface = np.concatenate([snapped, placed])
+    inside = (values < -0.5 * h) | next_layer
+    return surface[~_crowded(surface, 0.5 * h)], inside
 
 
 def _graded_points(model, lower, upper, h, distribution, geps, jitter, field, rng, boundary_layer) -> np.ndarray:
     """Initial points for a size field: an octave lattice (:mod:`.graded_lattice`) thinned to
-    density ``1 / size^3``; with ``boundary_layer``, surface points per octave at density
-    ``1 / size^2`` and lattice points deeper than half the local size."""
+    density ``1 / size^3``; with ``boundary_layer``, each octave's surface points
+    (:func:`boundary_layer_points`) at density ``1 / size^2`` and the lattice points it keeps inside."""
     from .graded_lattice import graded_lattice
 
     points, octave, at = graded_lattice(field, lower, upper, h, _CELL[distribution], _BASIS[distribution])
@@ -86,13 +165,15 @@ def _graded_points(model, lower, upper, h, distribution, geps, jitter, field, rn
         keep = (values < geps) & (rng.random(len(points)) < (octave / at) ** 3)
         return points[keep]
     chunks = []
+    deep = np.zeros(len(points), bool)
     for size in np.unique(octave):
-        mine = (octave == size) & (np.abs(values) < size)
-        surface = surface_points(model, points[mine], lower, size)
+        mine = np.flatnonzero(octave == size)
+        surface, inside = boundary_layer_points(model, points[mine], values[mine], lower, size, distribution)
+        deep[mine[inside]] = True
         if len(surface):
             local = field(surface)
             chunks.append(surface[rng.random(len(surface)) < np.minimum(1.0, (size / local) ** 2)])
-    deep = (values < -0.5 * octave) & (rng.random(len(points)) < (octave / at) ** 3)
+    deep &= rng.random(len(points)) < (octave / at) ** 3
     chunks.append(points[deep])
     return np.concatenate(chunks)
 
@@ -117,8 +198,8 @@ def initial_points(
     (Persson's rejection), so the edge length where ``size`` is smallest is ``h``; with
     ``absolute`` (a size field in world units, never below ``h``) with probability
     ``h^3 / size^3``, so edges are about ``size`` everywhere. Lattice points
-    closer than ``h/2`` to a fixed point are dropped. With ``boundary_layer`` the lattice keeps
-    only points deeper than ``h/2`` and the surface gets its own points (:func:`surface_points`).
+    closer than ``h/2`` to a fixed point are dropped. With ``boundary_layer`` the surface gets its
+    own points (:func:`boundary_layer_points`).
     """
     from ..sizing import SizeField
 
@@ -132,8 +213,8 @@ def initial_points(
             points = points + rng.uniform(-jitter * h, jitter * h, size=points.shape)
         values = model(points) if len(points) else np.zeros(0)
         if boundary_layer:
-            surface = surface_points(model, points[np.abs(values) < h], lower, h)
-            points = np.concatenate([surface, points[values < -0.5 * h]])
+            surface, inside = boundary_layer_points(model, points, values, lower, h, distribution)
+            points = np.concatenate([surface, points[inside]])
             dimension = np.concatenate([np.full(len(surface), 2.0), np.full(len(points) - len(surface), 3.0)])
         else:
             points = points[values < geps]

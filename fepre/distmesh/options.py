@@ -53,7 +53,8 @@ class DistMeshOptions:
         the co-sphericity of the cubic and fcc lattices.
     boundary_layer : bool, default True
         Start with points on the zero set about ``h`` apart and the lattice cleared to a depth
-        of ``h/2`` beneath them, instead of the reference's lattice points with sdf < geps
+        of ``h/2`` beneath them (on flat faces along an axis: the lattice's own layer moved onto
+        the face, over the next one), instead of the reference's lattice points with sdf < geps
         (which leave the surface under-populated: its points must first flow out of the
         interior, costing many iterations and retriangulations).
     nonlinear : bool, default False
