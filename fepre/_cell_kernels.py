@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numba
 from numba import njit, prange
 
 __all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes",
@@ -230,21 +231,32 @@ def _sorted_faces(tets, faces, lo, mid, hi):  # pragma: no cover - compiled
             lo[slot], mid[slot], hi[slot] = _sorted3(tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]])
 
 
-@njit(cache=True)
-def _bucket_by_lowest(lo, mid, hi, n_points):  # pragma: no cover - compiled
+@njit(cache=True, parallel=True)
+def _bucket_by_lowest(lo, mid, hi, n_points, chunks):  # pragma: no cover - compiled
+    # a stable counting sort by lowest vertex: each chunk of slots counts, then fills, its own
+    # share of every bucket (the same result for any number of chunks)
+    m = lo.shape[0]
+    size = (m + chunks - 1) // chunks
+    fill = np.zeros((chunks, n_points), np.int64)
+    for c in prange(chunks):
+        for slot in range(c * size, min(m, (c + 1) * size)):
+            fill[c, lo[slot]] += 1
     start = np.zeros(n_points + 1, np.int64)
-    for slot in range(lo.shape[0]):
-        start[lo[slot] + 1] += 1
     for v in range(n_points):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    key = np.empty(lo.shape[0], np.int64)
-    slots = np.empty(lo.shape[0], np.int64)
-    for slot in range(lo.shape[0]):  # ascending slots within each bucket
-        position = fill[lo[slot]]
-        key[position] = np.int64(mid[slot]) * n_points + hi[slot]
-        slots[position] = slot
-        fill[lo[slot]] += 1
+        total = start[v]
+        for c in range(chunks):
+            count = fill[c, v]
+            fill[c, v] = total
+            total += count
+        start[v + 1] = total
+    key = np.empty(m, np.int64)
+    slots = np.empty(m, np.int64)
+    for c in prange(chunks):
+        for slot in range(c * size, min(m, (c + 1) * size)):  # ascending slots within each bucket
+            position = fill[c, lo[slot]]
+            key[position] = np.int64(mid[slot]) * n_points + hi[slot]
+            slots[position] = slot
+            fill[c, lo[slot]] = position + 1
     return start, key, slots
 
 
@@ -287,7 +299,7 @@ def face_uses(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
         small = np.int32 if n_points < 2**31 else np.int64  # the three corners: memory at millions of cells
         lo, mid, hi = (np.empty(4 * m, small) for _ in range(3))
         _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)
-        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points))
+        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points), np.int64(numba.get_num_threads()))
         del lo, mid, hi
         _match(start, key, slots, mate, uses)
     return mate, uses

@@ -140,3 +140,31 @@ def test_ideal_positions_match_the_array_form_bit_for_bit():
     regular = np.vstack([base[:3], apex])
     edges = np.linalg.norm(regular[:, None] - regular[None], axis=2)[np.triu_indices(4, 1)]
     assert np.allclose(edges, 1.0, atol=1e-12)
+
+
+def test_the_counting_passes_give_the_same_groups_for_any_number_of_chunks():
+    """The face and edge groupings count and fill per chunk of cells on every core: their
+    output (a stable counting sort) must not depend on how many chunks there are."""
+    from scipy.spatial import Delaunay
+
+    from fepre._cell_kernels import _FACES, _bucket_by_lowest, _sorted_faces
+    from fepre.distmesh._bar_kernels import _edges_by_lowest
+    from fepre._cell_kernels import _EDGES as EDGES
+
+    points = np.random.default_rng(5).random((3000, 3))
+    tets = Delaunay(points).simplices.astype(np.int64)
+    n = np.int64(len(points))
+    lo, mid, hi = (np.empty(4 * len(tets), np.int32) for _ in range(3))
+    _sorted_faces(tets, _FACES, lo, mid, hi)
+    faces = [_bucket_by_lowest(lo, mid, hi, n, np.int64(chunks)) for chunks in (1, 2, 7, 64)]
+    edges = [_edges_by_lowest(tets, np.asarray(EDGES, np.int64), n, np.int64(chunks)) for chunks in (1, 2, 7, 64)]
+    for start, key, slots in faces[1:]:
+        for found, expected in zip((start, key, slots), faces[0]):
+            np.testing.assert_array_equal(found, expected)
+    for start, other in edges[1:]:
+        np.testing.assert_array_equal(start, edges[0][0])
+        np.testing.assert_array_equal(other, edges[0][1])
+    # the serial definition: slots in ascending order within each lowest vertex
+    start, key, slots = faces[0]
+    np.testing.assert_array_equal(slots, np.argsort(lo, kind="stable"))
+    np.testing.assert_array_equal(start, np.concatenate([[0], np.cumsum(np.bincount(lo, minlength=len(points)))]))
