@@ -10,9 +10,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numba
 from numba import njit, prange
 
-__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes"]
+__all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes",
+           "ideal_positions"]
 
 # faces opposite vertex 0..3 (outward for a positive cell); the two faces at edges 01 02 03 12 13 23
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -229,21 +231,32 @@ def _sorted_faces(tets, faces, lo, mid, hi):  # pragma: no cover - compiled
             lo[slot], mid[slot], hi[slot] = _sorted3(tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]])
 
 
-@njit(cache=True)
-def _bucket_by_lowest(lo, mid, hi, n_points):  # pragma: no cover - compiled
+@njit(cache=True, parallel=True)
+def _bucket_by_lowest(lo, mid, hi, n_points, chunks):  # pragma: no cover - compiled
+    # a stable counting sort by lowest vertex: each chunk of slots counts, then fills, its own
+    # share of every bucket (the same result for any number of chunks)
+    m = lo.shape[0]
+    size = (m + chunks - 1) // chunks
+    fill = np.zeros((chunks, n_points), np.int64)
+    for c in prange(chunks):
+        for slot in range(c * size, min(m, (c + 1) * size)):
+            fill[c, lo[slot]] += 1
     start = np.zeros(n_points + 1, np.int64)
-    for slot in range(lo.shape[0]):
-        start[lo[slot] + 1] += 1
     for v in range(n_points):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    key = np.empty(lo.shape[0], np.int64)
-    slots = np.empty(lo.shape[0], np.int64)
-    for slot in range(lo.shape[0]):  # ascending slots within each bucket
-        position = fill[lo[slot]]
-        key[position] = np.int64(mid[slot]) * n_points + hi[slot]
-        slots[position] = slot
-        fill[lo[slot]] += 1
+        total = start[v]
+        for c in range(chunks):
+            count = fill[c, v]
+            fill[c, v] = total
+            total += count
+        start[v + 1] = total
+    key = np.empty(m, np.int64)
+    slots = np.empty(m, np.int64)
+    for c in prange(chunks):
+        for slot in range(c * size, min(m, (c + 1) * size)):  # ascending slots within each bucket
+            position = fill[c, lo[slot]]
+            key[position] = np.int64(mid[slot]) * n_points + hi[slot]
+            slots[position] = slot
+            fill[c, lo[slot]] = position + 1
     return start, key, slots
 
 
@@ -286,7 +299,7 @@ def face_uses(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
         small = np.int32 if n_points < 2**31 else np.int64  # the three corners: memory at millions of cells
         lo, mid, hi = (np.empty(4 * m, small) for _ in range(3))
         _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)
-        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points))
+        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points), np.int64(numba.get_num_threads()))
         del lo, mid, hi
         _match(start, key, slots, mate, uses)
     return mate, uses
@@ -354,3 +367,60 @@ def shape_extremes(corners: np.ndarray, flat_volume: float) -> tuple[np.ndarray,
     smallest = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
     largest = np.degrees(np.arccos(np.clip(smallest_cos, -1.0, 1.0)))
     return np.where(valid, smallest, -1.0), np.where(valid, largest, -1.0), np.where(valid, ratio, -1.0)
+
+
+@njit(cache=True, parallel=True)
+def _ideal(points, tets, third_height, out):  # pragma: no cover - compiled
+    for t in prange(tets.shape[0]):
+        a0, a1, a2 = points[tets[t, 0], 0], points[tets[t, 0], 1], points[tets[t, 0], 2]
+        b0, b1, b2 = points[tets[t, 1], 0], points[tets[t, 1], 1], points[tets[t, 1], 2]
+        c0, c1, c2 = points[tets[t, 2], 0], points[tets[t, 2], 1], points[tets[t, 2], 2]
+        d0, d1, d2 = points[tets[t, 3], 0], points[tets[t, 3], 1], points[tets[t, 3], 2]
+        u0, u1, u2 = b0 - a0, b1 - a1, b2 - a2
+        v0, v1, v2 = c0 - a0, c1 - a1, c2 - a2
+        w0, w1, w2 = d0 - a0, d1 - a1, d2 - a2
+        bc0, bc1, bc2 = v0 - u0, v1 - u1, v2 - u2
+        bd0, bd1, bd2 = w0 - u0, w1 - u1, w2 - u2
+        cd0, cd1, cd2 = w0 - v0, w1 - v1, w2 - v2
+        lu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        lv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        lw = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        lbc = math.sqrt(bc0 * bc0 + bc1 * bc1 + bc2 * bc2)
+        lbd = math.sqrt(bd0 * bd0 + bd1 * bd1 + bd2 * bd2)
+        lcd = math.sqrt(cd0 * cd0 + cd1 * cd1 + cd2 * cd2)
+        total0, total1, total2 = a0 + b0 + c0 + d0, a1 + b1 + c1 + d1, a2 + b2 + c2 + d2
+        for i in range(4):
+            # the face opposite vertex i: its mean edge and its normal towards vertex i
+            if i == 0:
+                mean = lbc + lbd + lcd
+                n0, n1, n2 = bd1 * bc2 - bd2 * bc1, bd2 * bc0 - bd0 * bc2, bd0 * bc1 - bd1 * bc0
+                p0, p1, p2 = a0, a1, a2
+            elif i == 1:
+                mean = lv + lw + lcd
+                n0, n1, n2 = v1 * w2 - v2 * w1, v2 * w0 - v0 * w2, v0 * w1 - v1 * w0
+                p0, p1, p2 = b0, b1, b2
+            elif i == 2:
+                mean = lu + lw + lbd
+                n0, n1, n2 = w1 * u2 - w2 * u1, w2 * u0 - w0 * u2, w0 * u1 - w1 * u0
+                p0, p1, p2 = c0, c1, c2
+            else:
+                mean = lu + lv + lbc
+                n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+                p0, p1, p2 = d0, d1, d2
+            norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            scale = third_height * mean / (norm if norm > 0 else 1.0)
+            out[i, 0, t] = (total0 - p0) / 3.0 + scale * n0
+            out[i, 1, t] = (total1 - p1) / 3.0 + scale * n1
+            out[i, 2, t] = (total2 - p2) / 3.0 + scale * n2
+
+
+def ideal_positions(points: np.ndarray, tets: np.ndarray, height: float) -> np.ndarray:
+    """For each cell and vertex, where that vertex would make the cell regular: (4, 3, M).
+
+    Entry ``[i, :, k]`` is the point above the centroid of the face of cell ``k`` opposite its
+    vertex ``i``, on the vertex's side, ``height`` times that face's mean edge length above it
+    (:func:`fepre.distmesh.tet_shape.ideal_vertex_positions`)."""
+    out = np.empty((4, 3, len(tets)))
+    if len(tets):
+        _ideal(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), float(height) / 3.0, out)
+    return out

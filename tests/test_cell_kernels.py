@@ -109,3 +109,62 @@ def test_shape_extremes_match_fepre_quality():
     invalid = signed_volumes(points, tets) <= 0
     assert (smallest[invalid] == -1).all() and (largest[invalid] == -1).all() and (ratio[invalid] == -1).all()
     assert smallest[:3].tolist() == [-1.0, -1.0, -1.0]  # flat, repeated corner, needle
+
+
+def test_ideal_positions_match_the_array_form_bit_for_bit():
+    """The relaxation's targets: the compiled pass against the array formulas it replaced (the
+    same operations in the same order), on random, flat and degenerate cells; and each target
+    makes its cell regular when moved there (a regular base stays regular)."""
+    from fepre.distmesh.tet_shape import REGULAR_HEIGHT, ideal_vertex_positions
+
+    points, tets = _cells(3)
+    corners = points[tets]
+    a, b, c, d = (corners[:, i].T for i in range(4))
+    u, v, w = b - a, c - a, d - a
+    bc, bd, cd = v - u, w - u, w - v
+    length = [np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) for e in (u, v, w, bc, bd, cd)]
+    lu, lv, lw, lbc, lbd, lcd = length
+    mean_edge = ((lbc + lbd + lcd), (lv + lw + lcd), (lu + lw + lbd), (lu + lv + lbc))
+    normals = (np.cross(bd.T, bc.T).T, np.cross(v.T, w.T).T, np.cross(w.T, u.T).T, np.cross(u.T, v.T).T)
+    total = a + b + c + d
+    expected = np.empty((4, 3, len(tets)))
+    for i, corner in enumerate((a, b, c, d)):
+        n = normals[i]
+        norm = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        expected[i] = (total - corner) / 3.0 + (REGULAR_HEIGHT / 3.0) * mean_edge[i] / np.where(norm > 0, norm, 1.0) * n
+    found = ideal_vertex_positions(points, tets)
+    assert np.allclose(found, expected, rtol=0, atol=1e-12)
+    assert np.isfinite(found).all()
+    base = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, np.sqrt(3) / 2, 0.0], [0.2, 0.3, 0.05]])
+    apex = ideal_vertex_positions(base, np.array([[0, 1, 2, 3]]))[3, :, 0]
+    regular = np.vstack([base[:3], apex])
+    edges = np.linalg.norm(regular[:, None] - regular[None], axis=2)[np.triu_indices(4, 1)]
+    assert np.allclose(edges, 1.0, atol=1e-12)
+
+
+def test_the_counting_passes_give_the_same_groups_for_any_number_of_chunks():
+    """The face and edge groupings count and fill per chunk of cells on every core: their
+    output (a stable counting sort) must not depend on how many chunks there are."""
+    from scipy.spatial import Delaunay
+
+    from fepre._cell_kernels import _FACES, _bucket_by_lowest, _sorted_faces
+    from fepre.distmesh._bar_kernels import _edges_by_lowest
+    from fepre._cell_kernels import _EDGES as EDGES
+
+    points = np.random.default_rng(5).random((3000, 3))
+    tets = Delaunay(points).simplices.astype(np.int64)
+    n = np.int64(len(points))
+    lo, mid, hi = (np.empty(4 * len(tets), np.int32) for _ in range(3))
+    _sorted_faces(tets, _FACES, lo, mid, hi)
+    faces = [_bucket_by_lowest(lo, mid, hi, n, np.int64(chunks)) for chunks in (1, 2, 7, 64)]
+    edges = [_edges_by_lowest(tets, np.asarray(EDGES, np.int64), n, np.int64(chunks)) for chunks in (1, 2, 7, 64)]
+    for start, key, slots in faces[1:]:
+        for found, expected in zip((start, key, slots), faces[0]):
+            np.testing.assert_array_equal(found, expected)
+    for start, other in edges[1:]:
+        np.testing.assert_array_equal(start, edges[0][0])
+        np.testing.assert_array_equal(other, edges[0][1])
+    # the serial definition: slots in ascending order within each lowest vertex
+    start, key, slots = faces[0]
+    np.testing.assert_array_equal(slots, np.argsort(lo, kind="stable"))
+    np.testing.assert_array_equal(start, np.concatenate([[0], np.cumsum(np.bincount(lo, minlength=len(points)))]))

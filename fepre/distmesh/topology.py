@@ -59,9 +59,15 @@ def boundary_faces(tets: np.ndarray) -> np.ndarray:
     >>> boundary_faces(np.array([[0, 1, 2, 3]])).shape
     (4, 3)
     """
-    oriented = tets[:, _FACES].reshape(-1, 3)
     _, uses = face_uses(tets, 0)  # sized from the cells
-    return oriented[uses == 1]
+    return _faces_used_once(tets, uses)
+
+
+def _faces_used_once(tets: np.ndarray, uses: np.ndarray) -> np.ndarray:
+    """The faces of the slots used once, oriented as in their cells (only those are copied: all
+    ``4 M`` faces took 0.27 s at 3.1M cells)."""
+    slot = np.flatnonzero(uses == 1)
+    return tets[(slot // 4)[:, None], _FACES[slot % 4]]
 
 
 @dataclass(frozen=True)
@@ -138,7 +144,7 @@ def check_topology(tets: np.ndarray, n_points: int) -> TopologyReport:
     True
     """
     mate, uses = face_uses(tets, n_points)
-    faces = tets[:, _FACES].reshape(-1, 3)[uses == 1]
+    faces = _faces_used_once(tets, uses)
     edges, pinched = nonmanifold_items(faces, n_points)
     used = np.zeros(n_points, bool)
     used[tets.ravel()] = True
