@@ -231,6 +231,22 @@ def _sorted_faces(tets, faces, lo, mid, hi):  # pragma: no cover - compiled
             lo[slot], mid[slot], hi[slot] = _sorted3(tets[t, faces[f, 0]], tets[t, faces[f, 1]], tets[t, faces[f, 2]])
 
 
+@njit(cache=True)
+def chunk_offsets(fill):  # pragma: no cover - compiled
+    """Turn per-chunk counts ``fill[c, v]`` of a counting sort into each chunk's first position
+    in group ``v`` (in place); returns the groups' starts (n + 1,)."""
+    chunks, n_points = fill.shape
+    start = np.zeros(n_points + 1, np.int64)
+    for v in range(n_points):
+        total = start[v]
+        for c in range(chunks):
+            count = fill[c, v]
+            fill[c, v] = total
+            total += count
+        start[v + 1] = total
+    return start
+
+
 @njit(cache=True, parallel=True)
 def _bucket_by_lowest(lo, mid, hi, n_points, chunks):  # pragma: no cover - compiled
     # a stable counting sort by lowest vertex: each chunk of slots counts, then fills, its own
@@ -241,14 +257,7 @@ def _bucket_by_lowest(lo, mid, hi, n_points, chunks):  # pragma: no cover - comp
     for c in prange(chunks):
         for slot in range(c * size, min(m, (c + 1) * size)):
             fill[c, lo[slot]] += 1
-    start = np.zeros(n_points + 1, np.int64)
-    for v in range(n_points):
-        total = start[v]
-        for c in range(chunks):
-            count = fill[c, v]
-            fill[c, v] = total
-            total += count
-        start[v + 1] = total
+    start = chunk_offsets(fill)
     key = np.empty(m, np.int64)
     slots = np.empty(m, np.int64)
     for c in prange(chunks):

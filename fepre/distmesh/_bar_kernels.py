@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import get_num_threads, njit, prange
 
+from .._cell_kernels import chunk_offsets
+
 __all__ = ["bar_vectors", "assemble_forces", "unique_bars"]
 
 
@@ -71,14 +73,7 @@ def _edges_by_lowest(tets, edges, n_points, chunks):  # pragma: no cover - compi
         for t in range(c * size, min(m, (c + 1) * size)):
             for e in range(6):
                 fill[c, min(tets[t, edges[e, 0]], tets[t, edges[e, 1]])] += 1
-    start = np.zeros(n_points + 1, np.int64)
-    for v in range(n_points):
-        total = start[v]
-        for c in range(chunks):
-            count = fill[c, v]
-            fill[c, v] = total
-            total += count
-        start[v + 1] = total
+    start = chunk_offsets(fill)
     other = np.empty(start[n_points], np.int64)
     for c in prange(chunks):
         for t in range(c * size, min(m, (c + 1) * size)):

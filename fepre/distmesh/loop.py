@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .delaunay import loop_tetrahedralize, resolve_backend, sorted_cells
+from .delaunay import loop_tetrahedralize, sorted_cells
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
 from .initial_points import evaluate_size
@@ -309,8 +309,6 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        # gmsh's final triangulation is made anew (0.3-1.5 s at 100k-440k points): reusing the
-        # loop's last one, as with Qhull, has not been validated with HXT's ties
-        delaunay_tets=sorted_cells(delaunay_tets, len(p)) if resolve_backend(o.delaunay) == "scipy" else None,
+        delaunay_tets=sorted_cells(delaunay_tets, len(p)),
         moved_since_delaunay=moved_since,
     )
