@@ -168,3 +168,14 @@ def test_the_counting_passes_give_the_same_groups_for_any_number_of_chunks():
     start, key, slots = faces[0]
     np.testing.assert_array_equal(slots, np.argsort(lo, kind="stable"))
     np.testing.assert_array_equal(start, np.concatenate([[0], np.cumsum(np.bincount(lo, minlength=len(points)))]))
+
+
+def test_corner_volumes_match_the_array_form_bit_for_bit():
+    from fepre._cell_kernels import corner_volumes
+    from fepre.distmesh.tet_shape import signed_volume
+
+    points, tets = _cells(4)
+    np.testing.assert_array_equal(corner_volumes(points, tets), signed_volume(points[tets]))
+    assert corner_volumes(points, tets)[:2].tolist() == [0.0, 0.0]  # flat, repeated corner
+    unit = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    assert corner_volumes(unit, np.array([[0, 1, 2, 3], [0, 2, 1, 3]])).tolist() == [1 / 6, -1 / 6]

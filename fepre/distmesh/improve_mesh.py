@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._cell_kernels import corner_volumes
 from .feature_snap import snap_pinned_nodes
 from .slivers import DEFAULT_MAX_DIHEDRAL, DEFAULT_MAXITER, DEFAULT_MIN_DIHEDRAL, DEFAULT_MIN_RADIUS_RATIO, improve_arrays
-from .tet_shape import signed_volume
 
 __all__ = ["improve", "stage_pins"]
 
@@ -123,7 +123,7 @@ def improve(
     if not used.all():
         new_index = np.cumsum(used) - 1
         points, tets = points[used], new_index[tets]
-    negative = signed_volume(points[tets]) < 0
+    negative = corner_volumes(points, tets) < 0
     tets[negative] = tets[negative][:, [0, 2, 1, 3]]
     edges = points[tets[:, [0, 0, 0, 1, 1, 2]]] - points[tets[:, [1, 2, 3, 2, 3, 3]]]
     h = float(np.median(np.linalg.norm(edges, axis=2)))

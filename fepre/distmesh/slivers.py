@@ -47,13 +47,14 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._cell_kernels import corner_volumes
 from ..arguments import finite_float, positive_float, positive_int
 from ..errors import ConvergenceWarning, MeshingError, warn_user
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
 from .surface_guard import SurfaceGuard
-from .tet_shape import ShapeTargets, dihedral_extremes, radius_ratio, signed_volume
+from .tet_shape import ShapeTargets, dihedral_extremes, radius_ratio
 from .tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
 __all__ = [
@@ -247,7 +248,7 @@ def improve_arrays(
     deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
     n = points.shape[0]
 
-    volumes = signed_volume(points[tets])
+    volumes = corner_volumes(points, tets)
     if np.any(volumes < 0):
         worst = int(np.argmin(volumes))
         raise ValueError(
@@ -418,7 +419,7 @@ def _kept_rows(before: np.ndarray, after: np.ndarray) -> np.ndarray:
 def _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys) -> None:
     """Check the stage's guarantees; a failure here is a bug, reported as MeshingError."""
     n = points.shape[0]
-    volumes = signed_volume(points[tets])
+    volumes = corner_volumes(points, tets)
     if np.any(volumes <= 0) or np.any(quality <= 0):
         raise MeshingError(
             f"the quality stage produced {int(((volumes <= 0) | (quality <= 0)).sum())} cells of zero quality "
