@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .delaunay import loop_tetrahedralize, sorted_cells
+from .delaunay import loop_tetrahedralize
 from .forces import bar_forces, bars_of
 from .hilbert import hilbert_order
 from .initial_points import evaluate_size
@@ -65,8 +65,8 @@ class LoopResult:
     seconds: float
     triangulations: int = 0
     timings: dict[str, float] = field(default_factory=dict)
-    #: the last Delaunay triangulation (before dropping outside cells) and how far the points
-    #: moved since, for reuse by the final mesh
+    #: the last Delaunay triangulation (before dropping outside cells, canonical cells in the
+    #: backend's order) and how far the points moved since, for reuse by the final mesh
     delaunay_tets: np.ndarray | None = None
     moved_since_delaunay: float = np.inf
 
@@ -309,6 +309,6 @@ def iterate(
         seconds=seconds,
         triangulations=triangulations,
         timings=timings,
-        delaunay_tets=sorted_cells(delaunay_tets, len(p)),
+        delaunay_tets=delaunay_tets,
         moved_since_delaunay=moved_since,
     )
