@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import choice, finite_float
+from ..backends import provided
 from ..config import config
 from ..errors import warn_user
 from ..sdf.core import SDF
@@ -150,14 +151,11 @@ def isosurface(
     >>> round(sharp.area, 6), round(fepre.check_surface(sharp).volume, 6)
     (6.0, 1.0)
     """
-    from ..chunked.grid import ChunkedGrid
-
-    if chunks is not None or isinstance(source, ChunkedGrid):
-        from ..chunked.api import isosurface_chunked
-
+    # chunk by chunk: fepre.chunked, above this module (see fepre.backends)
+    if chunks is not None or isinstance(source, provided("ChunkedGrid")):
         if scalars not in (None, "sdf"):
             raise ValueError("scalars applies only to an ImageData source")
-        return isosurface_chunked(
+        return provided("isosurface_chunked")(
             source, method=method, level=level, chunks=chunks, spacing=spacing, shape=shape, bounds=bounds,
             band=band, model=model, normals=normals,
         )
