@@ -70,7 +70,7 @@ def _check_name_clashes(region_names: list[str], boundary_names: list[str]) -> N
 
 
 def _title(model: Any) -> tuple[str, str]:
-    from .. import __version__
+    from .._version import __version__
 
     if model is None:
         return f"fepre {__version__} export", ""
