@@ -38,7 +38,7 @@ from pathlib import Path
 # The layers, bottom first: a module imports from its own layer or the ones before it, never the
 # ones after it (docs/design.md, Layout). Keys are module names or package prefixes.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("fepre.errors", "fepre.config", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials")),
+    ("base", ("fepre.errors", "fepre.config", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version")),
     ("model", ("fepre.sdf",)),
     ("grid", ("fepre.sampling", "fepre.surface", "fepre.chunked")),
     ("analysis", ("fepre.features", "fepre.sizing")),
@@ -47,12 +47,13 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     (
         "application",
         (
-            "fepre",  # the package's façade: re-exports everything below
+            "fepre",  # the package's façade (fepre/__init__.py): re-exports everything below
             "fepre.__main__",
             "fepre.accessors",
             "fepre.mesh_metrics",
             "fepre.references",
             "fepre.compare",
+            "fepre.comparison_table",
             "fepre.report",
             "fepre.plotting",
             "fepre.parts",
@@ -295,11 +296,12 @@ def cycle_edges(graph: Graph, component: list[str]) -> list[Edge]:
 
 
 def layer_of(module: str, layers=LAYERS) -> tuple[int, str] | None:
-    """(index, name) of the layer whose longest key is ``module`` or a package prefix of it."""
+    """(index, name) of the layer whose longest key is ``module`` or a package prefix of it (a
+    key without a dot, the top package, names its ``__init__`` only)."""
     best: tuple[int, int, str] | None = None
     for i, (name, keys) in enumerate(layers):
         for key in keys:
-            if module == key or module.startswith(key + "."):
+            if module == key or ("." in key and module.startswith(key + ".")):
                 if best is None or len(key) > best[0]:
                     best = (len(key), i, name)
     return None if best is None else (best[1], best[2])
