@@ -329,8 +329,10 @@ def _label(module: str, layers) -> str:
     return f"{module} [{layer[1]}]" if layer else f"{module} [no layer]"
 
 
-def report(graph: Graph, layers=LAYERS, show_graph: bool = False, show_layers: bool = False, out=sys.stdout) -> int:
-    """Print the checks (and the graph or layers if asked); the number of problems found."""
+def report(graph: Graph, layers=LAYERS, show_graph: bool = False, show_layers: bool = False, out=None) -> int:
+    """Print the checks (and the graph or layers if asked) to ``out`` (default stdout); the
+    number of problems found."""
+    out = sys.stdout if out is None else out
     lazy = sum(e.lazy for e in graph.edges)
     print(f"{len(graph.modules)} modules, {len(graph.edges)} imports ({lazy} inside functions)", file=out)
     if show_layers:
