@@ -226,7 +226,25 @@ def compare(
     else:
         volume, source = float(abs(surface.volume)), f"enclosed by the {_method_of(surface).replace('_', '-')} surface at spacing {spacing:g}"
 
-    results = []
+    results = [_fepre_result(model, h, mesh, seconds, bounds, seed, distmesh_options, surface, volume, report)]
+    results += _reference_results(references, model, h, seed, surface, volume, report)
+
+    settings = {
+        "h": h,
+        "surface_spacing": spacing,
+        "surface_method": _method_of(surface),
+        "references": list(references),
+        "seed": int(seed),
+        "bounds": bounds if bounds is not None else model.bounds,
+        "distmesh_options": {k: repr(v) for k, v in distmesh_options.items()},
+        "versions": versions(),
+        "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
+    }
+    return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+
+
+def _fepre_result(model, h, mesh, seconds, bounds, seed, distmesh_options, surface, volume, report) -> MeshResult:
+    """fepre's mesh (made and timed here unless given) and its measurements."""
     given = mesh
     if mesh is None:
         from .distmesh import distmesh
@@ -234,7 +252,7 @@ def compare(
         report(f"compare: fepre.distmesh h={h:g} ...")
         start = time.perf_counter()
         mesh = distmesh(model, h, bounds=bounds, **({"seed": seed} | distmesh_options))
-        seconds: float | None = time.perf_counter() - start
+        seconds = time.perf_counter() - start
     elif seconds is None:
         stored = mesh.field_data.get("distmesh_seconds")
         seconds = float(np.asarray(stored).ravel()[-1]) if stored is not None and np.size(stored) else None
@@ -247,8 +265,12 @@ def compare(
         how = "the mesh passed to compare (mesh=)"
     report(f"compare: measuring fepre ({mesh.n_cells} cells) ...")
     metrics = mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)
-    results.append(MeshResult("fepre", mesh, seconds, metrics, settings=how))
+    return MeshResult("fepre", mesh, seconds, metrics, settings=how)
 
+
+def _reference_results(references, model, h, seed, surface, volume, report) -> list[MeshResult]:
+    """Each reference mesher's mesh of the fine surface and its measurements (or its failure)."""
+    results = []
     for name in references:
         report(f"compare: {name} h={h:g} ...")
         try:
@@ -264,19 +286,7 @@ def compare(
         results.append(
             MeshResult(name, reference_mesh, seconds, metrics, note=str(note[0]) if note is not None else None, settings=how)
         )
-
-    settings = {
-        "h": h,
-        "surface_spacing": spacing,
-        "surface_method": _method_of(surface),
-        "references": list(references),
-        "seed": int(seed),
-        "bounds": bounds if bounds is not None else model.bounds,
-        "distmesh_options": {k: repr(v) for k, v in distmesh_options.items()},
-        "versions": versions(),
-        "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
-    }
-    return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+    return results
 
 
 def _method_of(surface: Any) -> str:
