@@ -40,8 +40,10 @@ from pathlib import Path
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("base", ("fepre.errors", "fepre.config", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version")),
     ("model", ("fepre.sdf",)),
-    ("grid", ("fepre.sampling", "fepre.surface", "fepre.chunked")),
-    ("analysis", ("fepre.features", "fepre.sizing")),
+    ("grid", ("fepre.sampling", "fepre.surface")),
+    ("chunked", ("fepre.chunked",)),  # grids beyond memory, cut from sampling's and surface's
+    ("features", ("fepre.features",)),
+    ("sizing", ("fepre.sizing",)),
     ("mesh", ("fepre._cell_kernels", "fepre.quality", "fepre.distmesh", "fepre.regions", "fepre.periodic")),
     ("export", ("fepre.export",)),
     (
