@@ -17,17 +17,14 @@ Examples
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version as _version
 from typing import Any
 
+from . import backends as _backends
 from . import sdf
+from ._version import __version__
 from .config import config
 from .errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning
 
-try:
-    __version__ = _version("fepre")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
 
 # public name -> module that defines it (imported on first access). fepre.distmesh,
 # fepre.features and fepre.export are callable packages (listed in _SUBMODULES): fepre.distmesh(model, h) meshes.
@@ -53,6 +50,13 @@ _LAZY: dict[str, str] = {
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 
 __all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
+
+
+# sample(chunks=) and isosurface(chunks=) hand over to fepre.chunked, which builds on sampling and
+# surface: they find it through fepre.backends, filled here (imported on first use).
+_backends.provide("ChunkedGrid", lambda: importlib.import_module("fepre.chunked.grid").ChunkedGrid)
+_backends.provide("sample_chunked", lambda: importlib.import_module("fepre.chunked.sampling").sample_model)
+_backends.provide("isosurface_chunked", lambda: importlib.import_module("fepre.chunked.api").isosurface_chunked)
 
 
 def __getattr__(name: str) -> Any:

@@ -62,7 +62,7 @@ class UnstructuredGridAccessor:
 
     def improve(self, model: Any, **options: Any) -> pv.UnstructuredGrid:
         """:func:`fepre.improve`: remove slivers, keeping the boundary on ``model``'s zero set."""
-        from . import improve
+        from .distmesh import improve
 
         return improve(self._mesh, model, **options)
 

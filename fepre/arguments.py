@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from typing import Any, Callable
 
 import numpy as np
@@ -22,6 +23,7 @@ __all__ = [
     "as_bounds",
     "choice",
     "evaluate_size",
+    "check_names",
 ]
 
 
@@ -201,3 +203,25 @@ def evaluate_size(size: Callable, points: np.ndarray) -> np.ndarray:
             f"size must return finite values > 0; got {values[bad][0]!r} at point {points[bad][0].tolist()}"
         )
     return values
+
+
+#: Names of element, node and face sets: solver-safe identifiers (Abaqus/CalculiX, Gmsh, XDMF).
+SET_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
+
+
+def check_names(names: list[str], parameter: str) -> None:
+    """Set names must be solver-safe identifiers, unique ignoring case (Abaqus upper-cases)."""
+    seen: dict[str, str] = {}
+    for name in names:
+        if not isinstance(name, str) or not SET_NAME.match(name):
+            raise ValueError(
+                f"{parameter}: set name {name!r} is not accepted; use a letter followed by up to 63 "
+                f"letters, digits or underscores (solvers such as Abaqus/CalculiX need this)"
+            )
+        key = name.upper()
+        if key in seen:
+            raise ValueError(
+                f"{parameter}: set names {seen[key]!r} and {name!r} differ only in case; solvers "
+                f"such as Abaqus/CalculiX ignore case, so use distinct names"
+            )
+        seen[key] = name

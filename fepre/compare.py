@@ -15,7 +15,6 @@ Examples
 
 from __future__ import annotations
 
-import math
 import platform
 import time
 from dataclasses import dataclass, field
@@ -24,6 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .arguments import as_bounds, positive_float
+from .comparison_table import TABLE_ROWS, as_plain as _as_plain, format_metric, versions  # noqa: F401  (also re-exported)
 from .errors import MeshingError
 from .mesh_metrics import mesh_metrics
 from .references import REFERENCES, reference_surface, run_reference
@@ -41,42 +41,6 @@ class MeshResult:
     error: str | None = None  #: why a reference mesher failed (then ``mesh`` is None)
     note: str | None = None  #: how a reference deviated from its usual method
     settings: str | None = None  #: how the mesher was run
-
-
-# (row label, metric key, format) of the text and HTML tables
-TABLE_ROWS: list[tuple[str, str, str]] = [
-    ("tetrahedra", "elements", "{:d}"),
-    ("nodes", "nodes", "{:d}"),
-    ("time [s]", "seconds", "{:.2f}"),
-    ("time per 1000 cells [ms]", "ms_per_1000_cells", "{:.1f}"),
-    ("mean edge length", "mean_edge_length", "{:.4g}"),
-    ("volume", "volume", "{:.5g}"),
-    ("volume error", "volume_error", "{:+.3%}"),
-    ("inverted cells", "inverted", "{:d}"),
-    ("max |sdf| at boundary nodes", "boundary_sdf_max", "{:.2e}"),
-    ("mean |sdf| at boundary nodes", "boundary_sdf_mean", "{:.2e}"),
-    ("Hausdorff to fine surface", "hausdorff", "{:.2e}"),
-    ("min dihedral [deg]", "min_dihedral_angle_min", "{:.2f}"),
-    ("1st pct min dihedral [deg]", "min_dihedral_angle_p1", "{:.2f}"),
-    ("mean min dihedral [deg]", "min_dihedral_angle_mean", "{:.2f}"),
-    ("max dihedral [deg]", "max_dihedral_angle_max", "{:.2f}"),
-    ("cells below 10 deg", "below_10", "{:d}"),
-    ("cells below 15 deg", "below_15", "{:d}"),
-    ("min radius ratio", "radius_ratio_min", "{:.3f}"),
-    ("1st pct radius ratio", "radius_ratio_p1", "{:.3f}"),
-    ("mean radius ratio", "radius_ratio_mean", "{:.3f}"),
-    ("min volume-edge ratio", "volume_edge_ratio_min", "{:.3f}"),
-    ("mean volume-edge ratio", "volume_edge_ratio_mean", "{:.3f}"),
-]
-
-
-def format_metric(value: Any, spec: str) -> str:
-    """``value`` formatted with ``spec``, or '-' when it is missing or NaN."""
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "-"
-    if spec.endswith("d}"):
-        value = int(value)
-    return spec.format(value)
 
 
 @dataclass
@@ -180,35 +144,6 @@ class Comparison:
         return write_report([self], path, title=title)
 
 
-def _as_plain(check: Any) -> dict[str, Any]:
-    import dataclasses
-
-    if dataclasses.is_dataclass(check):
-        items = dataclasses.asdict(check)
-    else:
-        items = dict(vars(check))
-    plain = {}
-    for key, value in items.items():
-        if isinstance(value, (np.generic,)):
-            value = value.item()
-        if isinstance(value, (bool, int, float, str)) or value is None:
-            plain[key] = value
-    return plain
-
-
-def versions() -> dict[str, str]:
-    """Versions of fepre and the packages a comparison depends on."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    found = {"python": platform.python_version()}
-    for package in ("fepre", "numpy", "scipy", "vtk", "pyvista", "pytetwild", "gmsh", "meshio", "matplotlib"):
-        try:
-            found[package] = version(package)
-        except PackageNotFoundError:
-            continue
-    return found
-
-
 def compare(
     model: Any,
     h: float,
@@ -291,15 +226,33 @@ def compare(
     else:
         volume, source = float(abs(surface.volume)), f"enclosed by the {_method_of(surface).replace('_', '-')} surface at spacing {spacing:g}"
 
-    results = []
+    results = [_fepre_result(model, h, mesh, seconds, bounds, seed, distmesh_options, surface, volume, report)]
+    results += _reference_results(references, model, h, seed, surface, volume, report)
+
+    settings = {
+        "h": h,
+        "surface_spacing": spacing,
+        "surface_method": _method_of(surface),
+        "references": list(references),
+        "seed": int(seed),
+        "bounds": bounds if bounds is not None else model.bounds,
+        "distmesh_options": {k: repr(v) for k, v in distmesh_options.items()},
+        "versions": versions(),
+        "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
+    }
+    return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+
+
+def _fepre_result(model, h, mesh, seconds, bounds, seed, distmesh_options, surface, volume, report) -> MeshResult:
+    """fepre's mesh (made and timed here unless given) and its measurements."""
     given = mesh
     if mesh is None:
-        import fepre
+        from .distmesh import distmesh
 
         report(f"compare: fepre.distmesh h={h:g} ...")
         start = time.perf_counter()
-        mesh = fepre.distmesh(model, h, bounds=bounds, **({"seed": seed} | distmesh_options))
-        seconds: float | None = time.perf_counter() - start
+        mesh = distmesh(model, h, bounds=bounds, **({"seed": seed} | distmesh_options))
+        seconds = time.perf_counter() - start
     elif seconds is None:
         stored = mesh.field_data.get("distmesh_seconds")
         seconds = float(np.asarray(stored).ravel()[-1]) if stored is not None and np.size(stored) else None
@@ -312,8 +265,12 @@ def compare(
         how = "the mesh passed to compare (mesh=)"
     report(f"compare: measuring fepre ({mesh.n_cells} cells) ...")
     metrics = mesh_metrics(mesh, model, reference=surface, volume=volume, seconds=seconds)
-    results.append(MeshResult("fepre", mesh, seconds, metrics, settings=how))
+    return MeshResult("fepre", mesh, seconds, metrics, settings=how)
 
+
+def _reference_results(references, model, h, seed, surface, volume, report) -> list[MeshResult]:
+    """Each reference mesher's mesh of the fine surface and its measurements (or its failure)."""
+    results = []
     for name in references:
         report(f"compare: {name} h={h:g} ...")
         try:
@@ -329,19 +286,7 @@ def compare(
         results.append(
             MeshResult(name, reference_mesh, seconds, metrics, note=str(note[0]) if note is not None else None, settings=how)
         )
-
-    settings = {
-        "h": h,
-        "surface_spacing": spacing,
-        "surface_method": _method_of(surface),
-        "references": list(references),
-        "seed": int(seed),
-        "bounds": bounds if bounds is not None else model.bounds,
-        "distmesh_options": {k: repr(v) for k, v in distmesh_options.items()},
-        "versions": versions(),
-        "machine": f"{platform.machine()}, {platform.system()}, {__import__('os').cpu_count()} cores",
-    }
-    return Comparison(model, h, results, surface, surface_check, volume, source, settings)
+    return results
 
 
 def _method_of(surface: Any) -> str:

@@ -15,13 +15,14 @@ True
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from . import sdf
 
 __all__ = [
+    "occ_surface",
     "write_mounting_block_stl",
     "imported_infill",
     "cube_with_hole",
@@ -115,6 +116,34 @@ def gyroid_block() -> Any:
     return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
 
 
+def occ_surface(build: Callable, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """Surface triangles ``(vertices, faces)`` of an OpenCASCADE solid built by ``build(occ)``
+    (``occ`` is ``gmsh.model.occ``), meshed by gmsh with elements of about ``size``."""
+    import gmsh
+
+    from .distmesh.delaunay import initialize_gmsh
+
+    initialize_gmsh()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("corpus")
+        build(gmsh.model.occ)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24)
+        gmsh.model.mesh.generate(2)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, nodes = gmsh.model.mesh.getElementsByType(2)
+    finally:
+        gmsh.finalize()
+    vertices = np.asarray(coords, float).reshape(-1, 3)
+    index = np.zeros(int(np.max(tags)) + 1, dtype=np.int64)
+    index[np.asarray(tags, np.int64)] = np.arange(len(tags))
+    faces = index[np.asarray(nodes, np.int64).reshape(-1, 3)]
+    # gmsh orients each surface by its own parametrisation: fepre's repair orients them
+    return vertices, faces
+
+
 def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
     """Write a CAD part as a binary STL file, as a CAD system exports one, and return the path.
 
@@ -135,15 +164,13 @@ def write_mounting_block_stl(path: Any, size: float = 2.0) -> Any:
 
     import pyvista as pv
 
-    from .corpus.meshes import _occ
-
     def build(occ):
         block = occ.addBox(0, 0, 0, 40, 30, 20)
         holes = [(3, occ.addCylinder(x, 10, -1, 0, 0, 22, 4)) for x in (10, 30)]
         slot = occ.addBox(-1, 18, 14, 42, 8, 7)
         occ.cut([(3, block)], holes + [(3, slot)])
 
-    vertices, faces = _occ(build, size)
+    vertices, faces = occ_surface(build, size)
     path = Path(path)
     pv.PolyData(vertices, np.column_stack([np.full(len(faces), 3), faces]).ravel()).save(str(path), binary=True)
     return path

@@ -24,6 +24,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .comparison_table import TABLE_ROWS, as_plain, format_metric, versions
+
 __all__ = ["write_report", "render_report", "mesh_picture", "quality_histograms"]
 
 # one colour per mesher, the same in every figure
@@ -134,8 +136,6 @@ def mesh_picture(mesh: Any, *, metric: str = "min_dihedral_angle", title: str = 
 
 
 def _metrics_table(comparison: Any) -> str:
-    from .compare import TABLE_ROWS, format_metric
-
     names = comparison.names
     rows = ["<table><tr><th></th>" + "".join(f"<th>{html.escape(n)}</th>" for n in names) + "</tr>"]
     for label, key, spec in TABLE_ROWS:
@@ -163,10 +163,8 @@ def _best(values: Sequence[Any], rule: Any) -> set[int]:
 def _surface_check_table(check: Any) -> str:
     if check is None:
         return '<p class="note">No surface check (fepre.check_surface is not available).</p>'
-    from .compare import _as_plain
-
     rows = []
-    for key, value in _as_plain(check).items():
+    for key, value in as_plain(check).items():
         text = f"{value:.6g}" if isinstance(value, float) else str(value)
         css = ' class="bad"' if value is False else ""
         rows.append(f"<tr><th>{html.escape(key)}</th><td{css}>{html.escape(text)}</td></tr>")
@@ -237,8 +235,6 @@ def render_report(comparisons: Mapping[str, Any] | Sequence[Any], *, title: str 
     if not comparisons:
         raise ValueError("comparisons must hold at least one Comparison; got none")
     progress = progress or (lambda message: None)
-    from .compare import versions
-
     title = title or "fepre mesh comparison"
     contents = "".join(f'<li><a href="#{html.escape(n)}">{html.escape(n)}</a></li>' for n in comparisons)
     sections = "".join(_section(name, comparison, progress) for name, comparison in comparisons.items())

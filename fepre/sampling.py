@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float
+from .backends import provided
 from .config import config
 from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
 
@@ -281,17 +282,11 @@ def sample(
         raise ValueError(f"dtype must be 'float32' or 'float64'; got {dtype.name!r}")
     if store is not None and chunks is None:
         raise ValueError("store needs chunks: a zarr store holds a chunked grid (pass chunks=, e.g. 128)")
-    if chunks is not None:
-        from .chunked.cluster import require_dask
-        from .chunked.layout import as_chunks
-        from .chunked.sampling import sample_chunked
-
-        require_dask("sample(chunks=...)")
-        as_chunks(chunks)
-        origin, step, counts = grid_geometry(model, spacing=spacing, shape=shape, bounds=bounds, padding=padding)
-        if band is not None:
-            band = max(nonnegative_float(band, "band"), float(np.linalg.norm(step)))
-        return sample_chunked(model, origin, step, counts, chunks, dtype=dtype, band=band, store=store, overwrite=overwrite)
+    if chunks is not None:  # fepre.chunked, above this module (see fepre.backends)
+        return provided("sample_chunked")(
+            model, spacing=spacing, shape=shape, bounds=bounds, padding=padding, dtype=dtype, band=band,
+            chunks=chunks, store=store, overwrite=overwrite,
+        )
     workers = config.resolve_workers(workers)
     origin, step, counts = grid_geometry(model, spacing=spacing, shape=shape, bounds=bounds, padding=padding)
     _check_memory(counts, dtype)

@@ -198,3 +198,24 @@ def test_no_points_give_no_values(model):
     values, gradients = model.value_and_gradient(empty)
     assert values.shape == (0,) and gradients.shape == (0, 3)
     assert model.project(empty).shape == (0, 3)
+
+
+def test_operator_methods_call_the_functions_their_modules_register():
+    """core imports none of booleans, transforms, deform: they register with core.operation."""
+    from fepre.sdf import core
+
+    assert set(core._OPERATIONS) == {
+        "union", "intersection", "difference", "complement", "translate", "rotate", "scale", "mirror",
+        "transform", "offset", "shell", "elongate", "twist", "bend",
+    }
+    for name, function in core._OPERATIONS.items():
+        assert function is getattr(sdf, name)
+    a, b = sdf.sphere(1.0), sdf.box(1.0)
+    points = np.random.default_rng(0).uniform(-1.5, 1.5, (200, 3))
+    for made, expected in (
+        (a | b, sdf.union(a, b)), (a & b, sdf.intersection(a, b)), (a - b, sdf.difference(a, b)),
+        (-a, sdf.complement(a)), (a.translate((1, 0, 0)), sdf.translate(a, (1, 0, 0))),
+        (a.shell(0.1), sdf.shell(a, 0.1)), (a.twist(10.0), sdf.twist(a, 10.0)),
+    ):
+        assert repr(made) == repr(expected)
+        np.testing.assert_array_equal(made(points), expected(points))

@@ -3,10 +3,11 @@ what that requires of a model (it must pickle to reach a worker process)."""
 
 from __future__ import annotations
 
+import os
 import pickle
-from typing import Any
+from typing import Any, Iterable
 
-__all__ = ["distributed_client", "needs_pickling", "check_picklable", "require_dask"]
+__all__ = ["distributed_client", "needs_pickling", "check_picklable", "require_dask", "in_completion_order"]
 
 
 def require_dask(feature: str) -> None:
@@ -79,3 +80,48 @@ def check_picklable(model: Any, name: str = "model") -> None:
         f"node must keep only picklable attributes (no lambdas, open files or locks), or use the "
         f"threaded scheduler"
     )
+
+
+def in_completion_order(tasks: list, window: int) -> Iterable:
+    """Chunk results as they finish, with at most ``window`` chunks in flight (bounded memory)."""
+    import dask
+
+    client = distributed_client()
+    if client is not None:
+        from distributed import as_completed
+
+        pending = iter(tasks)
+        futures = as_completed([client.compute(t) for t in _take(pending, window)])
+        for future in futures:
+            result = future.result()
+            future.release()
+            for t in _take(pending, 1):
+                futures.add(client.compute(t))
+            yield result
+        return
+    if dask.config.get("scheduler", None) not in (None, "threads", "threading"):
+        for start in range(0, len(tasks), window):  # the user's own scheduler, in waves
+            yield from dask.compute(*tasks[start : start + window])
+        return
+    # dask's threads, as a sliding window: a new chunk starts as soon as one finishes
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    workers = int(dask.config.get("num_workers", None) or os.cpu_count() or 1)
+    pending = iter(tasks)
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        running = {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, window)}
+        while running:
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            running |= {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, len(done))}
+            for future in done:
+                yield future.result()[0]
+
+
+def _take(iterator, count: int) -> list:
+    out = []
+    for _ in range(count):
+        try:
+            out.append(next(iterator))
+        except StopIteration:
+            break
+    return out

@@ -18,10 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from ..arguments import nonnegative_float
 from .grid import ChunkedGrid
 from .layout import ChunkLayout
 
-__all__ = ["sample_chunked", "sample_nodes", "check_store"]
+__all__ = ["sample_model", "sample_chunked", "sample_nodes", "check_store"]
 
 
 def _axes(origin: np.ndarray, step: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
@@ -66,6 +67,21 @@ def check_store(store: Any, overwrite: bool) -> Path:
     if path.exists() and not overwrite:
         raise FileExistsError(f"store: {str(path)!r} already exists; pass overwrite=True to replace it")
     return path
+
+
+def sample_model(model, *, spacing, shape, bounds, padding, dtype, band, chunks, store, overwrite) -> ChunkedGrid:
+    """``fepre.sample(model, ..., chunks=)``, its arguments checked by :func:`fepre.sample`:
+    dask and the chunks checked, the grid laid out as the single grid is, the lazy grid made."""
+    from ..sampling import grid_geometry
+    from .cluster import require_dask
+    from .layout import as_chunks
+
+    require_dask("sample(chunks=...)")
+    as_chunks(chunks)
+    origin, step, counts = grid_geometry(model, spacing=spacing, shape=shape, bounds=bounds, padding=padding)
+    if band is not None:
+        band = max(nonnegative_float(band, "band"), float(np.linalg.norm(step)))
+    return sample_chunked(model, origin, step, counts, chunks, dtype=dtype, band=band, store=store, overwrite=overwrite)
 
 
 def sample_chunked(

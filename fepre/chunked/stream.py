@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 
 from .chunk_surface import ChunkSurface, row_hash
+from .cluster import in_completion_order
 
 __all__ = ["StreamedSurface", "FilePiece", "file_piece", "stream_surface", "FORMATS"]
 
@@ -273,8 +274,6 @@ def stream_surface(
 ) -> StreamedSurface:
     """Write the chunks' pieces (delayed :class:`FilePiece` objects for the file's kind) to
     ``path`` as they finish: written beside it under a temporary name, renamed when complete."""
-    from .surface import in_completion_order
-
     kind = FORMATS[path.suffix.lower()]
     start = time.perf_counter()
     handle, temporary = tempfile.mkstemp(prefix=".fepre-surface-", suffix=path.suffix, dir=path.parent)

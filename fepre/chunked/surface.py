@@ -11,17 +11,18 @@ each chunk's triangles are written as soon as they are made.
 
 from __future__ import annotations
 
-import os
 import sys
 import uuid
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
 from .chunk_surface import ChunkSurface, extract_chunk
+from .cluster import in_completion_order  # noqa: F401  (re-exported: it was defined here)
 from .grid import ChunkedGrid
 from .layout import HALO, ChunkLayout
 from .sampling import sample_nodes
+from .stream import file_piece
 
 __all__ = ["chunk_tasks", "file_pieces", "surface_in_memory", "in_completion_order"]
 
@@ -102,54 +103,5 @@ def file_pieces(tasks: list, method: str, origin: np.ndarray, spacing: np.ndarra
     (``"stl"`` or ``"ply"``) file, run where the chunk runs."""
     import dask
 
-    from .stream import file_piece
-
     follow = dask.delayed(file_piece, pure=True)
     return [follow(task, method, origin, spacing, kind) for task in tasks]
-
-
-def in_completion_order(tasks: list, window: int) -> Iterable:
-    """Chunk results as they finish, with at most ``window`` chunks in flight (bounded memory)."""
-    import dask
-
-    from .cluster import distributed_client
-
-    client = distributed_client()
-    if client is not None:
-        from distributed import as_completed
-
-        pending = iter(tasks)
-        futures = as_completed([client.compute(t) for t in _take(pending, window)])
-        for future in futures:
-            result = future.result()
-            future.release()
-            for t in _take(pending, 1):
-                futures.add(client.compute(t))
-            yield result
-        return
-    if dask.config.get("scheduler", None) not in (None, "threads", "threading"):
-        for start in range(0, len(tasks), window):  # the user's own scheduler, in waves
-            yield from dask.compute(*tasks[start : start + window])
-        return
-    # dask's threads, as a sliding window: a new chunk starts as soon as one finishes
-    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
-
-    workers = int(dask.config.get("num_workers", None) or os.cpu_count() or 1)
-    pending = iter(tasks)
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        running = {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, window)}
-        while running:
-            done, running = wait(running, return_when=FIRST_COMPLETED)
-            running |= {pool.submit(dask.compute, t, scheduler="sync") for t in _take(pending, len(done))}
-            for future in done:
-                yield future.result()[0]
-
-
-def _take(iterator, count: int) -> list:
-    out = []
-    for _ in range(count):
-        try:
-            out.append(next(iterator))
-        except StopIteration:
-            break
-    return out

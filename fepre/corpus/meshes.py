@@ -23,6 +23,8 @@ from typing import Callable, Iterable, Optional
 
 import numpy as np
 
+from ..parts import occ_surface as _occ  # the corpus's CAD parts, tessellated by gmsh
+
 __all__ = ["MeshInput", "mesh_inputs", "winding_volume", "feature_edges", "CLEAN", "DIRT"]
 
 DIRT = ("holes", "duplicates", "flipped", "overlap", "non-manifold", "million")
@@ -66,33 +68,6 @@ class MeshInput:
 
 
 # ---------------------------------------------------------------------------- clean sources
-def _occ(build: Callable, size: float) -> tuple[np.ndarray, np.ndarray]:
-    """Surface triangles of an OpenCASCADE solid built by ``build(occ)``, meshed by gmsh."""
-    import gmsh
-
-    from ..distmesh.delaunay import initialize_gmsh
-
-    initialize_gmsh()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("corpus")
-        build(gmsh.model.occ)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24)
-        gmsh.model.mesh.generate(2)
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        _, nodes = gmsh.model.mesh.getElementsByType(2)
-    finally:
-        gmsh.finalize()
-    vertices = np.asarray(coords, float).reshape(-1, 3)
-    index = np.zeros(int(np.max(tags)) + 1, dtype=np.int64)
-    index[np.asarray(tags, np.int64)] = np.arange(len(tags))
-    faces = index[np.asarray(nodes, np.int64).reshape(-1, 3)]
-    # gmsh orients each surface by its own parametrisation: fepre's repair orients them
-    return vertices, faces
-
-
 def _box_hole(o):
     box = o.addBox(0, 0, 0, 50, 50, 50)
     o.cut([(3, box)], [(3, o.addCylinder(25, 25, -1, 0, 0, 52, 10))])
@@ -175,8 +150,7 @@ def _surface(model, spacing: float, method: str) -> tuple[np.ndarray, np.ndarray
 
 
 def _csg_parts() -> dict[str, tuple[Callable, float, bool, str]]:
-    from .. import parts
-    from .. import sdf
+    from .. import parts, sdf
 
     def cube_hole():
         return parts.cube_with_hole()[0]

@@ -70,7 +70,7 @@ def _check_name_clashes(region_names: list[str], boundary_names: list[str]) -> N
 
 
 def _title(model: Any) -> tuple[str, str]:
-    from .. import __version__
+    from .._version import __version__
 
     if model is None:
         return f"fepre {__version__} export", ""
@@ -167,34 +167,11 @@ def export(
     >>> int(out.field_data["straightened_midside_nodes"][0]) < int(out.field_data["curved_midside_nodes"][0])
     True
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
-    path = Path(os.fspath(path))
-    fmt = resolve_format(path, format)
-    if isinstance(order, bool):
-        raise TypeError("order must be 1 or 2; got a bool")
-    choice(order, "order", (1, 2))
-    if order not in fmt.orders:
-        raise ValueError(f"order: format {fmt.name!r} supports order {fmt.orders}; got {order}")
-    if not isinstance(overwrite, bool):
-        raise TypeError(f"overwrite must be True or False; got {overwrite!r}")
-    if model is not None and order == 2 and not callable(getattr(model, "project", None)):
-        raise TypeError(f"model must be a fepre SDF (with .project) for order=2; got {type(model).__name__}")
-    if fmt.backend is not None:
-        require_module(*fmt.backend, fmt.name)
-
+    path, fmt = _checked_target(path, format, order, overwrite, model)
     points, cells = tetra_arrays(mesh)
-    faces = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
-    carried = regions is None and "region_id" in mesh.cell_data and "region_names" in mesh.field_data
-    if carried:
-        region_ids, region_names = mesh_regions(mesh, len(cells))
-    else:
-        region_ids, region_names = assign_regions(points, cells, regions, default_region)
-    if interfaces is not None and not isinstance(interfaces, bool):
-        raise TypeError(f"interfaces must be True, False or None; got {interfaces!r}")
-    if carried if interfaces is None else interfaces:
-        faces = with_interfaces(faces, cells, region_ids, region_names)
-    _check_name_clashes(region_names, faces.names)
+    faces, region_ids, region_names = _named_sets(
+        mesh, points, cells, boundaries, regions, boundary_tolerance, boundary_angle, default_region, interfaces
+    )
     section_table = sections(materials, region_names, fmt.name)
     midside = None
     if order == 2:
@@ -211,6 +188,50 @@ def export(
     )
     with staged_files(path, fmt.outputs(path.name), overwrite) as stage:
         fmt.writer(stage, path.name, data)
+    return _written_grid(data, midside, periodic)
+
+
+def _checked_target(path: Any, format: str | None, order: Any, overwrite: Any, model: Any):
+    """The output path and its format, once the arguments that decide what is written are
+    checked (before any work)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    path = Path(os.fspath(path))
+    fmt = resolve_format(path, format)
+    if isinstance(order, bool):
+        raise TypeError("order must be 1 or 2; got a bool")
+    choice(order, "order", (1, 2))
+    if order not in fmt.orders:
+        raise ValueError(f"order: format {fmt.name!r} supports order {fmt.orders}; got {order}")
+    if not isinstance(overwrite, bool):
+        raise TypeError(f"overwrite must be True or False; got {overwrite!r}")
+    if model is not None and order == 2 and not callable(getattr(model, "project", None)):
+        raise TypeError(f"model must be a fepre SDF (with .project) for order=2; got {type(model).__name__}")
+    if fmt.backend is not None:
+        require_module(*fmt.backend, fmt.name)
+    return path, fmt
+
+
+def _named_sets(mesh, points, cells, boundaries, regions, boundary_tolerance, boundary_angle, default_region, interfaces):
+    """The boundary (and interface) face sets and the cells' regions: ``(faces, region_ids,
+    region_names)``."""
+    faces = assign_boundaries(points, cells, boundaries, boundary_tolerance, boundary_angle)
+    carried = regions is None and "region_id" in mesh.cell_data and "region_names" in mesh.field_data
+    if carried:
+        region_ids, region_names = mesh_regions(mesh, len(cells))
+    else:
+        region_ids, region_names = assign_regions(points, cells, regions, default_region)
+    if interfaces is not None and not isinstance(interfaces, bool):
+        raise TypeError(f"interfaces must be True, False or None; got {interfaces!r}")
+    if carried if interfaces is None else interfaces:
+        faces = with_interfaces(faces, cells, region_ids, region_names)
+    _check_name_clashes(region_names, faces.names)
+    return faces, region_ids, region_names
+
+
+def _written_grid(data: ExportData, midside: tuple[int, int] | None, periodic: Any):
+    """The grid :func:`export` returns: the written mesh with its sets and the quadratic and
+    periodic figures."""
     grid = tagged_grid(data, data.point_arrays, data.cell_arrays)
     if midside is not None:
         grid.field_data["curved_midside_nodes"] = np.array([midside[0]])

@@ -13,13 +13,12 @@ Regions select cells whose centroid has a negative value.
 from __future__ import annotations
 
 from ..errors import warn_user
-import re
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..arguments import positive_float
+from ..arguments import SET_NAME as _NAME, check_names, positive_float  # noqa: F401  (re-exported: they were defined here)
 from .tetmesh import tetra_arrays
 
 __all__ = [
@@ -43,9 +42,6 @@ DEFAULT_ANGLE = 60.0
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
 OUTWARD_FACES = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]], dtype=np.int64)
 OPPOSITE_NODE = np.array([3, 2, 0, 1], dtype=np.int64)  # the node not on face S1..S4
-
-_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
-
 
 class BoundaryWarning(UserWarning):
     """Named boundaries or regions that overlap or select nothing."""
@@ -84,24 +80,6 @@ class FaceSets:
     def on_boundary(self) -> np.ndarray:
         """(K,) bool: the face is on the mesh's boundary (not on an interface)."""
         return self.set_ids < len(self.names) - self.interfaces
-
-
-def check_names(names: list[str], parameter: str) -> None:
-    """Set names must be solver-safe identifiers, unique ignoring case (Abaqus upper-cases)."""
-    seen: dict[str, str] = {}
-    for name in names:
-        if not isinstance(name, str) or not _NAME.match(name):
-            raise ValueError(
-                f"{parameter}: set name {name!r} is not accepted; use a letter followed by up to 63 "
-                f"letters, digits or underscores (solvers such as Abaqus/CalculiX need this)"
-            )
-        key = name.upper()
-        if key in seen:
-            raise ValueError(
-                f"{parameter}: set names {seen[key]!r} and {name!r} differ only in case; solvers "
-                f"such as Abaqus/CalculiX ignore case, so use distinct names"
-            )
-        seen[key] = name
 
 
 def boundary_faces(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boundaries import OPPOSITE_NODE, OUTWARD_FACES, FaceSets, _NAME, check_names
+from ..arguments import SET_NAME, check_names
+from .boundaries import OPPOSITE_NODE, OUTWARD_FACES, FaceSets
 
 __all__ = ["with_interfaces", "interface_name"]
 
@@ -15,7 +16,7 @@ _FACE_OPPOSITE = np.argsort(OPPOSITE_NODE)
 def interface_name(first: str, second: str, index: tuple[int, int]) -> str:
     """``interface_<first>_<second>``, or ``interface_<i>_<j>`` when that is too long a set name."""
     name = f"interface_{first}_{second}"
-    return name if _NAME.match(name) else f"interface_{index[0]}_{index[1]}"
+    return name if SET_NAME.match(name) else f"interface_{index[0]}_{index[1]}"
 
 
 def with_interfaces(faces: FaceSets, cells: np.ndarray, region_ids: np.ndarray, region_names: list[str]) -> FaceSets:

@@ -50,7 +50,7 @@ def section_text(table: list[Section]) -> str:
 
 def mesh_regions(mesh: Any, n_cells: int) -> tuple[np.ndarray, list[str]]:
     """The regions a mesh carries: cell data ``region_id`` into field data ``region_names``."""
-    from .boundaries import check_names
+    from ..arguments import check_names
 
     ids = np.asarray(mesh.cell_data["region_id"]).astype(np.int64).reshape(-1)
     names = [str(name) for name in np.asarray(mesh.field_data["region_names"]).reshape(-1).tolist()]

@@ -132,9 +132,7 @@ def _local_spacing(model: SDF, h: float, size: Callable | None, bounds) -> Calla
     DistMesh takes it over its initial lattice); ``x -> h`` without a size function."""
     if size is None:
         return lambda points: np.full(len(points), h)
-    from ..sizing import SizeField
-
-    if isinstance(size, SizeField):  # edge lengths in world units
+    if getattr(size, "world_units", False):  # a fepre.SizeField: edge lengths in world units
         return lambda points: np.maximum(size(points), h)
     axes = [np.linspace(lo, hi, 32) for lo, hi in zip(*bounds)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)

@@ -18,7 +18,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..arguments import nonnegative_float
-from .core import SDF, Bounds, Coords, give_scratch, take_scratch
+from .box_distance import box_distance, box_distance_and_gradient
+from .core import SDF, Bounds, Coords, operation
+from .scratch import give_scratch, take_scratch
 from . import touching
 
 __all__ = ["union", "intersection", "difference", "complement"]
@@ -124,12 +126,6 @@ def _blend_gradient(h: np.ndarray, ga: Coords, gb: Coords) -> Coords:
 
 def _select(take: np.ndarray, v: np.ndarray, g: Coords, value: np.ndarray, gradient: Coords):
     return np.where(take, v, value), tuple(np.where(take, gi, gv) for gi, gv in zip(g, gradient))
-
-
-def _box_distance(coords: Coords, bounds: Bounds) -> np.ndarray:
-    from .deform import box_distance
-
-    return box_distance(coords, bounds)
 
 
 _extent_memo = threading.local()
@@ -333,7 +329,7 @@ class Union(_PatchedBoolean, SDF):
             else:
                 out, _ = smooth_min(out, values, self.k)
         if self._guard is not None:
-            out = np.maximum(out, _box_distance(coords, self._guard))
+            out = np.maximum(out, box_distance(coords, self._guard))
         if self.k == 0 and touching.active():
             touching.settle_shared_faces(out, coords, self.children, self._signs, True, self.length_scale)
         return out
@@ -348,15 +344,9 @@ class Union(_PatchedBoolean, SDF):
             else:
                 value, gradient = _select(v < value, v, g, value, gradient)
         if self._guard is not None:
-            guard, guard_gradient = _box_distance_and_gradient(coords, self._guard)
+            guard, guard_gradient = box_distance_and_gradient(coords, self._guard)
             value, gradient = _select(guard > value, guard, guard_gradient, value, gradient)
         return value, gradient
-
-
-def _box_distance_and_gradient(coords: Coords, bounds: Bounds):
-    from .deform import box_distance_and_gradient
-
-    return box_distance_and_gradient(coords, bounds)
 
 
 class Intersection(_PatchedBoolean, SDF):
@@ -543,6 +533,7 @@ class Complement(SDF):
 
 
 # ---------------------------------------------------------------------- public functions
+@operation
 def union(*shapes: SDF, k: float = 0.0) -> SDF:
     """Union of ``shapes``; ``k > 0`` blends them smoothly with radius ``k``.
 
@@ -561,6 +552,7 @@ def union(*shapes: SDF, k: float = 0.0) -> SDF:
     return _flat_nary(Union, check_operands(shapes, "union"), _check_k(k))
 
 
+@operation
 def intersection(*shapes: SDF, k: float = 0.0) -> SDF:
     """Intersection of ``shapes``; ``k > 0`` blends the crease smoothly with radius ``k``.
 
@@ -587,6 +579,7 @@ def _flat_nary(kind: type, shapes: tuple, k: float) -> SDF:
     return kind(flat, k)
 
 
+@operation
 def difference(base: SDF, *others: SDF, k: float = 0.0) -> SDF:
     """``base`` with every shape of ``others`` removed; ``k > 0`` rounds the cut edges.
 
@@ -607,6 +600,7 @@ def difference(base: SDF, *others: SDF, k: float = 0.0) -> SDF:
     return Difference(base, others, k)
 
 
+@operation
 def complement(shape: SDF) -> SDF:
     """Everything outside ``shape`` (``-shape``); the complement of a complement is the shape.
 

@@ -17,21 +17,19 @@ central differences of their own values.
 from __future__ import annotations
 
 import itertools
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from ..arguments import as_points, positive_int
 from ..config import config
+from .scratch import ScratchArenas, give_scratch, take_scratch, thread_pool  # noqa: F401  (re-exported)
+from .touching import settle_grid_block
 
 __all__ = ["SDF", "Bounds", "Coords", "ScratchArenas", "take_scratch", "give_scratch"]
 
 Bounds = tuple[tuple[float, ...], tuple[float, ...]]
 Coords = tuple[np.ndarray, ...]
-
-_pools: dict[int, ThreadPoolExecutor] = {}
 
 #: z-slices per block when sampling a 3D grid: work that depends on x and y only is shared by
 #: the slices of a block.
@@ -47,64 +45,25 @@ GRID_BLOCK_WIDTH = 512
 GRID_BLOCK_CHUNKS = 4
 
 
-_scratch = threading.local()
+#: The functions behind the operators and modifier methods of :class:`SDF` (``a | b``,
+#: ``a.translate(v)``, ``a.shell(t)``), by name. They are defined by the modules that build on
+#: this one (booleans, transforms, deform), which register them with :func:`operation` as they
+#: load: core imports none of them. ``fepre/sdf/__init__.py`` loads them all, and Python runs it
+#: before any submodule of ``fepre.sdf``, so every method finds its function.
+_OPERATIONS: dict[str, Callable[..., "SDF"]] = {}
 
 
-def take_scratch(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
-    """A C-contiguous array of ``shape`` and ``dtype`` with undefined contents.
-
-    Inside :class:`ScratchArenas` (grid sampling), arrays handed back with :func:`give_scratch`
-    are reused by the next blocks of the same thread, whatever their shapes: full-size
-    temporaries are then not allocated per block. Blocks are large, so fresh temporaries would
-    come from ``mmap`` and be unmapped on release, and the page faults (and, with several
-    threads, TLB shoot-downs) cost more than the arithmetic. Elsewhere this is ``np.empty``.
-    """
-    free = getattr(_scratch, "free", None)
-    if free is not None:
-        stack = free.get(dtype)
-        if stack:
-            size = 1
-            for n in shape:
-                size *= n
-            buffer = stack.pop()
-            if buffer.size >= size:
-                return buffer[:size].reshape(shape)
-    return np.empty(shape, dtype=dtype)
+def operation(function: Callable[..., "SDF"]) -> Callable[..., "SDF"]:
+    """Register ``function`` (unchanged) as the one behind the SDF method of its name."""
+    _OPERATIONS[function.__name__] = function
+    return function
 
 
-def give_scratch(array: np.ndarray) -> None:
-    """Hand back an array from :func:`take_scratch` once its contents are no longer needed."""
-    free = getattr(_scratch, "free", None)
-    if free is not None:
-        owner = array if array.base is None else array.base
-        free.setdefault(owner.dtype, []).append(owner.reshape(-1))
-
-
-class ScratchArenas:
-    """Per-thread reuse of scratch arrays (see :func:`take_scratch`) during one sampling call.
-
-    The arrays are released with the object.
-    """
-
-    def __init__(self) -> None:
-        self._free: dict[int, dict] = {}
-
-    def run(self, function: Callable[..., Any], *args: Any) -> Any:
-        """Call ``function(*args)`` with this thread's scratch arrays available for reuse."""
-        previous = getattr(_scratch, "free", None)
-        _scratch.free = self._free.setdefault(threading.get_ident(), {})
-        try:
-            return function(*args)
-        finally:
-            _scratch.free = previous
-
-
-def thread_pool(workers: int) -> ThreadPoolExecutor:
-    """A shared pool with ``workers`` threads (created once per size)."""
-    pool = _pools.get(workers)
-    if pool is None:
-        pool = _pools[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fepre")
-    return pool
+def _operation(name: str) -> Callable[..., "SDF"]:
+    try:
+        return _OPERATIONS[name]
+    except KeyError:  # pragma: no cover - fepre.sdf's __init__ registers them all
+        raise RuntimeError(f"fepre.sdf.{name} is not registered: import fepre.sdf") from None
 
 
 def _format_value(value: Any) -> str:
@@ -438,8 +397,6 @@ class SDF:
                 self._values_into(out[y0:y1, :], x, vectors[1][y0:y1, None])
                 settle_grid_block(self, out[y0:y1, :], (x, vectors[1][y0:y1, None]))
 
-        from .touching import settle_grid_block
-
         arenas = ScratchArenas()
 
         def run(block: tuple[int, ...]) -> None:
@@ -519,99 +476,65 @@ class SDF:
 
     # ------------------------------------------------------------------ operators and modifiers
     def __or__(self, other: "SDF") -> "SDF":
-        from .booleans import union
-
-        return union(self, other)
+        return _operation("union")(self, other)
 
     def __and__(self, other: "SDF") -> "SDF":
-        from .booleans import intersection
-
-        return intersection(self, other)
+        return _operation("intersection")(self, other)
 
     def __sub__(self, other: "SDF") -> "SDF":
-        from .booleans import difference
-
-        return difference(self, other)
+        return _operation("difference")(self, other)
 
     def __neg__(self) -> "SDF":
-        from .booleans import complement
-
-        return complement(self)
+        return _operation("complement")(self)
 
     def __ror__(self, other: Any) -> "SDF":
-        from .booleans import union
-
-        return union(other, self)
+        return _operation("union")(other, self)
 
     def __rand__(self, other: Any) -> "SDF":
-        from .booleans import intersection
-
-        return intersection(other, self)
+        return _operation("intersection")(other, self)
 
     def __rsub__(self, other: Any) -> "SDF":
-        from .booleans import difference
-
-        return difference(other, self)
+        return _operation("difference")(other, self)
 
     def translate(self, offset: Any) -> "SDF":
         """Moved by ``offset`` (see :func:`fepre.sdf.translate`)."""
-        from .transforms import translate
-
-        return translate(self, offset)
+        return _operation("translate")(self, offset)
 
     def rotate(self, angle: float, axis: Any = None, center: Any = None) -> "SDF":
         """Rotated by ``angle`` degrees about ``axis`` through ``center`` (see :func:`fepre.sdf.rotate`)."""
-        from .transforms import rotate
-
-        return rotate(self, angle, axis, center)
+        return _operation("rotate")(self, angle, axis, center)
 
     def scale(self, factor: Any) -> "SDF":
         """Scaled about the origin (see :func:`fepre.sdf.scale`)."""
-        from .transforms import scale
-
-        return scale(self, factor)
+        return _operation("scale")(self, factor)
 
     def mirror(self, normal: Any, point: Any = None) -> "SDF":
         """Reflected across a plane (see :func:`fepre.sdf.mirror`)."""
-        from .transforms import mirror
-
-        return mirror(self, normal, point)
+        return _operation("mirror")(self, normal, point)
 
     def transform(self, matrix: Any) -> "SDF":
         """Mapped by a general affine matrix (see :func:`fepre.sdf.transform`)."""
-        from .transforms import transform
-
-        return transform(self, matrix)
+        return _operation("transform")(self, matrix)
 
     def offset(self, distance: float) -> "SDF":
         """Grown by ``distance`` (see :func:`fepre.sdf.offset`)."""
-        from .deform import offset
-
-        return offset(self, distance)
+        return _operation("offset")(self, distance)
 
     def shell(self, thickness: float) -> "SDF":
         """Hollowed inwards to a wall of ``thickness`` (see :func:`fepre.sdf.shell`)."""
-        from .deform import shell
-
-        return shell(self, thickness)
+        return _operation("shell")(self, thickness)
 
     def elongate(self, h: Any, center: Any = None) -> "SDF":
         """Stretched by ``2 h`` per axis (see :func:`fepre.sdf.elongate`)."""
-        from .deform import elongate
-
-        return elongate(self, h, center)
+        return _operation("elongate")(self, h, center)
 
     def twist(self, rate: float) -> "SDF":
         """Twisted about z by ``rate`` degrees per unit length (see :func:`fepre.sdf.twist`)."""
-        from .deform import twist
-
-        return twist(self, rate)
+        return _operation("twist")(self, rate)
 
     def bend(self, rate: float) -> "SDF":
         """Bent in the xy-plane by ``rate`` degrees per unit length (see :func:`fepre.sdf.bend`)."""
-        from .deform import bend
-
-        return bend(self, rate)
+        return _operation("bend")(self, rate)
 
     # ------------------------------------------------------------------ tree display
     def _parameters(self) -> dict[str, Any]:

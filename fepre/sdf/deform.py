@@ -23,40 +23,11 @@ from typing import Any
 import numpy as np
 
 from ..arguments import as_vector, finite_float, nonnegative_float, positive_float, positive_int
-from .core import SDF, Bounds, Coords
+from .booleans import union
+from .box_distance import box_distance, box_distance_and_gradient
+from .core import SDF, operation
 
 __all__ = ["offset", "shell", "elongate", "twist", "bend", "repeat"]
-
-
-# ---------------------------------------------------------------------- box distance
-def box_distance(coords: Coords, bounds: Bounds) -> np.ndarray:
-    """Exact signed distance to the axis-aligned box ``bounds`` (per-axis work on axis arrays)."""
-    lo, hi = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
-    centre, half = (lo + hi) / 2.0, (hi - lo) / 2.0
-    d = [np.abs(c - float(m)) - float(h) for c, m, h in zip(coords, centre, half)]
-    outside = np.sqrt(sum(np.maximum(di, 0.0) ** 2 for di in d))
-    inside = d[0]
-    for di in d[1:]:
-        inside = np.maximum(inside, di)
-    return outside + np.minimum(inside, 0.0)
-
-
-def box_distance_and_gradient(coords: Coords, bounds: Bounds) -> tuple[np.ndarray, Coords]:
-    """Box distance and its gradient."""
-    lo, hi = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
-    centre, half = (lo + hi) / 2.0, (hi - lo) / 2.0
-    shifted = np.broadcast_arrays(*(c - float(m) for c, m in zip(coords, centre)))
-    d = [np.abs(s) - float(h) for s, h in zip(shifted, half)]
-    positive = [np.maximum(di, 0.0) for di in d]
-    outside = np.sqrt(sum(p * p for p in positive))
-    dmax = np.max(d, axis=0)
-    safe = np.where(outside > 0, outside, 1.0)
-    axis_of_max = np.argmax(d, axis=0)
-    gradient = tuple(
-        np.where(outside > 0, positive[i] / safe, (axis_of_max == i).astype(float)) * np.sign(shifted[i] + (shifted[i] == 0))
-        for i in range(len(coords))
-    )
-    return outside + np.minimum(dmax, 0.0), gradient
 
 
 # ---------------------------------------------------------------------- offset and shell
@@ -330,6 +301,7 @@ def _check_shape(shape: Any, name: str) -> SDF:
     return shape
 
 
+@operation
 def offset(shape: SDF, distance: float) -> SDF:
     """Grow ``shape`` by ``distance`` (shrink when negative).
 
@@ -343,6 +315,7 @@ def offset(shape: SDF, distance: float) -> SDF:
     return Offset(shape, finite_float(distance, "distance"))
 
 
+@operation
 def shell(shape: SDF, thickness: float) -> SDF:
     """Hollow ``shape`` inwards, keeping its outer surface and a wall of ``thickness``.
 
@@ -356,6 +329,7 @@ def shell(shape: SDF, thickness: float) -> SDF:
     return Shell(shape, positive_float(thickness, "thickness"))
 
 
+@operation
 def elongate(shape: SDF, h: Any, center: Any = None) -> SDF:
     """Stretch ``shape`` by ``2 h`` per axis, cutting it at ``center`` (default the origin).
 
@@ -376,6 +350,7 @@ def elongate(shape: SDF, h: Any, center: Any = None) -> SDF:
     return Elongate(shape, half, center)
 
 
+@operation
 def twist(shape: SDF, rate: float) -> SDF:
     """Twist a bounded 3D ``shape`` about z by ``rate`` degrees per unit length.
 
@@ -390,6 +365,7 @@ def twist(shape: SDF, rate: float) -> SDF:
     return Twist(shape, finite_float(rate, "rate"), "twist")
 
 
+@operation
 def bend(shape: SDF, rate: float) -> SDF:
     """Bend a bounded 3D ``shape`` in the xy-plane by ``rate`` degrees per unit length along x.
 
@@ -431,8 +407,6 @@ def repeat(shape: SDF, spacing: Any, count: Any) -> SDF:
     counts = np.array([positive_int(n if not isinstance(n, np.generic) else n.item(), "count") for n in counts])
     lo, hi = np.asarray(shape.bounds[0]), np.asarray(shape.bounds[1])
     if np.prod(counts) <= 2**dim or np.any((hi - lo) > spacing):
-        from .booleans import union
-
         copies = [
             shape.translate(np.array(index) * spacing) for index in itertools.product(*(range(n) for n in counts))
         ]

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .core import give_scratch, take_scratch
+from .scratch import give_scratch, take_scratch
 
 __all__ = ["orthant_distance", "orthant_gradient", "axis_sign"]
 

@@ -22,11 +22,14 @@ from __future__ import annotations
 
 import threading
 from contextlib import contextmanager
-from typing import Iterator, Sequence
+from typing import TYPE_CHECKING, Iterator, Sequence
 
 import numpy as np
 
-from .core import SDF, Coords, give_scratch, take_scratch
+from .scratch import give_scratch, take_scratch
+
+if TYPE_CHECKING:  # core samples grids with settle_grid_block: this module lies below it
+    from .core import SDF, Coords
 
 __all__ = ["settle_shared_faces", "settle_grid_block", "settling", "TOUCH_TOLERANCE", "OPPOSITE_COSINE"]
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import _numeric_array, as_vector, finite_float
-from .core import SDF, Coords
+from .core import SDF, Coords, operation
 
 __all__ = ["Affine", "translate", "rotate", "scale", "mirror", "transform"]
 
@@ -146,6 +146,7 @@ def _homogeneous(linear: np.ndarray, translation: np.ndarray) -> np.ndarray:
     return matrix
 
 
+@operation
 def translate(shape: SDF, offset: Any) -> SDF:
     """Move ``shape`` by ``offset`` (exactness preserved).
 
@@ -170,6 +171,7 @@ def rotation_matrix(angle: float, axis: np.ndarray | None, dim: int) -> np.ndarr
     return c * np.eye(3) + s * cross + (1 - c) * np.outer(u, u)
 
 
+@operation
 def rotate(shape: SDF, angle: float, axis: Any = None, center: Any = None) -> SDF:
     """Rotate ``shape`` by ``angle`` degrees about ``axis`` (default z) through ``center``.
 
@@ -200,6 +202,7 @@ def rotate(shape: SDF, angle: float, axis: Any = None, center: Any = None) -> SD
     return _apply(shape, _homogeneous(rotation, center - rotation @ center), label)
 
 
+@operation
 def scale(shape: SDF, factor: Any) -> SDF:
     """Scale ``shape`` about the origin by a number or one positive factor per axis.
 
@@ -217,6 +220,7 @@ def scale(shape: SDF, factor: Any) -> SDF:
     return _apply(shape, _homogeneous(np.diag(factors), np.zeros(shape.dim)), f"scale{_fmt(factors)}")
 
 
+@operation
 def mirror(shape: SDF, normal: Any, point: Any = None) -> SDF:
     """Reflect ``shape`` across the plane (line in 2D) through ``point`` with ``normal``.
 
@@ -237,6 +241,7 @@ def mirror(shape: SDF, normal: Any, point: Any = None) -> SDF:
     return _apply(shape, _homogeneous(reflection, point - reflection @ point), f"mirror(normal={_fmt(normal)}, point={_fmt(point)})")
 
 
+@operation
 def transform(shape: SDF, matrix: Any) -> SDF:
     """Apply a general affine ``matrix``: (dim+1) x (dim+1) homogeneous or dim x dim linear.
 

@@ -135,6 +135,24 @@ def size_field(
     hmin, hmax, elements_across, chord_tolerance, gradation = _check(hmin, hmax, elements_across, chord_tolerance, gradation)
     if not isinstance(features, bool):
         raise TypeError(f"features must be True or False; got {features!r}")
+    lower, upper, spacing, counts, axes, values = _sampled_box(model, bounds, hmin)
+    near = np.flatnonzero(np.abs(values.reshape(-1)) < spacing)
+    if near.size == 0:
+        if float(values.min()) >= 0:
+            raise ValueError("the model is empty inside the bounds: nothing to size (check the model's sign and the bounds)")
+        return SizeField(lower, np.full(3, spacing), np.full(values.shape, hmax))
+    seeds, normal = _surface_seeds(model, near, axes, counts, hmin)
+    points, wanted = _wanted_sizes(
+        model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, features, (lower, upper), spacing
+    )
+    field = _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation)
+    field.seconds = time.perf_counter() - start
+    return field
+
+
+def _sampled_box(model: SDF, bounds: Any, hmin: float):
+    """The model sampled on a grid of spacing ``hmin`` (coarser past ``MAX_NODES``) two nodes
+    beyond the box: ``(lower, upper, spacing, counts, axes, values (nz, ny, nx))``."""
     lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
     spacing = hmin
     if float(np.prod((upper - lower) / spacing + 5.0)) > MAX_NODES:
@@ -143,12 +161,11 @@ def size_field(
     counts = np.ceil((upper - lower) / spacing - 1e-9).astype(np.int64) + 1
     axes = [lower[k] + spacing * np.arange(counts[k]) for k in range(3)]
     values = model.values_on_axes(*axes, dtype=np.float64)  # (nz, ny, nx)
+    return lower, upper, spacing, counts, axes, values
 
-    near = np.flatnonzero(np.abs(values.reshape(-1)) < spacing)
-    if near.size == 0:
-        if float(values.min()) >= 0:
-            raise ValueError("the model is empty inside the bounds: nothing to size (check the model's sign and the bounds)")
-        return SizeField(lower, np.full(3, spacing), np.full(values.shape, hmax))
+
+def _surface_seeds(model: SDF, near: np.ndarray, axes: list[np.ndarray], counts: np.ndarray, hmin: float):
+    """The grid nodes ``near`` the surface projected onto it, and the unit normals there."""
     nx, ny = int(counts[0]), int(counts[1])
     nodes = np.stack([axes[0][near % nx], axes[1][(near // nx) % ny], axes[2][near // (nx * ny)]], axis=1)
     seeds = model.project(nodes, iterations=6, tol=1e-4 * hmin, warn=False)
@@ -157,8 +174,12 @@ def size_field(
     _, gradient = model.value_and_gradient(seeds)
     norm = np.linalg.norm(gradient, axis=1)
     usable = norm > 1e-9
-    seeds, normal = seeds[usable], gradient[usable] / norm[usable, None]
+    return seeds[usable], gradient[usable] / norm[usable, None]
 
+
+def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, features, box, spacing):
+    """Points and the edge length each wants: walls, gaps, curvature, facing feature curves,
+    wall mid-surfaces, and seeds spread along walls and gaps thinner than ``hmin``."""
     step = hmin / 8.0
     thickness = ray_lengths(model, seeds, -normal, True, elements_across * hmax, step)
     gap = ray_lengths(model, seeds, normal, False, hmax, step)
@@ -178,7 +199,7 @@ def size_field(
     if features:
         from .feature_gaps import feature_sizes
 
-        feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, (lower, upper))
+        feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, box)
         points.append(feature_seeds)
         # two sharp edges closer than hmin (a narrow ledge) need elements that small between them
         sizes_at.append(np.clip(feature_wanted, WALL_FLOOR * hmin, hmax))
@@ -194,7 +215,12 @@ def size_field(
         extra, extra_sizes = _spread(seeds[narrow], normal[narrow], wanted[narrow], spacing)
         points += extra
         sizes_at += extra_sizes
-    points, wanted = np.concatenate(points), np.concatenate(sizes_at)
+    return np.concatenate(points), np.concatenate(sizes_at)
+
+
+def _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation) -> SizeField:
+    """The sizes wanted at ``points`` spread over a grid, growing by at most ``gradation``."""
+    nx, ny = int(counts[0]), int(counts[1])
     # finer than hmin where walls or gaps need it, but not below hmin / 2 (8 times the nodes):
     # one acute edge's tip would otherwise refine the whole grid
     fine = max(min(spacing, 2.0 * float(wanted.min())), 0.5 * hmin, float(np.cbrt(np.prod(upper - lower) / MAX_NODES)))
@@ -206,6 +232,4 @@ def size_field(
     seed_nodes = index[:, 0] + nx * (index[:, 1] + ny * index[:, 2])
     shape = (int(counts[2]), int(counts[1]), int(counts[0]))
     sizes = graded_sizes(shape, np.full(3, spacing), seed_nodes, wanted, gradation - 1.0, hmax)
-    field = SizeField(lower, np.full(3, spacing), np.clip(sizes, WALL_FLOOR * hmin, hmax))
-    field.seconds = time.perf_counter() - start
-    return field
+    return SizeField(lower, np.full(3, spacing), np.clip(sizes, WALL_FLOOR * hmin, hmax))

@@ -40,6 +40,11 @@ class SizeField:
     [1.5]
     """
 
+    #: Its values are edge lengths in world units, not relative sizes. Code below fepre.sizing
+    #: (fepre.features) tells a SizeField from a relative size function by this, without
+    #: importing the class.
+    world_units = True
+
     def __init__(self, origin: Any, spacing: Any, values: Any):
         origin = np.asarray(origin, dtype=np.float64).reshape(-1)
         spacing = np.asarray(spacing, dtype=np.float64).reshape(-1)

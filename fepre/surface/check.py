@@ -137,6 +137,66 @@ def _flying_edges_reference(surface, model):
     return isosurface(grid, method="flying_edges", level=level)
 
 
+@dataclass
+class _Topology:
+    used: np.ndarray  # vertex ids that triangles use
+    labels: np.ndarray  # connected component of every vertex
+    watertight: bool
+    manifold: bool
+    oriented: bool
+    components: int
+    euler: int
+    genus: float | None
+
+
+def _topology(points: np.ndarray, faces: np.ndarray) -> _Topology:
+    """Edges used twice, fans around vertices, orientation, components, Euler characteristic."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    used = _distinct(faces.reshape(-1))
+    n_vertices = points.shape[0]
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = np.minimum(directed[:, 0], directed[:, 1]), np.maximum(directed[:, 0], directed[:, 1])
+    key = low * n_vertices + high
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if key.size else np.empty(0, np.int64)
+    count = np.diff(np.r_[starts, key.size])
+    edges = count.size
+    watertight = bool(faces.size) and bool(np.all(count == 2))
+    manifold = bool(np.all(count <= 2)) and _corner_fans(faces, directed, key, order, count) == used.size
+    directed_key = directed[:, 0] * n_vertices + directed[:, 1]
+    oriented = bool(_distinct(directed_key).size == directed_key.size)
+    graph = coo_matrix((np.ones(low.size), (low, high)), shape=(n_vertices, n_vertices))
+    _, labels = connected_components(graph, directed=False)
+    components = int(_distinct(labels[used]).size)
+    euler = int(used.size - edges + faces.shape[0])
+    genus = components - euler / 2 if watertight and oriented and manifold else None
+    return _Topology(used, labels, watertight, manifold, oriented, components, euler, genus)
+
+
+def _geometry(points: np.ndarray, faces: np.ndarray) -> tuple[float, float, np.ndarray, int]:
+    """Area, enclosed volume, the triangles' angles (degrees) and the degenerate triangles."""
+    p = points[faces]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    double_area = np.linalg.norm(cross, axis=1)
+    area = float(double_area.sum() / 2)
+    volume = float(np.einsum("ij,ij->i", p[:, 0], cross).sum() / 6)
+    sides = np.stack([np.linalg.norm(p[:, (k + 1) % 3] - p[:, (k + 2) % 3], axis=1) for k in range(3)], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosines = [
+            (sides[:, (k + 1) % 3] ** 2 + sides[:, (k + 2) % 3] ** 2 - sides[:, k] ** 2)
+            / (2 * sides[:, (k + 1) % 3] * sides[:, (k + 2) % 3])
+            for k in range(3)
+        ]
+    angles = np.degrees(np.arccos(np.clip(np.nan_to_num(np.stack(cosines, axis=1), nan=1.0), -1, 1)))
+    scale = float(sides.mean()) if sides.size else 0.0
+    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
+    degenerate = int(np.count_nonzero(repeated | (double_area <= 1e-12 * scale * scale)))
+    return area, volume, angles, degenerate
+
+
 def check_surface(
     surface, model=None, reference=None, *, spacing: Any = None, merge_coincident: bool = True
 ) -> SurfaceCheck:
@@ -169,54 +229,17 @@ def check_surface(
     >>> check.watertight, check.euler_characteristic, check.max_sdf_error < 0.1
     (True, 2, True)
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     from .weld import weld
 
     original_points, original_faces = _triangles(surface)
     # topology as a reader of the written file sees it: coincident vertices are one vertex
     if not isinstance(merge_coincident, bool):
         raise TypeError(f"merge_coincident must be True or False; got {merge_coincident!r}")
-    points, faces = weld(original_points, original_faces) if merge_coincident else (original_points, original_faces)
-    used = _distinct(faces.reshape(-1))
-    n_vertices = points.shape[0]
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    low, high = np.minimum(directed[:, 0], directed[:, 1]), np.maximum(directed[:, 0], directed[:, 1])
-    key = low * n_vertices + high
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]]) if key.size else np.empty(0, np.int64)
-    count = np.diff(np.r_[starts, key.size])
-    edges = count.size
-    watertight = bool(faces.size) and bool(np.all(count == 2))
-    manifold = bool(np.all(count <= 2)) and _corner_fans(faces, directed, key, order, count) == used.size
-    directed_key = directed[:, 0] * n_vertices + directed[:, 1]
-    oriented = bool(_distinct(directed_key).size == directed_key.size)
-    graph = coo_matrix((np.ones(low.size), (low, high)), shape=(n_vertices, n_vertices))
-    _, labels = connected_components(graph, directed=False)
-    components = int(_distinct(labels[used]).size)
-    euler = int(used.size - edges + faces.shape[0])
-    genus = components - euler / 2 if watertight and oriented and manifold else None
-
-    welded_points, welded_faces = points, faces
+    welded_points, welded_faces = weld(original_points, original_faces) if merge_coincident else (original_points, original_faces)
+    topology = _topology(welded_points, welded_faces)
+    used, labels = topology.used, topology.labels
     points, faces = original_points, original_faces
-    p = points[faces]
-    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    double_area = np.linalg.norm(cross, axis=1)
-    area = float(double_area.sum() / 2)
-    volume = float(np.einsum("ij,ij->i", p[:, 0], cross).sum() / 6)
-    sides = np.stack([np.linalg.norm(p[:, (k + 1) % 3] - p[:, (k + 2) % 3], axis=1) for k in range(3)], axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cosines = [
-            (sides[:, (k + 1) % 3] ** 2 + sides[:, (k + 2) % 3] ** 2 - sides[:, k] ** 2)
-            / (2 * sides[:, (k + 1) % 3] * sides[:, (k + 2) % 3])
-            for k in range(3)
-        ]
-    angles = np.degrees(np.arccos(np.clip(np.nan_to_num(np.stack(cosines, axis=1), nan=1.0), -1, 1)))
-    scale = float(sides.mean()) if sides.size else 0.0
-    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
-    degenerate = int(np.count_nonzero(repeated | (double_area <= 1e-12 * scale * scale)))
+    area, volume, angles, degenerate = _geometry(points, faces)
 
     unit = None
     if spacing is not None:
@@ -245,12 +268,12 @@ def check_surface(
     return SurfaceCheck(
         points=int(used.size),
         triangles=int(faces.shape[0]),
-        watertight=watertight,
-        manifold=manifold,
-        oriented=oriented,
-        components=components,
-        euler_characteristic=euler,
-        genus=genus,
+        watertight=topology.watertight,
+        manifold=topology.manifold,
+        oriented=topology.oriented,
+        components=topology.components,
+        euler_characteristic=topology.euler,
+        genus=topology.genus,
         area=area,
         volume=volume,
         max_sdf_error=max_error,

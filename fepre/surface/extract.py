@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import choice, finite_float
+from ..backends import provided
 from ..config import config
 from ..errors import warn_user
 from ..sdf.core import SDF
@@ -150,14 +151,11 @@ def isosurface(
     >>> round(sharp.area, 6), round(fepre.check_surface(sharp).volume, 6)
     (6.0, 1.0)
     """
-    from ..chunked.grid import ChunkedGrid
-
-    if chunks is not None or isinstance(source, ChunkedGrid):
-        from ..chunked.api import isosurface_chunked
-
+    # chunk by chunk: fepre.chunked, above this module (see fepre.backends)
+    if chunks is not None or isinstance(source, provided("ChunkedGrid")):
         if scalars not in (None, "sdf"):
             raise ValueError("scalars applies only to an ImageData source")
-        return isosurface_chunked(
+        return provided("isosurface_chunked")(
             source, method=method, level=level, chunks=chunks, spacing=spacing, shape=shape, bounds=bounds,
             band=band, model=model, normals=normals,
         )
@@ -166,6 +164,33 @@ def isosurface(
     workers = config.resolve_workers(workers)
     if model is not None and not isinstance(model, SDF):
         raise TypeError(f"model must be a fepre.sdf.SDF or None; got {type(model).__name__}")
+    grid, values, name, model = _sampled_source(source, model, spacing, shape, bounds, band, scalars, workers)
+    _check_samples(values, name, grid)
+    if "sdf_band" in grid.field_data and name == "sdf":
+        width = float(np.asarray(grid.field_data["sdf_band"])[0])
+        if abs(level) > width - float(np.linalg.norm(grid.spacing)):
+            warn_user(
+                f"level {level:g} is not inside the sampled band (half-width {width:g}); the surface "
+                f"may be wrong: sample with a wider band",
+                UserWarning,
+            )
+    points, triangles = _extract(method, grid, values, name, level, workers, model)
+    points, triangles = clean_triangles(points, triangles, method, bool((values == level).any()), grid.spacing)
+    return surface_dataset(
+        points,
+        triangles,
+        method=method,
+        level=level,
+        grid=(grid.origin, grid.spacing, grid.dimensions),
+        normals=normals,
+        model=model,
+        value_range=lambda: (float(values.min()), float(values.max())),
+    )
+
+
+def _sampled_source(source, model, spacing, shape, bounds, band, scalars, workers):
+    """The grid to extract from (a model is sampled), its values (nz, ny, nx), their name and the
+    model: ``(grid, values, name, model)``."""
     if isinstance(source, SDF):
         if model is not None:
             raise ValueError("model applies only when source is an ImageData; the source is already a model")
@@ -181,35 +206,18 @@ def isosurface(
                 raise ValueError(f"{option} applies only when source is a model; the ImageData is already sampled")
         grid = source
         values, name = _grid_values(grid, scalars)
-    _check_samples(values, name, grid)
-    if "sdf_band" in grid.field_data and name == "sdf":
-        width = float(np.asarray(grid.field_data["sdf_band"])[0])
-        if abs(level) > width - float(np.linalg.norm(grid.spacing)):
-            warn_user(
-                f"level {level:g} is not inside the sampled band (half-width {width:g}); the surface "
-                f"may be wrong: sample with a wider band",
-                UserWarning,
-            )
+    return grid, values, name, model
+
+
+def _extract(method: str, grid, values: np.ndarray, name: str, level: float, workers: int, model):
+    """The raw ``(points, triangles)`` of one method, before cleaning."""
     if method == "flying_edges":
-        points, triangles = flying_edges(grid, name, level, workers)
-    else:
-        origin = np.asarray(grid.origin, dtype=float)
-        step = np.asarray(grid.spacing, dtype=float)
-        if method == "dual_contouring":
-            points, triangles = dual_contouring(values, level, origin, step, workers, model=model)
-        else:
-            points, triangles = _NUMPY_METHODS[method](values, level, origin, step, workers)
-    points, triangles = clean_triangles(points, triangles, method, bool((values == level).any()), grid.spacing)
-    return surface_dataset(
-        points,
-        triangles,
-        method=method,
-        level=level,
-        grid=(grid.origin, grid.spacing, grid.dimensions),
-        normals=normals,
-        model=model,
-        value_range=lambda: (float(values.min()), float(values.max())),
-    )
+        return flying_edges(grid, name, level, workers)
+    origin = np.asarray(grid.origin, dtype=float)
+    step = np.asarray(grid.spacing, dtype=float)
+    if method == "dual_contouring":
+        return dual_contouring(values, level, origin, step, workers, model=model)
+    return _NUMPY_METHODS[method](values, level, origin, step, workers)
 
 
 def clean_triangles(
