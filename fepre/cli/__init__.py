@@ -32,14 +32,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fepre {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module in COMMANDS.items():
-        module.configure(subparsers.add_parser(name, help=module.HELP, description=module.HELP))
+        subparser = subparsers.add_parser(name, help=module.HELP, description=module.HELP)
+        module.configure(subparser)
+        subparser.set_defaults(command_parser=subparser)  # for errors in its options: its own usage
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fepre`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # argparse would blame the top-level parser, whose usage says nothing of the options
+        (parser if args.command is None else args.command_parser).error(
+            f"unrecognized arguments: {' '.join(unknown)}")
     if args.command is None:
         parser.print_help()
         return 2

@@ -152,3 +152,9 @@ def edge_length(args: argparse.Namespace, part) -> float:
     if not h > 0:
         raise ValueError(f"--h must be > 0; got {h}")
     return float(h)
+
+
+def seed_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of DistMesh's random choices (lattice jitter, size rejection); the same seed "
+                             "gives the same mesh (default 0)")

@@ -20,7 +20,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--surface-spacing", type=float, help="spacing of the surface the references mesh (default h/4)")
     parser.add_argument("--exact-volume", type=float, help="the part's exact volume, if known")
     parser.add_argument("--json", help="write the figures as JSON here")
-    parser.add_argument("--seed", type=int, default=0)
+    common.seed_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:

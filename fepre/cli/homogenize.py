@@ -24,7 +24,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", help="also write the cell's mesh (.vtu, .inp with its *EQUATION constraints, ...)")
     parser.add_argument("--workdir", help="an existing folder to keep CalculiX's files in")
     parser.add_argument("--json", help="write the result (stiffness, density, moduli) to this .json file")
-    parser.add_argument("--seed", type=int, default=0)
+    common.seed_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="print only the result")
 
 

@@ -27,7 +27,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--material", nargs=3, action="append", metavar=("REGION", "E", "NU"),
                         help="elastic material of a region (repeat for each; a model file's `materials` is the default); "
                              "written to an .inp as *MATERIAL and *SOLID SECTION (a mesh of one region: REGION is volume)")
-    parser.add_argument("--seed", type=int, default=0)
+    common.seed_argument(parser)
     parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
 
