@@ -66,6 +66,11 @@ def mesh_suffixes() -> tuple[str, ...]:
     return tuple(ext for f in FORMATS.values() for ext in f.extensions)
 
 
+def companions(output: Path, fmt) -> list[Path]:
+    """The files format ``fmt`` writes beside ``output`` (XDMF: its .h5 and the facets pair)."""
+    return [output.with_name(name) for name in fmt.outputs(output.name) if name != output.name]
+
+
 def model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL",
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "

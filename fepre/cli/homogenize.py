@@ -55,7 +55,10 @@ def run(args: argparse.Namespace) -> int:
     say(f"fepre homogenize: {mesh.n_cells} tetrahedra in {time.perf_counter() - start:.1f} s; six load cases in CalculiX ...")
     if output is not None:
         fepre.export(mesh, output, order=args.order, model=part.model)
-        say(f"fepre homogenize: wrote {output}")
+        from ..export.formats import resolve_format
+
+        for path in (output, *common.companions(output, resolve_format(output, None))):
+            say(f"fepre homogenize: wrote {path}")
     result = fepre.homogenize(mesh, {"E": args.E, "nu": args.nu}, order=args.order, model=part.model, workdir=args.workdir)
     print(result)
     print(f"  nu = {np.array2string(result.poisson_ratios[[0, 0, 1], [1, 2, 2]], precision=4)} (12, 13, 23)")

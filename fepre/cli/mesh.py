@@ -137,6 +137,8 @@ def run(args: argparse.Namespace) -> int:
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
                            materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    for companion in common.companions(output, fmt):
+        print(f"wrote {companion}")
     return 0
 
 
