@@ -19,7 +19,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..arguments import positive_float
+from ..arguments import positive_float, shown
 from .tetmesh import tetra_arrays
 
 __all__ = [
@@ -184,7 +184,7 @@ def assign_boundaries(
     tolerance = positive_float(boundary_tolerance, "boundary_tolerance")
     angle = positive_float(boundary_angle, "boundary_angle")
     if angle > 90:
-        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {boundary_angle!r}")
+        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {shown(boundary_angle)}")
     min_cosine = np.cos(np.radians(angle)) - 1e-12
     names = list(boundaries)
     check_names(names, "boundaries")
