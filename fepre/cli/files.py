@@ -26,11 +26,13 @@ def read_mesh(name: str):
 
         from ..export.grid import FACE_FIELD, set_names
 
-        with warnings.catch_warnings(record=True) as caught:
+        from ..vtk_messages import vtk_messages_kept
+
+        with warnings.catch_warnings(record=True) as caught, vtk_messages_kept():
             warnings.simplefilter("always")
             mesh = pv.read(str(path))
         if mesh.n_points == 0 and caught:
-            raise ValueError(f"{path} holds no points: {str(caught[0].message).splitlines()[0]}")
+            raise ValueError(f"{path} holds no points: the reader failed (not a valid {path.suffix} file?)")
         regions, boundaries = set_names(mesh)
         if regions and "region_id" in mesh.cell_data:
             counts = np.bincount(np.asarray(mesh.cell_data["region_id"]), minlength=len(regions))

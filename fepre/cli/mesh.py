@@ -151,8 +151,11 @@ def _size_file(path: str):
     file = Path(path)
     if not file.is_file():
         raise ValueError(f"--size {path}: no such file")
+    from ..vtk_messages import vtk_messages_kept
+
     try:
-        data = pv.read(str(file))
+        with vtk_messages_kept():
+            data = pv.read(str(file))
     except Exception as exc:  # noqa: BLE001 - any reader failure is the user's file
         raise ValueError(f"--size {path}: cannot read it ({exc})") from None
     try:
