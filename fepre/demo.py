@@ -170,7 +170,7 @@ def progress_note(elapsed: float, done: int, total: int, left: float | None, une
     leaves out named."""
     note = f"{elapsed:.0f} s in, {done} of {total} parts done"
     if left is None:
-        return note
+        return f"{note}; no estimate for {', '.join(unestimated)}" if unestimated else note
     besides = f"not counting {', '.join(unestimated)}, " if unestimated else ""
     return f"{note}; {besides}about {left:.0f} s left for the demo"
 
@@ -222,7 +222,8 @@ def run_demo(
         label = f"demo [{index}/{len(parts)}] {part.name}"
         if index > 1:
             ahead = cells[index - 1:]
-            left = time_left(measured, [c for c in ahead if c is not None])
+            estimated = [c for c in ahead if c is not None]
+            left = time_left(measured, estimated) if estimated else None
             unestimated = [p.name for p, c in zip(parts[index - 1:], ahead) if c is None]
             note = progress_note(time.perf_counter() - start, index - 1, len(parts), left, unestimated)
             say(f"{label}: starting ({note})")

@@ -106,3 +106,5 @@ def test_progress_line_says_what_it_knows():
     note = progress_note(elapsed=12.0, done=2, total=6, left=30.4, unestimated=["imported_block"])
     assert note == "12 s in, 2 of 6 parts done; not counting imported_block, about 30 s left for the demo"
     assert progress_note(elapsed=3.0, done=1, total=6, left=None, unestimated=[]) == "3 s in, 1 of 6 parts done"
+    last = progress_note(elapsed=16.0, done=5, total=6, left=None, unestimated=["imported_block"])
+    assert last == "16 s in, 5 of 6 parts done; no estimate for imported_block"  # not "about 0 s left"
