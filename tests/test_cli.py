@@ -108,3 +108,11 @@ def test_benchmark_descriptions_speak_in_user_terms(capsys):
     jargon = re.compile(r"\bseed's|\bseed tables|tables 1-2|\bissue\b|issue's|chapter-4", re.IGNORECASE)
     assert not jargon.findall(listing), listing
     assert not jargon.findall(fepre.DistMeshOptions.__doc__)
+
+
+def test_unknown_option_before_the_command_is_the_top_level_usage(capsys, tmp_path):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--bogus", "mesh", str(tmp_path / "part.py"), "-o", str(tmp_path / "x.vtu")])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: fepre [-h]") and "--bogus" in err, err

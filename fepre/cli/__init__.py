@@ -38,12 +38,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _blamed(parser: argparse.ArgumentParser, args: argparse.Namespace, unknown: list[str],
+            argv: list[str]) -> argparse.ArgumentParser:
+    """The parser whose usage fits unknown arguments: the command's, unless one comes before it."""
+    if args.command is None:
+        return parser
+    position = argv.index(args.command) if args.command in argv else len(argv)
+    return parser if any(word in argv[:position] for word in unknown) else args.command_parser
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fepre`` console script."""
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:  # argparse would blame the top-level parser, whose usage says nothing of the options
-        (parser if args.command is None else args.command_parser).error(
+        _blamed(parser, args, unknown, sys.argv[1:] if argv is None else list(argv)).error(
             f"unrecognized arguments: {' '.join(unknown)}")
     if args.command is None:
         parser.print_help()
