@@ -29,6 +29,7 @@ def test_shown_prints_plain_numbers():
         (lambda: choice(np.int64(3), "order", (1, 2)), "3"),
         (lambda: fepre.sample(sdf.sphere(1.0), spacing=np.float64(-0.5)), "-0.5"),
         (lambda: sdf.sphere(1.0).scale((np.float64(-1.0), 1.0, 1.0)), "(-1.0, 1.0, 1.0)"),
+        (lambda: fepre.config.resolve_workers(np.int64(0)), "0"),
     ],
 )
 def test_messages_print_plain_numbers(call, number):
