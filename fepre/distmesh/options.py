@@ -7,7 +7,7 @@ import numbers
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from ..arguments import choice, nonnegative_float, positive_float, positive_int, shown
+from ..arguments import choice, nonnegative_float, positive_float, positive_int
 
 __all__ = ["DistMeshOptions", "resolve_options"]
 
@@ -58,7 +58,7 @@ class DistMeshOptions:
         (which leave the surface under-populated: its points must first flow out of the
         interior, costing many iterations and retriangulations).
     nonlinear : bool, default False
-        Use the nonlinear bar force of Kelly's DistMesh.jl ``k (L0 - L)`` with ``k = (L + L0) / (2 L0)``.
+        Use the nonlinear bar force ``k (L0 - L)`` with ``k = (L + L0) / (2 L0)`` of Kelly's DistMesh.jl.
     distance_cache : bool, default True
         Keep an upper bound of each point's sdf (its last value plus the distance it moved
         since, valid because an sdf is 1-Lipschitz) and evaluate the model only at points whose
@@ -149,18 +149,18 @@ class DistMeshOptions:
         if self.deps is not None:
             put("deps", positive_float(self.deps, "deps"))
         if self.deltat > 1.0:
-            raise ValueError(f"deltat must be in (0, 1]; got {shown(self.deltat)}")
+            raise ValueError(f"deltat must be in (0, 1]; got {self.deltat!r}")
         if self.geps >= 1.0:
-            raise ValueError(f"geps must be in (0, 1) (a fraction of h); got {shown(self.geps)}")
+            raise ValueError(f"geps must be in (0, 1) (a fraction of h); got {self.geps!r}")
         put("jitter", nonnegative_float(self.jitter, "jitter"))
         if self.jitter >= 0.25:
-            raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {shown(self.jitter)}")
+            raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {self.jitter!r}")
         put("quality_tol", nonnegative_float(self.quality_tol, "quality_tol"))
         for name in ("maxiter", "sort_interval", "quality_window", "move_average_window"):
             put(name, positive_int(getattr(self, name), name))
         put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
         if self.feature_angle >= 180.0:
-            raise ValueError(f"feature_angle must be in (0, 180) degrees; got {shown(self.feature_angle)}")
+            raise ValueError(f"feature_angle must be in (0, 180) degrees; got {self.feature_angle!r}")
         for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features", "check_resolution",
                      "parallel"):
             value = getattr(self, name)
@@ -173,7 +173,7 @@ class DistMeshOptions:
         choice(self.delaunay, "delaunay", DELAUNAY_BACKENDS)
         choice(self.sort, "sort", SORTS)
         if isinstance(self.seed, bool) or not isinstance(self.seed, numbers.Integral) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer; got {shown(self.seed)}")
+            raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
         put("seed", int(self.seed))
 
 
