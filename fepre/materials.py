@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .arguments import finite_float, positive_float, shown
+from .arguments import finite_float, positive_float
 
 __all__ = ["elastic_material"]
 
@@ -34,5 +34,5 @@ def elastic_material(material: Any, parameter: str = "material") -> tuple[float,
     young = positive_float(young, f"{parameter} E")
     poisson = finite_float(poisson, f"{parameter} nu")
     if not -1.0 < poisson < 0.5:
-        raise ValueError(f"{parameter} nu must lie in (-1, 0.5) for an isotropic solid; got {shown(poisson)}")
+        raise ValueError(f"{parameter} nu must lie in (-1, 0.5) for an isotropic solid; got {poisson!r}")
     return young, poisson

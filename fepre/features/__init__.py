@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float, shown
+from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
 from ..errors import FeatureWarning, warn_user
 from ..sdf.core import SDF
 from .conflicts import resolve_conflicts
@@ -96,14 +96,14 @@ def features(
     h = positive_float(h, "h")
     angle = finite_float(angle, "angle")
     if not 0.0 < angle < 180.0:
-        raise ValueError(f"angle must be in (0, 180) degrees; got {shown(angle)}")
+        raise ValueError(f"angle must be in (0, 180) degrees; got {angle!r}")
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
     lower, upper = (np.asarray(b, dtype=np.float64) for b in domain_bounds(model, bounds))
     scale = float(np.max(upper - lower))
     spacing = h / 4.0 if spacing is None else positive_float(spacing, "spacing")
     if spacing >= scale:
-        raise ValueError(f"spacing={shown(spacing)} must be smaller than the model's largest extent {scale:g}")
+        raise ValueError(f"spacing={spacing!r} must be smaller than the model's largest extent {scale:g}")
     skipped: list[str] = []
     empty = Features(np.zeros((0, 3)), (), h, angle, spacing, ())
     if model.patch_count == 1 and len(model.singular_points()) == 0:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import domain_bounds, finite_float, positive_float, shown
+from ..arguments import domain_bounds, finite_float, positive_float
 from ..sdf.core import SDF
 from .curvature import max_curvature
 from .field import MAX_NODES, SizeField
@@ -73,7 +73,7 @@ def _check(hmin: Any, hmax: Any, elements_across: Any, chord_tolerance: Any, gra
     chord_tolerance = hmin / 10.0 if chord_tolerance is None else positive_float(chord_tolerance, "chord_tolerance")
     gradation = finite_float(gradation, "gradation")
     if not gradation > 1.0:
-        raise ValueError(f"gradation must be > 1 (the largest ratio of neighbouring sizes); got {shown(gradation)}")
+        raise ValueError(f"gradation must be > 1 (the largest ratio of neighbouring sizes); got {gradation!r}")
     return hmin, hmax, elements_across, chord_tolerance, gradation
 
 

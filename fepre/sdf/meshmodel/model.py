@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ...arguments import finite_float, shown
+from ...arguments import finite_float
 from ..core import SDF, Coords
 from .distance import TriangleDistance
 from .patches import PatchPlanes, segment_patches
@@ -205,7 +205,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
         raise ValueError(f"sign must be one of {', '.join(map(repr, SIGNS))}; got {sign!r}")
     features = finite_float(features, "features")
     if not 0.0 <= features < 180.0:
-        raise ValueError(f"features must be an angle in degrees in [0, 180); got {shown(features)}")
+        raise ValueError(f"features must be an angle in degrees in [0, 180); got {features!r}")
     vertices, faces, name = read_triangles(source)
     repaired = repair(vertices, faces)
     _check_solid(repaired, name)
