@@ -19,6 +19,13 @@ def test_shown_prints_plain_numbers():
     assert shown("x") == "'x'"
 
 
+def _tiny_mesh():
+    import pyvista as pv
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    return pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]])}, points)
+
+
 @pytest.mark.parametrize(
     "call, number",
     [
@@ -29,6 +36,7 @@ def test_shown_prints_plain_numbers():
         (lambda: fepre.sample(sdf.sphere(1.0), spacing=np.float64(-0.5)), "-0.5"),
         (lambda: sdf.sphere(1.0).scale((np.float64(-1.0), 1.0, 1.0)), "(-1.0, 1.0, 1.0)"),
         (lambda: fepre.config.resolve_workers(np.int64(0)), "0"),
+        (lambda: fepre.export(_tiny_mesh(), "unused.vtu", boundary_angle=np.float64(100.0)), "100.0"),
     ],
 )
 def test_messages_print_plain_numbers(call, number):
