@@ -24,17 +24,39 @@ __all__ = [
     "choice",
     "evaluate_size",
     "check_names",
+    "shown",
 ]
+
+
+def shown(value: Any) -> str:
+    """``repr(value)`` with numbers as a user writes them: numpy scalars plain (``-5.0``, not
+    ``np.float64(-5.0)``), numpy arrays as lists, tuples and lists of numpy scalars plain. For the
+    ``got ...`` of error messages, which may receive numpy values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> shown(np.float64(-5.0)), shown((np.int64(2), 3)), shown("x")
+    ('-5.0', '(2, 3)', "'x'")
+    """
+    if isinstance(value, np.generic):
+        return repr(value.item())
+    if isinstance(value, np.ndarray):
+        return repr(value.tolist())
+    if isinstance(value, (tuple, list)) and any(isinstance(v, (np.generic, np.ndarray)) for v in value):
+        return repr(type(value)(v.item() if isinstance(v, np.generic) else v.tolist() if isinstance(v, np.ndarray) else v
+                                for v in value))
+    return repr(value)
 
 
 def _numeric_array(value: Any, name: str) -> np.ndarray:
     try:
         array = np.asarray(value)
     except (ValueError, TypeError) as exc:  # ragged nested sequences
-        raise ValueError(f"{name} must be a rectangular array of numbers; got {value!r:.80}") from exc
+        raise ValueError(f"{name} must be a rectangular array of numbers; got {shown(value):.80}") from exc
     if array.dtype == object:
         raise ValueError(
-            f"{name} must be a rectangular array of numbers (not ragged or mixed); got {value!r:.80}"
+            f"{name} must be a rectangular array of numbers (not ragged or mixed); got {shown(value):.80}"
         )
     if array.dtype.kind not in "biuf":
         raise TypeError(f"{name} must contain real numbers; got dtype {array.dtype}")
@@ -73,7 +95,7 @@ def as_vector(value: Any, dim: int, name: str, *, allow_scalar: bool = False) ->
         array = np.full(dim, float(array))
     if array.shape != (dim,):
         accepted = f"a number or a sequence of {dim} numbers" if allow_scalar else f"a sequence of {dim} numbers"
-        raise ValueError(f"{name} must be {accepted}; got {value!r:.80}")
+        raise ValueError(f"{name} must be {accepted}; got {shown(value):.80}")
     if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite; got {np.array2string(array, precision=6)}")
     return array
@@ -82,10 +104,10 @@ def as_vector(value: Any, dim: int, name: str, *, allow_scalar: bool = False) ->
 def finite_float(value: Any, name: str) -> float:
     """Return ``value`` as a finite float."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)):
-        raise TypeError(f"{name} must be a real number; got {type(value).__name__} {value!r:.40}")
+        raise TypeError(f"{name} must be a real number; got {type(value).__name__} {shown(value):.40}")
     result = float(value)
     if not math.isfinite(result):
-        raise ValueError(f"{name} must be finite; got {value!r}")
+        raise ValueError(f"{name} must be finite; got {shown(value)}")
     return result
 
 
@@ -93,7 +115,7 @@ def positive_float(value: Any, name: str) -> float:
     """Return ``value`` as a finite float > 0."""
     result = finite_float(value, name)
     if result <= 0:
-        raise ValueError(f"{name} must be > 0; got {value!r}")
+        raise ValueError(f"{name} must be > 0; got {shown(value)}")
     return result
 
 
@@ -101,16 +123,16 @@ def nonnegative_float(value: Any, name: str) -> float:
     """Return ``value`` as a finite float >= 0."""
     result = finite_float(value, name)
     if result < 0:
-        raise ValueError(f"{name} must be >= 0; got {value!r}")
+        raise ValueError(f"{name} must be >= 0; got {shown(value)}")
     return result
 
 
 def positive_int(value: Any, name: str) -> int:
     """Return ``value`` as an int >= 1."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
-        raise TypeError(f"{name} must be a positive integer; got {type(value).__name__} {value!r:.40}")
+        raise TypeError(f"{name} must be a positive integer; got {type(value).__name__} {shown(value):.40}")
     if value < 1:
-        raise ValueError(f"{name} must be a positive integer; got {value!r}")
+        raise ValueError(f"{name} must be a positive integer; got {shown(value)}")
     return int(value)
 
 
@@ -127,11 +149,11 @@ def int_triple(value: Any, name: str, minimum: int, why: str = "") -> np.ndarray
     try:
         entries = list(value)
     except TypeError:
-        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {value!r}") from None
+        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {shown(value)}") from None
     if len(entries) != 3 or any(isinstance(e, bool) or not isinstance(e, (int, np.integer)) for e in entries):
-        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {value!r}")
+        raise TypeError(f"{name} must be an int or 3 ints (x, y, z); got {shown(value)}")
     if min(entries) < minimum:
-        raise ValueError(f"{name} must be at least {minimum} nodes along each axis{why}; got {value!r}")
+        raise ValueError(f"{name} must be at least {minimum} nodes along each axis{why}; got {shown(value)}")
     return np.array([int(e) for e in entries], dtype=np.int64)
 
 
@@ -183,7 +205,7 @@ def domain_bounds(model: Any, bounds: Any) -> tuple[tuple[float, ...], tuple[flo
 def choice(value: Any, name: str, accepted: tuple) -> Any:
     """Return ``value`` if it is one of ``accepted``."""
     if value not in accepted:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, accepted))}; got {value!r}")
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, accepted))}; got {shown(value)}")
     return value
 
 
@@ -200,7 +222,7 @@ def evaluate_size(size: Callable, points: np.ndarray) -> np.ndarray:
     bad = ~(np.isfinite(values) & (values > 0))
     if bad.any():
         raise ValueError(
-            f"size must return finite values > 0; got {values[bad][0]!r} at point {points[bad][0].tolist()}"
+            f"size must return finite values > 0; got {shown(values[bad][0])} at point {points[bad][0].tolist()}"
         )
     return values
 

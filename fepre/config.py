@@ -45,7 +45,9 @@ class Config:
         if workers is None:
             return max(1, int(self.workers))
         if isinstance(workers, bool) or not isinstance(workers, (int,)) or workers < 1:
-            raise ValueError(f"workers must be a positive integer or None; got {workers!r}")
+            from .arguments import shown
+
+            raise ValueError(f"workers must be a positive integer or None; got {shown(workers)}")
         return int(workers)
 
 

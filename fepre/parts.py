@@ -43,7 +43,7 @@ CUBE_WITH_HOLE_VOLUME = 125.0 - 5.0 * math.pi
 
 
 def cube_with_hole() -> tuple[Any, Any]:
-    """The seed's first example: [0, 5]^3 minus a radius-1 cylinder along z at x = y = 2.5.
+    """The first example of Kelly's DistMesh.jl study: [0, 5]^3 minus a radius-1 cylinder along z at x = y = 2.5.
 
     Returns ``(model, hole)``.
     """

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float
+from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float, shown
 from .backends import provided
 from .config import config
 from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
@@ -75,7 +75,7 @@ def grid_geometry(
             if padding is None:  # two cells of padding on each side
                 if np.any(counts < 6):
                     raise ValueError(
-                        f"shape must have at least 6 nodes per axis to pad the model by two cells; got {shape!r}"
+                        f"shape must have at least 6 nodes per axis to pad the model by two cells; got {shown(shape)}"
                     )
                 step = np.where(extent > 0, extent, 1.0) / (counts - 5)
                 lo, hi = lo - 2 * step, hi + 2 * step
@@ -88,11 +88,11 @@ def grid_geometry(
     else:
         step = as_vector(spacing, 3, "spacing", allow_scalar=True)
         if np.any(step <= 0):
-            raise ValueError(f"spacing must be > 0; got {spacing!r}")
+            raise ValueError(f"spacing must be > 0; got {shown(spacing)}")
         largest = float(np.max(extent))
         if np.any(step > largest):
             raise ValueError(
-                f"spacing {spacing!r} is larger than the model (largest extent {largest:g}); "
+                f"spacing {shown(spacing)} is larger than the model (largest extent {largest:g}); "
                 f"use a spacing below {largest / 4:g}"
             )
     if padded:

@@ -340,7 +340,10 @@ def test_mesh_with_regions_writes_sections_and_the_interface(tmp_path, capsys):
     for colour in ((0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)):  # one colour per region (shaded)
         assert (np.abs(pixels - colour).sum(axis=1) < 120).sum() > 500
     one = pv.read(tmp_path / "one.vtu")
-    assert "volume" in one.field_data and "soft" not in one.field_data and set(np.unique(one["region_id"])) == {0}
+    from fepre.export.grid import set_names
+
+    # the one region is "volume" (in the file's field data as volume_set: a cell array is named volume)
+    assert set_names(one)[0] == ["volume"] and set(np.unique(one["region_id"])) == {0}
 
 
 @pytest.mark.parametrize(
@@ -370,3 +373,21 @@ def test_materials_need_an_inp_and_regions_must_split_the_part(tmp_path, capsys)
     assert main(["mesh", str(tmp_path / "gap.py"), "-o", str(tmp_path / "gap.inp")]) == 1
     assert "uncovered" in capsys.readouterr().err
     assert not list(tmp_path.glob("*.inp")) and not list(tmp_path.glob("*.msh"))
+
+
+def test_mesh_xdmf_names_every_file_and_info_reads_the_facet_tags(folder, tmp_path, capsys):
+    """XDMF is four files (cells and facets, each with its .h5): `fepre mesh` says so, and `fepre
+    info` reads the facets companion and reports its tags."""
+    out = tmp_path / "ball.xdmf"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--h", "0.4", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    for name in ("ball.xdmf", "ball.h5", "ball_facets.xdmf", "ball_facets.h5"):
+        assert (tmp_path / name).is_file()
+        assert f"wrote {tmp_path / name}" in printed, printed
+    facets = meshio.read(tmp_path / "ball_facets.xdmf")
+    ids = np.concatenate([np.asarray(b) for b in facets.cell_data["boundary_id"]])
+    assert main(["info", str(out)]) == 0
+    info = capsys.readouterr().out
+    assert f"base ({int(np.count_nonzero(ids == 1))})" in info, info
+    assert f"boundary ({int(np.count_nonzero(ids == 2))})" in info, info
+    assert "ball_facets.xdmf" in info

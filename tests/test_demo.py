@@ -85,3 +85,26 @@ def test_demo_table_shows_the_worst_cells_on_every_measure():
 
     header = _summary_rows([], {})[0]
     assert {"min dihedral", "max dihedral", "min radius ratio", "mean radius ratio"} <= set(header)
+
+
+def test_time_left_scales_the_measured_cost_per_cell_to_the_parts_ahead():
+    """The estimate was the mean time per part times the parts left: cheap parts first and the
+    gyroid and imported blocks last made it say "about 21 s left" 44 s before the end. It now
+    prices the cells still to mesh at the seconds per cell measured so far."""
+    from fepre.demo import time_left
+
+    assert time_left([], [5000.0]) is None  # nothing measured yet: no figure
+    # two small parts: 4000 cells in 8 s, 2 ms a cell; the big part ahead has 10000 cells
+    assert time_left([(1000.0, 2.0), (3000.0, 6.0)], [10000.0]) == pytest.approx(20.0)
+    assert time_left([(1000.0, 2.0)], []) == 0.0
+    assert time_left([(0.0, 2.0)], [100.0]) is None  # no cells measured: no rate
+
+
+def test_progress_line_says_what_it_knows():
+    from fepre.demo import progress_note
+
+    note = progress_note(elapsed=12.0, done=2, total=6, left=30.4, unestimated=["imported_block"])
+    assert note == "12 s in, 2 of 6 parts done; not counting imported_block, about 30 s left for the demo"
+    assert progress_note(elapsed=3.0, done=1, total=6, left=None, unestimated=[]) == "3 s in, 1 of 6 parts done"
+    last = progress_note(elapsed=16.0, done=5, total=6, left=None, unestimated=["imported_block"])
+    assert last == "16 s in, 5 of 6 parts done; no estimate for imported_block"  # not "about 0 s left"

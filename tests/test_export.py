@@ -491,6 +491,9 @@ def names_read_back(name: str, path: Path) -> set[str]:
     if name in ("nastran", "medit"):  # integer ids only
         key = f"{name}:ref"
         return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
+    if name == "vtu":  # a set named like a point or cell array is written as <name>_set
+        arrays = set(back.point_data) | set(back.cell_data)
+        return {n[:-4] if n.endswith("_set") and n[:-4] in arrays else n for n in back.field_data} - {"boundary_faces"}
     return set(back.field_data) - {"boundary_faces"}
 
 

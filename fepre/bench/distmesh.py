@@ -1,10 +1,10 @@
-"""DistMesh on the unit sphere: speed vs pytetwild and gmsh, and the seed's chapter-4 experiments.
+"""DistMesh on the unit sphere: speed vs pytetwild and gmsh, and how each loop option changes time and quality.
 
 Part 1 times ``fepre.distmesh`` with the default options at h = 0.2, 0.1, 0.05 (the loop and the
 quality stage separately; time per iteration per point shows the cost is linear in the points)
 and, in the same run, pytetwild (``edge_length_abs=h`` on a VTK sphere surface) and gmsh (OCC
-sphere, Delaunay 3D with gmsh's and Netgen's optimisers) when installed, with ratios of time per cell. Part 2 reproduces the seed's
-experiments: Table 3 (deltat x ttol, reference start and termination), Hilbert sorting on and off
+sphere, Delaunay 3D with gmsh's and Netgen's optimisers) when installed, with ratios of time per cell. Part 2 repeats the
+experiments of Kelly's DistMesh.jl study: Table 3 (deltat x ttol, reference start and termination), Hilbert sorting on and off
 at h = 0.15, linear vs nonlinear forces (dihedral histograms, Fig. 13) and movement vs
 move-averaged retriangulation (quality per iteration, Fig. 14); the figures go to ``--out``.
 """
@@ -129,10 +129,10 @@ def speed(sizes: list[float], repeat: int) -> list[str]:
 
 
 def table3(maxiter: int) -> list[str]:
-    """Seed Table 3: deltat x ttol on the sphere, h=0.2, reference start and termination."""
+    """Table 3 of Kelly's study: deltat x ttol on the sphere, h=0.2, reference start and termination."""
     lines = [
         f"Table 3: sphere h=0.2, cubic lattice, reference termination (ptol), maxiter {maxiter}, loop only",
-        f"{'deltat':>6} {'ttol':>5} {'seconds':>8} {'iters':>6} {'tri':>4} {'conv':>4} {'tets':>6}   seed Julia",
+        f"{'deltat':>6} {'ttol':>5} {'seconds':>8} {'iters':>6} {'tri':>4} {'conv':>4} {'tets':>6}   DistMesh.jl",
     ]
     seed = {(0.1, 0.02): "0.298 s", (0.1, 0.05): "4.003 s", (0.05, 0.02): "0.723 s", (0.05, 0.05): "138.156 s"}
     for deltat in (0.1, 0.05):
@@ -162,7 +162,7 @@ def hilbert(repeat: int) -> list[str]:
 
 
 def forces_figure(out: str | None) -> list[str]:
-    """Seed Fig. 13: dihedral angle histograms, linear vs nonlinear forces (h=0.2, loop only)."""
+    """Fig. 13 of Kelly's study: dihedral angle histograms, linear vs nonlinear forces (h=0.2, loop only)."""
     from ..quality import dihedral_angles
 
     meshes = {name: _run(0.2, nonlinear=name == "nonlinear", slivers=False) for name in ("linear", "nonlinear")}
@@ -193,7 +193,7 @@ def forces_figure(out: str | None) -> list[str]:
 
 
 def retriangulation_figure(out: str | None) -> list[str]:
-    """Seed Fig. 14: quality per iteration, movement vs move-averaged retriangulation."""
+    """Fig. 14 of Kelly's study: quality per iteration, movement vs move-averaged retriangulation."""
     runs = {
         name: _run(0.2, retriangulation=name, termination="displacement", maxiter=300, slivers=False)
         for name in ("movement", "move_average")

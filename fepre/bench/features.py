@@ -1,6 +1,6 @@
 """Sharp features: corners, edges, Hausdorff distance and volume of CSG parts, with and without features.
 
-Parts (``fepre.parts``): the seed's cube with a hole ([0,5]^3 minus a radius-1 cylinder along z
+Parts (``fepre.parts``): the cube with a hole of Kelly's DistMesh.jl study ([0,5]^3 minus a radius-1 cylinder along z
 at x = y = 2.5) at h = 0.25, the L-bracket with a filleted inner edge and a bolt hole at h = 0.2,
 and the box with a slot at h = 0.25. For each, ``fepre.distmesh`` runs with ``features=True``
 (the default) and ``features=False``, and the table gives:

@@ -1,9 +1,9 @@
-"""Sliver-free quality: fepre's DistMesh + quality stage vs pytetwild and gmsh on the issue's models.
+"""Sliver-free quality: fepre's DistMesh + quality stage vs pytetwild and gmsh: worst angles and time on spheres, a torus and CAD-style parts.
 
 For each target model (unit sphere at h = 0.2, 0.1, 0.05; torus R=1, r=0.4 at h=0.1; Persson's
 cylinder with a spherical hole, graded; a smooth union of two capsules; the gyroid infill block of
 :func:`fepre.parts.gyroid_block` at h = 0.05, where its sheet (0.15) holds three elements and its
-shell (0.2) four; the revolved stepped shaft at h=2 and a flange at h=4 of issue 12) one run
+shell (0.2) four; the revolved stepped shaft at h=2 and a flange at h=4) one run
 measures:
 
 * fepre: ``fepre.distmesh`` with the default options, the main loop's time and the quality
@@ -15,8 +15,8 @@ measures:
 and prints, per mesher, time, points, cells, worst smallest dihedral angle, largest dihedral
 angle, smallest radius ratio, 1st-percentile smallest angle and mean radius ratio, with fepre's
 ratios to each peer. ``--out DIR`` writes one PNG per model with histograms of the smallest
-dihedral angle and of the radius ratio of every cell, the three meshers side by side (the
-seed's Fig. 13).
+dihedral angle and of the radius ratio of every cell, the three meshers side by side (as Fig. 13
+of Kelly's DistMesh.jl study).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def _cylinder_size(points: np.ndarray) -> np.ndarray:
 
 
 def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable | None]]:
-    """The issue's models as ``(name, model, h, size)``; ``quick`` drops the sphere at h=0.05."""
+    """The benchmark's models as ``(name, model, h, size)``; ``quick`` drops the sphere at h=0.05."""
     from .. import parts, sdf
 
     ball = sdf.sphere(1.0)
@@ -55,7 +55,7 @@ def target_models(quick: bool = False) -> list[tuple[str, Any, float, Callable |
         # sheet of period 1 thicker than 0.276 fills all space: the earlier infill with a 0.3
         # sheet was a plain box.)
         ("gyroid block h=0.05", parts.gyroid_block(), 0.05, None),
-        # CAD-style parts (issue 12): a revolved stepped shaft and a flange with bore and bolt holes
+        # CAD-style parts: a revolved stepped shaft and a flange with bore and bolt holes
         ("stepped shaft h=2", sdf.revolve(sdf.polygon([(0, 0), (10, 0), (10, 40), (6, 40), (6, 80), (0, 80)])), 2.0, None),
         ("flange h=4", _flange(), 4.0, None),
     ]

@@ -1,6 +1,6 @@
-"""Surface extraction on the torus R=1, r=0.4: fepre's methods vs vtkFlyingEdges3D (seed Tables 1-2).
+"""Surface extraction on the torus R=1, r=0.4: fepre's methods vs vtkFlyingEdges3D, from a sampled array and straight from the model.
 
-Part 1 reproduces the seed's Tables 1 and 2 at 81^3: every method from a pre-sampled array and
+Part 1 repeats Tables 1 and 2 of Kelly's master's project at 81^3: every method from a pre-sampled array and
 straight from the model (sampling included), on one thread and on all threads, plus the time to
 sample the array. Part 2 runs at ``--size`` (256): fepre's marching cubes and surface nets against
 vtkFlyingEdges3D on the same array, and sampling plus extraction end to end against flying edges
@@ -53,11 +53,11 @@ def _ms(seconds: float) -> str:
 
 
 def seed_tables(repeat: int, workers_all: int) -> list[str]:
-    """Seed Tables 1 and 2 at 81^3."""
+    """Tables 1 and 2 of Kelly's master's project at 81^3."""
     import fepre
 
     model = _torus()
-    lines = ["Seed Tables 1-2: torus R=1, r=0.4 on 81^3 (median of %d)" % repeat]
+    lines = ["Tables 1 and 2 of Kelly's project: torus R=1, r=0.4 on 81^3 (median of %d)" % repeat]
     lines.append(f"{'method':<10} {'threads':>7} {'pre-sampled array':>18} {'from the function':>18}")
     for workers in (1, workers_all):
         grid = fepre.sample(model, shape=81, bounds=BOX, workers=workers)
@@ -69,7 +69,7 @@ def seed_tables(repeat: int, workers_all: int) -> list[str]:
             )
             lines.append(f"{SHORT[method]:<10} {workers:>7} {_ms(array):>18} {_ms(direct):>18}")
         lines.append(f"{'sampling':<10} {workers:>7} {_ms(sampling):>18} {'':>18}")
-    lines.append("seed (Julia, Table 2, MC): array 2.721 ms / 2.212 ms (1 / 6 threads), function 6.745 ms / 2.699 ms")
+    lines.append("Meshing.jl (Julia, Table 2, MC): array 2.721 ms / 2.212 ms (1 / 6 threads), function 6.745 ms / 2.699 ms")
     return lines
 
 
@@ -169,7 +169,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--band-size", type=int, default=512, help="grid size for part 3 (default 512)")
     parser.add_argument("--repeat", type=int, default=5, help="runs per median (default 5)")
     parser.add_argument("--workers", type=int, default=None, help="threads (default all cores)")
-    parser.add_argument("--skip", choices=["seed", "large", "band"], action="append", default=[], help="skip a part")
+    parser.add_argument("--skip", choices=["seed", "large", "band"], action="append", default=[], help="skip a part (seed: the 81^3 tables of Kelly's master's project; large: --size; band: --band-size)")
     args = parser.parse_args(argv)
     workers = fepre.config.resolve_workers(args.workers)
     parts = []

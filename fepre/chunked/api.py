@@ -7,7 +7,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import choice, finite_float, nonnegative_float, positive_int
+from ..arguments import choice, finite_float, nonnegative_float, positive_int, shown
 from ..sdf.core import SDF
 from .cluster import check_picklable, needs_pickling, require_dask
 from .grid import ChunkedGrid
@@ -37,7 +37,7 @@ def _plan(source, *, method, level, chunks, spacing, shape, bounds, band, model,
                 raise ValueError(f"{option} applies only when source is a model; the ChunkedGrid is already sampled")
         if chunks is not None and ChunkLayout.of(source.layout.counts, chunks) != source.layout:
             raise ValueError(
-                f"chunks={chunks!r} differs from the ChunkedGrid's chunks {source.chunks}; omit chunks "
+                f"chunks={shown(chunks)} differs from the ChunkedGrid's chunks {source.chunks}; omit chunks "
                 f"(the grid's are used) or sample the grid with these chunks"
             )
         if model is None:

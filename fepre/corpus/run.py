@@ -1,4 +1,4 @@
-"""Mesh corpus parts and judge each mesh against the issue's targets."""
+"""Mesh corpus parts and judge each mesh against fepre's quality and volume targets."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ __all__ = ["PartResult", "true_volume", "mesh_part", "judge", "TARGETS"]
 #: worst dihedral (deg), largest dihedral (deg), smallest radius ratio
 TARGETS = (25.0, 150.0, 0.25)
 #: volume error allowed on resolvable parts with flat faces only (their boundary is exact) and
-#: walls at least 2 h thick (the issue's target)
+#: walls at least 2 h thick
 POLYHEDRAL_VOLUME = 0.005
 #: volume error above which an unresolvable part must have said where it lost or added material
 SILENT_LOSS = 0.02

@@ -1,4 +1,4 @@
-"""DistMesh tetrahedral meshing of SDF models (Persson 2004; the seed's DistMesh.jl extensions).
+"""DistMesh tetrahedral meshing of SDF models (Persson 2004, with the extensions of Kelly's DistMesh.jl).
 
 Examples
 --------

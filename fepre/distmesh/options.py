@@ -58,7 +58,7 @@ class DistMeshOptions:
         (which leave the surface under-populated: its points must first flow out of the
         interior, costing many iterations and retriangulations).
     nonlinear : bool, default False
-        Use the seed's nonlinear bar force ``k (L0 - L)`` with ``k = (L + L0) / (2 L0)``.
+        Use the nonlinear bar force ``k (L0 - L)`` with ``k = (L + L0) / (2 L0)`` of Kelly's DistMesh.jl.
     distance_cache : bool, default True
         Keep an upper bound of each point's sdf (its last value plus the distance it moved
         since, valid because an sdf is 1-Lipschitz) and evaluate the model only at points whose
@@ -80,7 +80,7 @@ class DistMeshOptions:
     retriangulation : {"movement", "move_average"}, default "movement"
         ``"movement"``: the ``ttol`` rule. ``"move_average"``: also retriangulate when the
         latest per-iteration maximum move exceeds the average of the previous
-        ``move_average_window`` ones (the seed's section 4.7).
+        ``move_average_window`` ones (as in Kelly's DistMesh.jl study).
     move_average_window : int, default 7
         Number of previous maximum moves averaged by ``"move_average"``.
     delaunay : {"auto", "scipy", "gmsh"}, default "auto"

@@ -18,7 +18,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..arguments import SET_NAME as _NAME, check_names, positive_float  # noqa: F401  (re-exported: they were defined here)
+from ..arguments import SET_NAME as _NAME, check_names, positive_float, shown  # noqa: F401  (re-exported: they were defined here)
 from .tetmesh import tetra_arrays
 
 __all__ = [
@@ -162,7 +162,7 @@ def assign_boundaries(
     tolerance = positive_float(boundary_tolerance, "boundary_tolerance")
     angle = positive_float(boundary_angle, "boundary_angle")
     if angle > 90:
-        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {boundary_angle!r}")
+        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {shown(boundary_angle)}")
     min_cosine = np.cos(np.radians(angle)) - 1e-12
     names = list(boundaries)
     check_names(names, "boundaries")

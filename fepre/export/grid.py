@@ -4,17 +4,25 @@
 * cell data ``"region_id"`` (index into field data ``"region_names"``) and the mesh's own cell
   arrays (quality measures, ``volume``);
 * point data ``"boundary_id"`` (index into field data ``"boundary_names"``, -1 inside; a node on
-  two sets shows the first) and the mesh's own point arrays (``sdf``, ``boundary``, ``feature``;
-  for quadratic cells the float arrays are interpolated linearly to the midside nodes and the
-  others are left out);
+  two sets shows the first) and the mesh's own point arrays (``sdf``, ``boundary``, ``feature``).
+  For quadratic cells the midside nodes get values too (:func:`midside_values`): float arrays are
+  interpolated linearly along the edge; ``boundary`` is 1 where the edge is an edge of a boundary
+  face (an edge joining two boundary nodes through the interior is not); ``feature`` is 1 where
+  the edge joins two feature nodes (1 or 2) along a crease of the boundary (its two boundary faces
+  meet at more than ``CREASE_ANGLE`` degrees), so on the feature curve it follows, and 0
+  elsewhere (a corner, 2, is always a corner node); any other integer array takes the smaller of
+  its two ends' values;
 * field data ``"boundary_faces"`` (K, 3): each boundary face as its tetrahedron (0-based), its
   face number 1..4 (Abaqus ``S1``..``S4``) and its set (index into ``"boundary_names"``), which
   :func:`boundary_faces` turns back into tagged triangles.
 
 A VTU file holds this grid with one change: the set names travel as integer field data
 ``name -> [index, dimension]`` (3 for regions, 2 for boundaries; Gmsh's and meshio's convention)
-instead of the two string arrays, because meshio cannot read a VTU holding string arrays.
-:func:`set_names` reads the names back from either form.
+instead of the two string arrays, because meshio cannot read a VTU holding string arrays. A set
+whose name is also the name of a point or cell array (the region ``volume`` and the cell array
+``volume``, the set ``boundary`` and the point array ``boundary``) is written as ``<name>_set``,
+so that no field data reuses an array's name. :func:`set_names` reads the names back from either
+form.
 """
 
 from __future__ import annotations
@@ -26,12 +34,16 @@ import numpy as np
 from .boundaries import OUTWARD_FACES
 from .data import ExportData
 
-__all__ = ["tagged_grid", "boundary_faces", "set_names", "file_grid", "FACE_FIELD", "FEPRE_ARRAYS",
-           "RESERVED_FIELD_NAMES"]
+__all__ = ["tagged_grid", "boundary_faces", "set_names", "file_grid", "midside_values", "FACE_FIELD",
+           "FEPRE_ARRAYS", "RESERVED_FIELD_NAMES", "CREASE_ANGLE", "SET_SUFFIX"]
 
 FACE_FIELD = "boundary_faces"
 FEPRE_ARRAYS = ("region_id", "boundary_id")
 RESERVED_FIELD_NAMES = (FACE_FIELD, "region_names", "boundary_names")
+#: boundary faces meeting at more than this (degrees) make a crease: the feature curves of a mesh
+CREASE_ANGLE = 30.0
+#: appended to a set name in a VTU's field data when a point or cell array has that name
+SET_SUFFIX = "_set"
 
 
 def _midside_values(values: np.ndarray, cells10: np.ndarray, n_corners: int) -> np.ndarray:
@@ -44,6 +56,47 @@ def _midside_values(values: np.ndarray, cells10: np.ndarray, n_corners: int) -> 
     extended[cells10[:, 4:].ravel()] = 0.5 * (values[ends[..., 0]] + values[ends[..., 1]]).reshape(
         (-1,) + values.shape[1:]
     )
+    return extended
+
+
+def _crease_midside_nodes(data: ExportData) -> np.ndarray:
+    """Midside nodes of the boundary edges whose two boundary faces meet at more than
+    ``CREASE_ANGLE`` degrees."""
+    triangles = data.face_nodes[data.faces.on_boundary]
+    corners = data.points[triangles[:, :3]]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), np.finfo(float).tiny)
+    midside = triangles[:, 3:].ravel()
+    owner = np.repeat(np.arange(len(triangles)), 3)
+    order = np.argsort(midside, kind="stable")
+    midside, owner = midside[order], owner[order]
+    pairs = np.flatnonzero(midside[1:] == midside[:-1])  # an edge shared by two boundary faces
+    cosine = np.einsum("ij,ij->i", normals[owner[pairs]], normals[owner[pairs + 1]])
+    return midside[pairs][cosine < np.cos(np.radians(CREASE_ANGLE))]
+
+
+def midside_values(name: str, values: np.ndarray, data: ExportData, n_corners: int) -> np.ndarray:
+    """Point array ``name`` (one value per corner node) extended to the midside nodes of the
+    quadratic cells of ``data``, by the rules of this module's docstring."""
+    if values.dtype.kind == "f":
+        return _midside_values(values, data.cells, n_corners)
+    from .quadratic import TET10_EDGES
+
+    extended = np.zeros((data.cells.max() + 1,) + values.shape[1:], dtype=values.dtype)
+    extended[:n_corners] = values
+    ends = data.cells[:, TET10_EDGES]  # (M, 6, 2)
+    extended[data.cells[:, 4:].ravel()] = np.minimum(values[ends[..., 0]], values[ends[..., 1]]).reshape(
+        (-1,) + values.shape[1:]
+    )
+    if name in ("boundary", "feature") and values.ndim == 1:
+        kept = np.zeros(len(extended), dtype=bool)
+        kept[:n_corners] = True
+        if name == "boundary":
+            kept[data.face_nodes[data.faces.on_boundary][:, 3:].ravel()] = True
+        else:
+            kept[_crease_midside_nodes(data)] = True
+            extended[n_corners:] = np.minimum(extended[n_corners:], 1)
+        extended[~kept] = 0
     return extended
 
 
@@ -76,9 +129,9 @@ def tagged_grid(
         if name in FEPRE_ARRAYS or values.shape[:1] != (n_corners,):
             continue
         if data.order == 2:
-            if values.dtype.kind != "f":
+            if values.dtype.kind not in "fiub":
                 continue
-            values = _midside_values(values, data.cells, n_corners)
+            values = midside_values(name, values, data, n_corners)
         grid.point_data[name] = values
     for name, values in (cell_arrays or {}).items():
         values = np.asarray(values)
@@ -105,15 +158,18 @@ def file_grid(grid: Any) -> Any:
     regions, boundaries = set_names(grid)
     for key in ("region_names", "boundary_names"):
         written.field_data.remove(key)
+    arrays = set(grid.point_data.keys()) | set(grid.cell_data.keys())
     for dimension, names in ((3, regions), (2, boundaries)):
         for index, name in enumerate(names):
-            written.field_data[name] = np.array([index, dimension], dtype=np.int64)
+            key = name + SET_SUFFIX if name in arrays else name
+            written.field_data[key] = np.array([index, dimension], dtype=np.int64)
     return written
 
 
 def set_names(grid: Any) -> tuple[list[str], list[str]]:
     """Region and boundary set names of a tagged grid: from its string arrays ``"region_names"`` and
-    ``"boundary_names"`` or from ``name -> [index, dimension]`` entries (a fepre VTU, Gmsh style).
+    ``"boundary_names"`` or from ``name -> [index, dimension]`` entries (a fepre VTU, Gmsh style;
+    ``<name>_set`` is the set ``<name>`` when the grid has a point or cell array ``<name>``).
 
     Examples
     --------
@@ -128,12 +184,14 @@ def set_names(grid: Any) -> tuple[list[str], list[str]]:
     for dimension, key in ((3, "region_names"), (2, "boundary_names")):
         if key in field:
             found[dimension] = {i: str(name) for i, name in enumerate(np.asarray(field[key]).tolist())}
+    arrays = set(grid.point_data.keys()) | set(grid.cell_data.keys())
     for name in field.keys():
         if name in RESERVED_FIELD_NAMES:
             continue
         value = np.asarray(field[name])
         if value.shape == (2,) and value.dtype.kind in "iu" and int(value[1]) in found:
-            found[int(value[1])].setdefault(int(value[0]), name)
+            stem = name[: -len(SET_SUFFIX)] if name.endswith(SET_SUFFIX) else None
+            found[int(value[1])].setdefault(int(value[0]), stem if stem in arrays else name)
     return tuple([found[d][i] for i in sorted(found[d])] for d in (3, 2))  # type: ignore[return-value]
 
 

@@ -7,7 +7,7 @@ against each other. That one protocol serves both ways of evaluating a model:
 * ``model(points)`` on an (N, 3) array: coordinates are column views, evaluated in cache-sized
   blocks on several threads (numpy releases the GIL);
 * :meth:`SDF.values_on_axes` on three 1D axis arrays: a grid is sampled without ever
-  materialising its coordinates (the seed's "direct function sampling"); work that depends on
+  materialising its coordinates ("direct function sampling" in Kelly's master's project); work that depends on
   one axis only is done once per axis value.
 
 Nodes with an analytic gradient override :meth:`SDF._values_and_gradient`; the others get

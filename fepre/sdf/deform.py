@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import as_vector, finite_float, nonnegative_float, positive_float, positive_int
+from ..arguments import as_vector, finite_float, nonnegative_float, positive_float, positive_int, shown
 from .booleans import union
 from .box_distance import box_distance, box_distance_and_gradient
 from .core import SDF, operation
@@ -345,7 +345,7 @@ def elongate(shape: SDF, h: Any, center: Any = None) -> SDF:
     shape = _check_shape(shape, "shape")
     half = as_vector(h, shape.dim, "h", allow_scalar=True)
     if np.any(half < 0):
-        raise ValueError(f"h must be >= 0 on every axis; got {h!r}")
+        raise ValueError(f"h must be >= 0 on every axis; got {shown(h)}")
     center = as_vector(np.zeros(shape.dim) if center is None else center, shape.dim, "center")
     return Elongate(shape, half, center)
 
@@ -403,7 +403,7 @@ def repeat(shape: SDF, spacing: Any, count: Any) -> SDF:
     if counts.ndim == 1 and counts.size == 1:
         counts = np.full(dim, counts[0])
     if counts.shape != (dim,):
-        raise ValueError(f"count must be a positive integer or {dim} of them; got {count!r}")
+        raise ValueError(f"count must be a positive integer or {dim} of them; got {shown(count)}")
     counts = np.array([positive_int(n if not isinstance(n, np.generic) else n.item(), "count") for n in counts])
     lo, hi = np.asarray(shape.bounds[0]), np.asarray(shape.bounds[1])
     if np.prod(counts) <= 2**dim or np.any((hi - lo) > spacing):

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import _numeric_array, as_vector, finite_float
+from ..arguments import _numeric_array, as_vector, finite_float, shown
 from .core import SDF, Coords, operation
 
 __all__ = ["Affine", "translate", "rotate", "scale", "mirror", "transform"]
@@ -216,7 +216,7 @@ def scale(shape: SDF, factor: Any) -> SDF:
     """
     factors = as_vector(factor, shape.dim, "factor", allow_scalar=True)
     if np.any(factors <= 0):
-        raise ValueError(f"factor must be > 0 on every axis (use mirror to reflect); got {factor!r}")
+        raise ValueError(f"factor must be > 0 on every axis (use mirror to reflect); got {shown(factor)}")
     return _apply(shape, _homogeneous(np.diag(factors), np.zeros(shape.dim)), f"scale{_fmt(factors)}")
 
 

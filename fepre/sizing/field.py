@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import as_points, evaluate_size
+from ..arguments import as_points, evaluate_size, shown
 
 __all__ = ["SizeField"]
 
@@ -57,7 +57,7 @@ class SizeField:
             raise ValueError(f"values must be a non-empty (nz, ny, nx) array; got shape {values.shape}")
         bad = ~(np.isfinite(values) & (values > 0))
         if bad.any():
-            raise ValueError(f"sizes must be finite and > 0; got {values[bad].ravel()[0]!r}")
+            raise ValueError(f"sizes must be finite and > 0; got {shown(values[bad].ravel()[0])}")
         self.origin, self.spacing, self.values = origin, spacing, values
         #: seconds :func:`fepre.size_field` took to build the field (None for other fields)
         self.seconds: float | None = None
@@ -120,7 +120,7 @@ class SizeField:
         for other in others:
             if isinstance(other, (int, float)) and not isinstance(other, bool):
                 if not (np.isfinite(other) and other > 0):
-                    raise ValueError(f"a size must be finite and > 0; got {other!r}")
+                    raise ValueError(f"a size must be finite and > 0; got {shown(other)}")
                 np.minimum(values, float(other), out=values)
                 continue
             if not callable(other):
@@ -133,7 +133,7 @@ class SizeField:
     def clip(self, hmin: float, hmax: float) -> "SizeField":
         """The field with its sizes clamped to ``[hmin, hmax]``."""
         if not (0 < hmin <= hmax):
-            raise ValueError(f"clip needs 0 < hmin <= hmax; got hmin={hmin!r}, hmax={hmax!r}")
+            raise ValueError(f"clip needs 0 < hmin <= hmax; got hmin={shown(hmin)}, hmax={shown(hmax)}")
         return SizeField(self.origin, self.spacing, np.clip(self.values, hmin, hmax))
 
     # ------------------------------------------------------------------ images and meshes
@@ -181,7 +181,7 @@ class SizeField:
             raise ValueError(f"the background mesh's array {name!r} must hold one size per point or cell; got shape {sizes.shape}")
         bad = ~(np.isfinite(sizes) & (sizes > 0))
         if bad.any():
-            raise ValueError(f"the background mesh's sizes ({name!r}) must be finite and > 0; got {sizes[bad][0]!r}")
+            raise ValueError(f"the background mesh's sizes ({name!r}) must be finite and > 0; got {shown(sizes[bad][0])}")
         if bounds is None:
             b = np.asarray(mesh.bounds, dtype=np.float64).reshape(3, 2)
             lower, upper = b[:, 0], b[:, 1]
@@ -194,7 +194,7 @@ class SizeField:
         else:
             step = float(spacing)
         if not step > 0:
-            raise ValueError(f"spacing must be > 0; got {spacing!r}")
+            raise ValueError(f"spacing must be > 0; got {shown(spacing)}")
         counts = np.maximum(np.ceil((upper - lower) / step - 1e-9).astype(np.int64) + 1, 2)
         if int(np.prod(counts)) > MAX_NODES:
             step = float(np.cbrt(np.prod(upper - lower) / MAX_NODES))

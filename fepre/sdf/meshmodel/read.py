@@ -31,7 +31,9 @@ def _as_polydata(source: Any, name: str):
             raise MeshInputError(f"mesh file {path} is a directory; give an STL, OBJ, PLY or other surface file")
         import warnings
 
-        with warnings.catch_warnings(record=True) as caught:
+        from ...vtk_messages import vtk_messages_kept
+
+        with warnings.catch_warnings(record=True) as caught, vtk_messages_kept():
             warnings.simplefilter("always")
             try:
                 data = pv.read(path)

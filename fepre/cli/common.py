@@ -1,0 +1,165 @@
+"""What the commands share: progress lines, output paths checked before any work, atomic
+writes, the model-file argument and the edge-length, period, bounds and chunk options."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+
+_LOG = None
+
+
+def start_log() -> None:
+    """A fresh progress log: its times count from now (the start of a command)."""
+    global _LOG
+    from ..progress import StepLog
+
+    _LOG = StepLog()
+
+
+def say(message: str) -> None:
+    """Progress on stderr, so stdout keeps only results: one line per step with the time since
+    the command started (:class:`fepre.progress.StepLog`)."""
+    global _LOG
+    if _LOG is None:
+        from ..progress import StepLog
+
+        _LOG = StepLog()
+    _LOG(message)
+
+
+def write_atomically(save: Callable[[Path], None], path: Path) -> None:
+    """Call ``save(temporary)`` then rename onto ``path`` (nothing half-written)."""
+    from ..export.atomic import staged_files
+
+    with staged_files(path, [path.name], overwrite=True) as stage:
+        save(stage / path.name)
+
+
+def output_path(value: str | None, flag: str, suffixes: tuple[str, ...]) -> Path | None:
+    """``value`` as an output path, checked before any work: suffix, folder, writability."""
+    import os
+
+    if value is None:
+        return None
+    path = Path(value)
+    if path.suffix.lower() not in suffixes:
+        listed = ", ".join(suffixes[:-1]) + (" or " if len(suffixes) > 1 else "") + suffixes[-1]
+        raise ValueError(f"{flag} must end in {listed}; got {path.name!r}")
+    if path.is_dir():
+        raise ValueError(f"{flag} {value!r} is a folder; give a file name")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"{flag} {value!r}: the folder {str(folder)!r} does not exist; create it first")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{flag} {value!r}: the folder {str(folder)!r} is not writable")
+    return path
+
+
+def mesh_suffixes() -> tuple[str, ...]:
+    from ..export import FORMATS
+
+    return tuple(ext for f in FORMATS.values() for ext in f.extensions)
+
+
+def companions(output: Path, fmt) -> list[Path]:
+    """The files format ``fmt`` writes beside ``output`` (XDMF: its .h5 and the facets pair)."""
+    return [output.with_name(name) for name in fmt.outputs(output.name) if name != output.name]
+
+
+def model_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", metavar="MODEL",
+                        help="Python file defining `model` (and optionally h, bounds, boundaries), "
+                             "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
+
+
+def load_part(args: argparse.Namespace):
+    """The model file (or mesh file) of ``args.model``; for a mesh file, say what was read and
+    repaired."""
+    from ..modelfile import load_model
+    from ..sdf import MeshModel
+
+    part = load_model(args.model)
+    if isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
+        repaired = part.model.repaired.summary()
+        say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
+             + (f"; repaired: {repaired}" if repaired else "; closed and consistently oriented"))
+    return part
+
+
+def default_spacing(part) -> float:
+    lo, hi = part.domain_bounds()
+    return max(b - a for a, b in zip(lo, hi)) / 100.0
+
+
+def chunks_argument(values: list[int] | None):
+    """``--chunks`` as nodes per chunk (x, y, z), checked."""
+    if values is None:
+        return None
+    from ..chunked.layout import as_chunks
+
+    if len(values) not in (1, 3):
+        raise ValueError(f"--chunks takes one number or three (x y z); got {len(values)}: {values}")
+    return tuple(as_chunks(values[0] if len(values) == 1 else tuple(values), "--chunks").tolist())
+
+
+def is_zarr_grid(path: str) -> bool:
+    return Path(path).suffix.lower() == ".zarr"
+
+
+def bounds_argument(values):
+    from ..arguments import as_bounds
+
+    return as_bounds((values[:3], values[3:]), 3, "--bounds")
+
+
+def period_argument(parser: argparse.ArgumentParser, required: bool) -> None:
+    parser.add_argument("--period", type=float, nargs="+", metavar="L", required=required,
+                        help="mesh one periodic cell of the model: its period (or Lx Ly Lz); the cell is the model "
+                             "file's bounds, or from the origin; an .inp gets the periodic *EQUATION constraints")
+
+
+def check_period_bounds(period, part) -> None:
+    """The model file's bounds are the periodic cell: their extents must be the periods."""
+    if period is None or part.bounds is None:
+        return
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in part.bounds)
+    if not np.allclose(upper - lower, np.broadcast_to(period, 3), rtol=1e-9, atol=0.0):
+        raise ValueError(
+            f"--period {' '.join(f'{v:g}' for v in np.broadcast_to(period, 3))} disagrees with the bounds in "
+            f"{part.path}, whose extents are {' '.join(f'{v:g}' for v in upper - lower)} (the bounds are the cell)"
+        )
+
+
+def periods(values: list[float] | None):
+    """The ``--period`` values as one or three positive floats, or None."""
+    if values is None:
+        return None
+    if len(values) not in (1, 3):
+        raise ValueError(f"--period takes one period or three (Lx Ly Lz); got {len(values)} numbers")
+    if not all(np.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f"--period must be positive; got {' '.join(f'{v:g}' for v in values)}")
+    return values[0] if len(values) == 1 else tuple(values)
+
+
+def edge_length(args: argparse.Namespace, part) -> float:
+    h = args.h if args.h is not None else part.h
+    if h is None:
+        if part.path.suffix == ".py":
+            raise ValueError(f"no edge length: pass --h or set `h = ...` in {part.path}")
+        lower, upper = part.domain_bounds()
+        extent = max(b - a for a, b in zip(lower, upper))
+        raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} puts about 20 elements across it)")
+    if not h > 0:
+        raise ValueError(f"--h must be > 0; got {h}")
+    return float(h)
+
+
+def seed_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of DistMesh's random choices (lattice jitter, size rejection); the same seed "
+                             "gives the same mesh (default 0)")

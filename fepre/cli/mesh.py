@@ -1,0 +1,164 @@
+"""``fepre mesh``: mesh a model file with tetrahedra and write a solver file."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import common
+
+
+HELP = "mesh a model file with tetrahedra and write a solver file"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    common.model_argument(parser)
+    parser.add_argument("-o", "--output", required=True, help="solver file: .inp, .msh, .vtu, .xdmf, .bdf, .mesh, .med")
+    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h); with --hmax, the smallest")
+    parser.add_argument("--hmax", type=float, help="largest edge length: grade the mesh with the automatic size field from --h to this")
+    parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes")
+    parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
+    common.period_argument(parser, required=False)
+    parser.add_argument("--no-regions", action="store_true",
+                        help="mesh the part as one region even if the model file defines `regions`")
+    parser.add_argument("--material", nargs=3, action="append", metavar=("REGION", "E", "NU"),
+                        help="elastic material of a region (repeat for each; a model file's `materials` is the default); "
+                             "written to an .inp as *MATERIAL and *SOLID SECTION (a mesh of one region: REGION is volume)")
+    common.seed_argument(parser)
+    parser.add_argument("--no-features", action="store_true", help="do not keep sharp edges and corners as mesh nodes")
+    parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
+
+
+def _materials(args: argparse.Namespace, part, regions: dict, format_name: str) -> dict | None:
+    """The materials to write: ``--material`` flags, else the model file's ``materials``; checked
+    against the regions and the format before any meshing."""
+    from ..materials import elastic_material
+
+    if args.material:
+        materials = {}
+        for region, young, poisson in args.material:
+            try:
+                materials[region] = (float(young), float(poisson))
+            except ValueError:
+                raise ValueError(f"--material {region} {young} {poisson}: E and NU must be numbers") from None
+        source = "--material"
+    elif not regions or format_name != "abaqus":
+        return None  # the model file's materials are for its regions, written to .inp files only
+    else:
+        materials, source = dict(part.materials), f"`materials` in {part.path}"
+    if not materials:
+        return None
+    names = list(regions) if regions else ["volume"]
+    unknown = [name for name in materials if name not in names]
+    if unknown:
+        raise ValueError(f"{source} names {', '.join(unknown)}, not a region of the mesh (regions: {', '.join(names)})")
+    missing = [name for name in names if name not in materials]
+    if missing:
+        raise ValueError(f"{source} must give every region a material; missing {', '.join(missing)}")
+    if format_name != "abaqus":
+        raise ValueError(f"{source}: only an .inp file carries materials; the output is {format_name}")
+    for name, value in materials.items():
+        elastic_material(value, f"{source} for {name}")
+    return materials
+
+
+def run(args: argparse.Namespace) -> int:
+    import fepre
+
+    from ..quality import summary
+
+    output = common.output_path(args.output, "--output", common.mesh_suffixes())
+    size = _size_file(args.size) if args.size is not None else None
+    period = common.periods(args.period)
+    part = common.load_part(args)
+    common.check_period_bounds(period, part)
+    if period is None:
+        part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
+    elif args.hmax is not None or size is not None:
+        raise ValueError("--period meshes with one --h (no --hmax or --size)")
+    h = common.edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
+    if args.hmax is not None:
+        if h is None or not args.hmax > h:
+            raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h}")
+        h = (h, float(args.hmax))
+    from ..export.formats import resolve_format
+    from ..export.meshio_formats import require_module
+
+    fmt = resolve_format(output, None)
+    if args.order not in fmt.orders:
+        raise ValueError(f"--order {args.order}: format {fmt.name} ({output.suffix}) supports order {fmt.orders[0]} only")
+    if fmt.backend is not None:
+        require_module(*fmt.backend, fmt.name)
+    regions = {} if args.no_regions else part.regions
+    if regions and period is not None:
+        raise ValueError(f"--period: {part.path} defines `regions`; a periodic cell is meshed as one region (add --no-regions)")
+    materials = _materials(args, part, regions, fmt.name)
+    say = (lambda message: None) if args.quiet else common.say
+    if regions:
+        say(f"fepre mesh: {len(regions)} regions ({', '.join(regions)}), meshed with conforming interfaces")
+    if isinstance(h, tuple):
+        say(f"fepre mesh: DistMesh with the automatic size field, h from {h[0]:g} to {h[1]:g} ...")
+    elif size is not None:
+        say(f"fepre mesh: DistMesh with the sizes of {args.size} ...")
+    else:
+        say(f"fepre mesh: DistMesh h={h:g} ...")
+    start = time.perf_counter()
+    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
+                          features=not args.no_features, periodic=period, regions=regions or None)
+    if regions:
+        names = list(mesh.field_data["region_names"])
+        for index, name in enumerate(names):
+            chosen = np.asarray(mesh["region_id"]) == index
+            say(f"fepre mesh: region {name}: {int(chosen.sum())} tetrahedra, volume {float(mesh['volume'][chosen].sum()):.6g}, "
+                f"worst dihedral {float(mesh['min_dihedral_angle'][chosen].min()):.1f} deg")
+    if period is not None:
+        say(f"fepre mesh: periodic cell: {len(fepre.periodic_nodes(mesh))} nodes tied to their partners one period away")
+    say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
+    if not args.quiet:
+        print(summary(mesh))
+    if part.boundaries:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", fepre.export.BoundaryWarning)
+            faces = fepre.export.tag_boundaries(mesh, part.boundaries)
+        counts = np.bincount(np.asarray(faces["boundary_id"]), minlength=len(part.boundaries) + 1)
+        empty = [name for index, name in enumerate(part.boundaries) if counts[index] == 0]
+        if empty:
+            raise ValueError(
+                f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
+                f"mesh (none within a quarter of the local edge length, facing the same way); check "
+                f"where their functions are zero; nothing written"
+            )
+    say(f"fepre mesh: writing {output} ...")
+    written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
+                           materials=materials)
+    print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    for companion in common.companions(output, fmt):
+        print(f"wrote {companion}")
+    return 0
+
+
+def _size_file(path: str):
+    """A size field from a file: an image of sizes (``fepre size``) or a background mesh."""
+    import pyvista as pv
+
+    from ..sizing import SizeField
+
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f"--size {path}: no such file")
+    from ..vtk_messages import vtk_messages_kept
+
+    try:
+        with vtk_messages_kept():
+            data = pv.read(str(file))
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the user's file
+        raise ValueError(f"--size {path}: cannot read it ({exc})") from None
+    try:
+        return SizeField.from_image(data) if isinstance(data, pv.ImageData) else data
+    except ValueError as exc:
+        raise ValueError(f"--size {path}: {exc}") from None
