@@ -109,6 +109,7 @@ def test_import_fepre_registers_the_plugin_without_importing_pyvista():
     assert result.returncode == 0, result.stderr
 
 
+@pytest.mark.slow
 def test_plot_accepts_a_vtu_mixing_boundary_triangles_with_tetrahedra(tmp_path):
     # fepre's VTU holds tetrahedra only; files from other tools often add the boundary triangles.
     import pyvista as pv

@@ -35,6 +35,7 @@ def test_demo_parts_are_the_five_of_the_issue_and_an_imported_one():
     assert names == ["cube_with_hole", "sphere", "torus", "l_bracket", "gyroid_block", "imported_block"]
 
 
+@pytest.mark.slow
 def test_demo_writes_every_file_of_every_part(demo):
     outdir, code, out, err = demo
     failed = dict(re.findall(r"^(\w+) FAILED: (.*)$", out, flags=re.M))
@@ -63,6 +64,7 @@ def test_demo_writes_every_file_of_every_part(demo):
         assert {"hole", "top", "bottom"} <= set(meshio.read(outdir / "cube_with_hole.inp").point_sets)
 
 
+@pytest.mark.slow
 def test_demo_prints_a_summary_and_progress_and_writes_one_report(demo):
     outdir, _, out, err = demo
     header = next(line for line in out.splitlines() if line.startswith("part"))

@@ -31,6 +31,7 @@ def test_gmsh_triangulates_a_lattice_the_same_way_every_time():
         np.testing.assert_array_equal(tetrahedralize(lattice, "gmsh"), first)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["gmsh", "scipy"])
 def test_a_finned_plate_meshes_identically_three_times_in_one_process(backend):
     """Before: three different meshes (hashes 7d6ec0148a, 2b0d8d5e09, 5bf3e8f434) with gmsh."""
@@ -44,6 +45,7 @@ def test_a_finned_plate_meshes_identically_three_times_in_one_process(backend):
         np.testing.assert_array_equal(again_cells, cells)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["gmsh", "scipy"])
 def test_corpus_parts_mesh_identically_with_each_backend(backend):
     if backend == "gmsh":

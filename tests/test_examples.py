@@ -31,6 +31,7 @@ def test_cube_with_hole_surface_is_closed_with_the_right_volume(tmp_path):
     assert check.volume == pytest.approx(125 - 5 * 3.141592653589793, rel=5e-3)
 
 
+@pytest.mark.slow
 def test_adaptive_remeshing_beats_uniform_refinement_per_cell(tmp_path):
     """Issue 14: on the L-block's singular edge the energy error falls faster per cell when each
     mesh is the background size of the next (from a Zienkiewicz-Zhu estimate) than uniformly."""

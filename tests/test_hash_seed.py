@@ -2,6 +2,8 @@
 
 import os
 import subprocess
+
+import pytest
 import sys
 
 SCRIPT = """
@@ -22,6 +24,7 @@ print(mesh.n_cells, round(float(mesh["min_dihedral_angle"].min()), 6), hashlib.m
 """
 
 
+@pytest.mark.slow
 def test_the_mesh_does_not_depend_on_the_hash_seed():
     runs = [subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, text=True,
                              env=dict(os.environ, PYTHONHASHSEED=str(seed))) for seed in (0, 1)]

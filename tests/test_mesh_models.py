@@ -327,8 +327,9 @@ def brute_distance_pairs(points, vertices, faces):
 # ---------------------------------------------------------------------------- the corpus of dirty inputs
 @pytest.mark.parametrize(
     "name",
-    ["occ-box-hole+holes", "occ-bracket+duplicates", "occ-box-hole+flipped", "occ-slotted-block+overlap",
-     "occ-tube+non-manifold", "blob-1+holes"],
+    ["occ-box-hole+holes", "occ-box-hole+flipped"]
+    + [pytest.param(name, marks=pytest.mark.slow) for name in
+       ("occ-bracket+duplicates", "occ-slotted-block+overlap", "occ-tube+non-manifold", "blob-1+holes")],
 )
 def test_dirty_inputs_mesh_like_clean_ones(name, tmp_path):
     """Each kind of dirt: a valid mesh at the quality targets, the volume of the part (the clean
@@ -422,6 +423,7 @@ def test_nesting_decides_orientation_of_closed_shells():
     assert model.volume == pytest.approx(64.0 - cavity.volume + ball.volume, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_hole_tangent_to_a_slot_wall_meshes(tmp_path):
     """Bolt holes whose rims touch a slot's walls: the touching point, found along two feature
     curves to ~1e-9, was two mesh nodes, and the quality stage refused cells of zero quality."""

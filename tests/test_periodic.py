@@ -194,7 +194,7 @@ def random_periodic_void(seed: int):
     return sdf.box((20, 20, 20)) - void, tuple(period), radius
 
 
-@pytest.mark.parametrize("seed", [3, 11, 29])
+@pytest.mark.parametrize("seed", [3, pytest.param(11, marks=pytest.mark.slow), 29])
 def test_random_voids_crossing_the_faces_give_paired_valid_cells(seed):
     model, period, radius = random_periodic_void(seed)
     h = min(period) / 9
@@ -211,6 +211,7 @@ def test_random_voids_crossing_the_faces_give_paired_valid_cells(seed):
     assert mesh.volume == pytest.approx(exact, rel=0.015)
 
 
+@pytest.mark.slow
 def test_docstring_examples_run():
     import doctest
     import importlib
@@ -240,6 +241,7 @@ def bcc_struts(radius: float = 0.12) -> sdf.SDF:
     return model
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, h", [("gyroid", 0.1), ("bcc", 0.05)])
 def test_cells_at_grazing_rims_and_cell_edges_meet_the_targets(name, h):
     """Cells on the faces next to a grazing rim or a cell edge: before the face nodes could move

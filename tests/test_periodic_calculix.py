@@ -58,6 +58,7 @@ def test_a_solid_cell_returns_its_material(order):
     assert result.asymmetry < 1e-6
 
 
+@pytest.mark.slow
 def test_a_spherical_void_stays_under_the_hashin_shtrikman_bounds():
     radius = 0.3
     model = sdf.box((9, 9, 9)) - sdf.sphere(radius, center=(0.5, 0.5, 0.5))
@@ -82,6 +83,7 @@ def test_a_spherical_void_stays_under_the_hashin_shtrikman_bounds():
     assert result.relative_density == pytest.approx(1 - 4 / 3 * np.pi * radius**3, rel=0.02)
 
 
+@pytest.mark.slow
 def test_a_gyroid_sheet_cell_is_cubic():
     mesh = quiet_mesh(sdf.gyroid(period=1.0, thickness=0.2), 0.09, 1.0)
     # C3D4 keeps the test quick (2 s; C3D10 takes 27 s here and is 0.4% off cubic, `fepre bench periodic`)
@@ -164,6 +166,7 @@ def skfem_stiffness(mesh, young: float, poisson: float) -> np.ndarray:
     return u @ (stiffness @ u.T) / nodes.cell.volume
 
 
+@pytest.mark.slow
 def test_calculix_and_an_independent_scikit_fem_solve_agree():
     pytest.importorskip("skfem")
     model = sdf.box((9, 9, 9)) - sdf.sphere(0.3, center=(0.45, 0.5, 0.55))

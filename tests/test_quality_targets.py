@@ -35,6 +35,7 @@ def assert_targets(mesh: pv.UnstructuredGrid, model, h: float) -> None:
     assert np.abs(model(points[np.unique(report.boundary_faces)])).max() <= 1e-3 * h
 
 
+@pytest.mark.slow
 def test_stepped_shaft_meets_every_target():
     """Before: worst dihedral 24.4 deg, largest 156.6 deg, radius ratio 0.123 (the stage
     aimed at the smallest angle only); then 23.6 deg with a ConvergenceWarning (a bad cell's
@@ -52,6 +53,7 @@ def test_stepped_shaft_meets_every_target():
     assert mesh.volume == pytest.approx(np.pi * (100 * 40 + 36 * 40), rel=0.01)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 6])
 def test_the_revolved_stepped_shaft_meets_every_target_at_other_seeds(seed):
     """Seed 1 ended at 24.8 deg and radius ratio 0.248 with a ConvergenceWarning (issue 12);
@@ -89,6 +91,7 @@ def test_impossible_targets_are_refused(name, value):
         fepre.improve(raw, ball, **{name: value})
 
 
+@pytest.mark.slow
 def test_improve_puts_another_meshers_sharp_edge_nodes_on_the_model():
     """gmsh's nodes on the cube-with-hole's edges sit on its own surface, 0.0045 h off the
     model; improve pinned them there, against its promise of 1e-3 h."""
@@ -184,6 +187,7 @@ def test_plate_one_edge_length_thick_gets_points_on_both_faces_and_meets_the_tar
     assert mesh.volume == pytest.approx(100.0, rel=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_a_stepped_shaft_of_two_cylinders_meets_every_target_for_every_seed(seed):
     """Before: seeds 0 and 2 ended at 1.7 and 2.2 deg with a ConvergenceWarning. The surface

@@ -105,6 +105,7 @@ def test_sphere_core_in_a_ball_has_a_closed_interface():
     assert 0.97 * exact < core_volume < exact  # an inscribed polyhedron
 
 
+@pytest.mark.slow
 def test_cube_core_keeps_its_edges_and_corners():
     # The interface's sharp edges are mesh edges: the core is exactly the unit cube.
     h = 0.12
@@ -126,6 +127,7 @@ def test_three_regions_meeting_on_a_line():
     np.testing.assert_allclose(region_volumes(mesh), [1.0, 0.5, 0.5], rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_skin_and_gyroid_core():
     # A 1 mm skin around a gyroid core: the interface is the set of patches where the gyroid
     # touches the skin's inner faces; its rims lie on the part's surface.
@@ -145,6 +147,7 @@ def test_skin_and_gyroid_core():
     assert len(open_edges(faces)[0]) > 0  # patches, whose rims are on the part's surface (checked above)
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, derandomize=True)
 @given(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(0.8, 1.2))
 def test_a_box_cut_by_a_random_plane(tilt_y, tilt_z, offset):

@@ -44,6 +44,7 @@ def stretch(tmp_path, mesh, materials, order):
     return force, (tmp_path / "part.inp").read_text(), dat
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", [1, 2])
 def test_bar_in_series_gives_the_reuss_stiffness(tmp_path, order):
     # nu = 0: each half is in uniaxial stress with no lateral strain, so the exact solution is
@@ -62,6 +63,7 @@ def test_bar_in_series_gives_the_reuss_stiffness(tmp_path, order):
     assert np.allclose([u[n] for n in interface.tolist()], at_interface, rtol=1e-5, atol=0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", [1, 2])
 def test_bar_in_parallel_gives_the_voigt_stiffness(tmp_path, order):
     # Equal nu: both halves take the same axial and lateral strains, so the interface y = 0.5

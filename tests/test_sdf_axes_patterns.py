@@ -102,6 +102,7 @@ def test_polar_pattern_is_the_union_of_turned_copies():
     assert fan([-1.0, 0.0, 0.0]) > 0.5
 
 
+@pytest.mark.slow
 def test_a_flange_with_a_bolt_circle_meshes_to_its_volume():
     holes = sdf.polar_pattern(sdf.cylinder(radius=4.0, height=30.0, center=(30.0, 0.0, 0.0)), 8)
     flange = sdf.cylinder(radius=40.0, height=10.0) - holes - sdf.cylinder(radius=12.0, height=30.0)

@@ -118,6 +118,7 @@ def test_size_field_arguments_are_checked():
         size_field(sdf.sphere(1.0).translate((50, 0, 0)), 0.1, 0.5, bounds=((-2, -2, -2), (2, 2, 2)))
 
 
+@pytest.mark.slow
 def test_the_field_follows_thickness_gaps_curvature_and_close_edges():
     hmin, hmax = 0.1, 3.0
     part = (
@@ -148,6 +149,7 @@ def _targets(mesh):
     return q["min_dihedral_angle"].min(), q["max_dihedral_angle"].max(), q["radius_ratio"].min()
 
 
+@pytest.mark.slow
 def test_a_graded_mesh_of_a_plate_with_a_small_hole_meets_the_targets_with_few_cells():
     plate = sdf.box((20.0, 20.0, 2.0)) - sdf.cylinder(0.5, 3.0)
     with warnings.catch_warnings():
@@ -171,6 +173,7 @@ def test_a_graded_mesh_of_a_plate_with_a_small_hole_meets_the_targets_with_few_c
     assert np.median(length[radius > 6.0]) == pytest.approx(2.0 / 3.0, rel=0.3)
 
 
+@pytest.mark.slow
 def test_a_thin_tube_gets_three_elements_through_its_wall():
     tube = sdf.cylinder(2.0, 4.0) - sdf.cylinder(1.4, 5.0)  # a wall 0.6 thick
     mesh = fepre.distmesh(tube, (0.1, 2.0))
@@ -183,6 +186,7 @@ def test_a_thin_tube_gets_three_elements_through_its_wall():
     assert mesh.volume == pytest.approx(np.pi * (4.0 - 1.96) * 4.0, rel=0.01)
 
 
+@pytest.mark.slow
 def test_distmesh_takes_a_background_mesh_and_checks_that_it_covers_the_part():
     block = sdf.box((4.0, 4.0, 2.0))
     background = pv.ImageData(dimensions=(6, 6, 4), spacing=(1.0, 1.0, 1.0), origin=(-2.5, -2.5, -1.5)).cast_to_unstructured_grid()
@@ -210,6 +214,7 @@ def test_meshes_too_big_for_the_machine_are_refused_before_any_work():
         fepre.distmesh(sdf.box(1.0))
 
 
+@pytest.mark.slow
 def test_the_cli_writes_a_size_field_and_meshes_with_it(tmp_path, capsys):
     from fepre.cli import main
 

@@ -39,6 +39,7 @@ def frd_stresses(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.array(nodes), np.array(values)
 
 
+@pytest.mark.slow
 def test_kirsch_plate_meshed_with_the_automatic_size_field(tmp_path):
     plate = sdf.box((WIDTH, WIDTH, THICKNESS)) - sdf.cylinder(RADIUS, 2 * THICKNESS)
     # one element through the plate's thickness: the problem is plane stress

@@ -75,6 +75,7 @@ def test_raw_distmesh_has_slivers_that_the_stage_removes(sphere_raw):
     assert better.field_data["improve_min_dihedral_before"][0] == pytest.approx(sphere_raw["min_dihedral_angle"].min())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name, model, h, size, exact",
     [

@@ -7,6 +7,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, Phase, given, reject, settings
 from hypothesis import strategies as st
 
@@ -43,6 +44,7 @@ models = st.builds(
 )
 
 
+@pytest.mark.slow
 @settings(
     max_examples=10,
     deadline=None,
