@@ -9,9 +9,8 @@ Examples
 True
 """
 
-import sys
-import types
 
+from ..callable_package import make_callable
 from .loop import DistMeshState
 from .mesher import distmesh
 from .options import DistMeshOptions
@@ -21,13 +20,4 @@ from .lost_material import LostRegion, added_material, lost_material
 __all__ = ["distmesh", "DistMeshOptions", "DistMeshState", "improve", "lost_material", "added_material", "LostRegion"]
 
 
-class _CallableModule(types.ModuleType):
-    """``fepre.distmesh`` is both this package and the function: calling it meshes."""
-
-    def __call__(self, *args, **kwargs):
-        return distmesh(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
-# inspect.signature() and IDEs show the function's parameters, not (*args, **kwargs)
-sys.modules[__name__].__signature__ = __import__("inspect").signature(distmesh)
+make_callable(__name__, distmesh)

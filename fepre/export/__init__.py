@@ -20,13 +20,12 @@ Examples
 from __future__ import annotations
 
 import os
-import sys
-import types
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from ..callable_package import make_callable
 from ..arguments import choice
 from .abaqus import RESERVED_NAMES
 from .atomic import staged_files
@@ -259,15 +258,4 @@ def _periodic(mesh: Any, points: np.ndarray, cells: np.ndarray):
     return cell, periodic_constraints(points, cells, cell, 1e-9 * float(cell.period.max()))
 
 
-class _CallableModule(types.ModuleType):
-    """``fepre.export`` is both this package and the function: importing a submodule such as
-    ``fepre.export.boundaries`` binds the package to ``fepre.export``, so the package forwards
-    calls to :func:`export`."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        return export(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
-# inspect.signature() and IDEs show the function's parameters, not (*args, **kwargs)
-sys.modules[__name__].__signature__ = __import__("inspect").signature(export)
+make_callable(__name__, export)

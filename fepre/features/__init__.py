@@ -18,12 +18,11 @@ Examples
 
 from __future__ import annotations
 
-import sys
-import types
 from typing import Any, Callable
 
 import numpy as np
 
+from ..callable_package import make_callable
 from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
 from ..errors import FeatureWarning, warn_user
 from ..sdf.core import SDF
@@ -141,13 +140,4 @@ def _local_spacing(model: SDF, h: float, size: Callable | None, bounds) -> Calla
     return lambda points: h * evaluate_size(size, points) / smallest
 
 
-class _CallableModule(types.ModuleType):
-    """``fepre.features`` is both this package and the function: calling it finds features."""
-
-    def __call__(self, *args, **kwargs):
-        return features(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
-# inspect.signature() and IDEs show the function's parameters, not (*args, **kwargs)
-sys.modules[__name__].__signature__ = __import__("inspect").signature(features)
+make_callable(__name__, features)
