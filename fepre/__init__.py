@@ -20,6 +20,7 @@ import importlib
 from importlib.metadata import PackageNotFoundError, version as _version
 from typing import Any
 
+from . import constraint_keywords as _constraint_keywords
 from . import sdf
 from .config import config
 from .errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning
@@ -69,6 +70,24 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(__all__)
+
+
+# fepre.distmesh(..., periodic=, regions=): the constraints of fepre.periodic and fepre.regions,
+# which import fepre.distmesh; this package, above all three, hands them to the mesher by keyword.
+def _periodic_constraint(periodic: Any, job: Any):
+    from .periodic.constraint import PeriodicConstraint
+
+    return PeriodicConstraint.from_keyword(periodic, job)
+
+
+def _region_constraint(regions: Any, job: Any):
+    from .regions.constraint import RegionConstraint
+
+    return RegionConstraint.from_keyword(regions, job)
+
+
+_constraint_keywords.register("periodic", _periodic_constraint)
+_constraint_keywords.register("regions", _region_constraint)
 
 
 # The PyVista plugin (``dataset.fepre`` accessors, ``.inp`` writer): registered now if PyVista is
