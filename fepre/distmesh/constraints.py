@@ -55,7 +55,7 @@ class MeshConstraint:
       (which of those yielding nodes this constraint lets in), :meth:`drop_starting`;
     - loop: :meth:`push` (where a node may move, composed in the constraints' order);
     - final mesh: :meth:`final_mesh` (a constraint that makes it itself);
-    - quality stage: :meth:`locked_nodes`, :meth:`quality_stage` (a variant of the stage),
+    - quality stage: :meth:`pinned_nodes`, :meth:`locked_nodes`, :meth:`quality_stage` (a variant of the stage),
       :meth:`after_quality_stage`;
     - checks and output: :meth:`check` (history entries, warnings, errors), :meth:`annotate`
       (the grid's data).
@@ -94,6 +94,11 @@ class MeshConstraint:
         """Make the final mesh (``job.points``, ``job.tets``, ``job.fixed_mask``) from the
         loop's points; False leaves it to the default :func:`~fepre.distmesh.finalize.final_mesh`."""
         return False
+
+    def pinned_nodes(self, job: MeshingJob) -> np.ndarray | None:
+        """(N,) bool: nodes the quality stage must not move, besides the user's fixed points and
+        the fixed nodes on the boundary (:func:`~fepre.distmesh.improve_mesh.stage_pins`), or None."""
+        return None
 
     def locked_nodes(self, job: MeshingJob) -> np.ndarray | None:
         """(N,) bool: nodes whose boundary faces the quality stage must keep, or None."""

@@ -93,6 +93,12 @@ def make_final_mesh(job: MeshingJob) -> None:
     job.stage_log("final mesh", f"{len(job.points):,} nodes, {len(job.tets):,} cells")
 
 
+def _either(*masks: np.ndarray | None) -> np.ndarray | None:
+    """The union of the masks given (None: none given)."""
+    given = [mask for mask in masks if mask is not None]
+    return np.logical_or.reduce(given) if len(given) > 1 else (given[0] if given else None)
+
+
 def quality_stage(job: MeshingJob) -> None:
     """Slivers out and shapes improved (``slivers=True``), with the nodes the stage must keep."""
     from .improve_mesh import stage_pins
@@ -104,11 +110,8 @@ def quality_stage(job: MeshingJob) -> None:
         return
     started = time.perf_counter()
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
-    locked = None
-    for constraint in job.constraints:
-        mask = constraint.locked_nodes(job)
-        if mask is not None:
-            locked = mask if locked is None else locked | mask
+    pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
+    locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
     try:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             job.points, job.tets, _ = improve_arrays(
