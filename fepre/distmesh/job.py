@@ -27,9 +27,18 @@ class MeshingJob:
     given_model : fepre.sdf.SDF
         The model as the user gave it.
     h : float
-        The smallest target edge length.
+        The smallest target edge length (the argument as given until the sizes are resolved).
     size : callable or None
-        Relative sizes, or edge lengths when ``absolute`` (a size field).
+        Relative sizes, or edge lengths when ``absolute`` (a size field); as given until resolved.
+    keywords : dict
+        The keyword arguments that constraints of other packages are made from (``periodic``,
+        ``regions``; see :mod:`fepre.constraint_keywords`).
+    constraints : list of fepre.distmesh.constraints.MeshConstraint
+        Consulted by every stage, in this order.
+    user_fixed : (M, 3) array or None
+        The user's ``fixed=`` points, checked.
+    features : fepre.Features or None
+        The solid's sharp features once found (:meth:`detected_features`).
     bounds, lower, upper
         The box given (or None) and the domain's corners, (3,) arrays.
     fixed_count : int
