@@ -20,6 +20,7 @@ import importlib
 from typing import Any
 
 from . import backends as _backends
+from . import constraint_keywords as _constraint_keywords
 from . import sdf
 from ._version import __version__
 from .config import config
@@ -44,8 +45,8 @@ _LAZY: dict[str, str] = {
     "SizeField": "fepre.sizing",
     "periodic_nodes": "fepre.periodic",
     "PeriodicNodes": "fepre.periodic",
-    "homogenize": "fepre.periodic",
-    "Homogenized": "fepre.periodic",
+    "homogenize": "fepre.homogenize",
+    "Homogenized": "fepre.homogenize",
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 
@@ -73,6 +74,24 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(__all__)
+
+
+# fepre.distmesh(..., periodic=, regions=): the constraints of fepre.periodic and fepre.regions,
+# which import fepre.distmesh; this package, above all three, hands them to the mesher by keyword.
+def _periodic_constraint(periodic: Any, job: Any):
+    from .periodic.constraint import PeriodicConstraint
+
+    return PeriodicConstraint.from_keyword(periodic, job)
+
+
+def _region_constraint(regions: Any, job: Any):
+    from .regions.constraint import RegionConstraint
+
+    return RegionConstraint.from_keyword(regions, job)
+
+
+_constraint_keywords.register("periodic", _periodic_constraint)
+_constraint_keywords.register("regions", _region_constraint)
 
 
 # The PyVista plugin (``dataset.fepre`` accessors, ``.inp`` writer): registered now if PyVista is

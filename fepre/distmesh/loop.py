@@ -162,6 +162,122 @@ def _print_progress(iteration: int, points: np.ndarray, tets: np.ndarray, qualit
     sys.stderr.flush()
 
 
+@dataclass
+class _LoopArrays:
+    """The loop's working state between its steps."""
+
+    points: np.ndarray
+    fixed: np.ndarray
+    #: sdf where evaluated, an upper bound of it elsewhere (the distance cache)
+    bound: np.ndarray
+    history: dict[str, list]
+    timings: dict[str, float]
+    #: per point: the local size (or h) that the move tests are relative to
+    scale: np.ndarray | float
+    tets: np.ndarray
+    delaunay_tets: np.ndarray
+    bars: np.ndarray | None = None
+    triangulated: np.ndarray | None = None
+    recent_moves: list[float] = field(default_factory=list)
+    triangulations: int = 0
+
+    def moved_since_triangulation(self, h: float) -> float:
+        """The largest move since the last triangulation, relative to the local size, times h."""
+        moved = self.points - self.triangulated
+        return float((np.sqrt(np.einsum("ij,ij->i", moved, moved)) / self.scale).max() * h)
+
+
+def _needs_triangulation(state: _LoopArrays, o: DistMeshOptions, h: float) -> bool:
+    """Whether the points moved far enough (or move averaging asks) to triangulate anew."""
+    if state.triangulated is None:
+        return True
+    retriangulate = state.moved_since_triangulation(h) > o.ttol * h
+    if o.retriangulation == "move_average" and len(state.recent_moves) > o.move_average_window:
+        window = state.recent_moves[-o.move_average_window - 1 : -1]
+        retriangulate |= state.recent_moves[-1] > np.mean(window)
+    return retriangulate
+
+
+def _triangulate(state: _LoopArrays, model, o: DistMeshOptions, h: float, local_size: Callable | None) -> None:
+    """A new Delaunay triangulation (points in Hilbert order every ``sort_interval`` of them),
+    its cells outside the domain dropped, and its bars."""
+    t0 = time.perf_counter()
+    if o.sort == "hilbert" and state.triangulations % o.sort_interval == 0:
+        order = hilbert_order(state.points)
+        state.points, state.bound, state.fixed = state.points[order], state.bound[order], state.fixed[order]
+    p = state.points
+    state.scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
+    state.delaunay_tets = loop_tetrahedralize(p, o.delaunay, h, o.parallel)
+    state.tets = state.delaunay_tets[centroid_inside(model, p, state.delaunay_tets, state.bound, -o.geps * h)]
+    t1 = time.perf_counter()
+    state.bars = bars_of(state.tets, len(p))
+    state.triangulated = p.copy()
+    state.recent_moves.clear()
+    state.triangulations += 1
+    state.timings["delaunay"] += t1 - t0
+    state.timings["bars"] += time.perf_counter() - t1
+
+
+def _move(state: _LoopArrays, model, size: Callable | None, o: DistMeshOptions, h: float,
+          protect: Callable | None) -> tuple[np.ndarray, float, float]:
+    """One step: bar forces, the quality of the current cells, the move, points that left the
+    domain projected back, the ``protect`` hook. Returns the cells' volume-edge ratios, the
+    largest move and the largest interior move relative to the local size."""
+    p, bars, fixed, bound, timings, history = state.points, state.bars, state.fixed, state.bound, state.timings, state.history
+    geps = o.geps * h
+    t0 = time.perf_counter()
+    hbars = None
+    if size is not None:
+        hbars = evaluate_size(size, 0.5 * (p[bars[:, 0]] + p[bars[:, 1]]))
+    force, _ = bar_forces(p, bars, o.fscale, o.nonlinear, hbars)
+    force[fixed] = 0.0
+    move = o.deltat * force
+    t1 = time.perf_counter()
+    timings["forces"] += t1 - t0
+
+    # -- quality of the current triangulation (volume-edge ratio, from the bar lengths)
+    q = volume_edge_ratio(p, state.tets)
+    history["min_quality"].append(float(q.min()) if len(q) else 0.0)
+    history["mean_quality"].append(float(q.mean()) if len(q) else 0.0)
+    t2 = time.perf_counter()
+    timings["quality"] += t2 - t1
+
+    p += move
+    step = np.sqrt(np.einsum("ij,ij->i", move, move))
+
+    # -- sdf where it may have reached -geps; project points that left the domain
+    if o.distance_cache:
+        bound += step
+        near = np.flatnonzero(bound >= -geps)
+    else:
+        near = np.arange(len(p))
+    values = model(p[near]) if len(near) else np.zeros(0)
+    bound[near] = values
+    outside = near[(values > 0) & ~fixed[near]]
+    project_outside(model, p, bound[outside], outside, o.deps, h)
+    bound[outside] = 0.0
+    if protect is not None:
+        pushed, distance = protect(p, ~fixed)
+        bound[pushed] += distance  # the sdf is 1-Lipschitz
+        step[pushed] += distance
+    timings["model"] += time.perf_counter() - t2
+
+    interior = bound < -geps
+    max_dp = float((step / state.scale)[interior].max()) if interior.any() else 0.0
+    return q, float(step.max()), max_dp
+
+
+def _converged(history: dict[str, list], o: DistMeshOptions, iteration: int, max_dp: float) -> bool:
+    """``ptol`` met, or (``termination="quality"``) neither quality rose by ``quality_tol`` over
+    the last window."""
+    if max_dp < o.ptol:
+        return True
+    if o.termination == "quality" and iteration >= 2 * o.quality_window:
+        w = o.quality_window
+        return all(max(history[k][-w:]) - max(history[k][:-w]) < o.quality_tol for k in ("min_quality", "mean_quality"))
+    return False
+
+
 def iterate(
     model,
     h: float,
@@ -184,92 +300,23 @@ def iterate(
     """
     start = time.perf_counter()
     o = options
-    p = points.copy()
-    fixed = fixed_mask.copy()
-    geps, ttol = o.geps * h, o.ttol * h
-    n = len(p)
-
-    bound = model(p)  # sdf where evaluated, an upper bound of it elsewhere (the distance cache)
-    history = {name: [] for name in HISTORY}
-    timings = dict.fromkeys(("delaunay", "bars", "forces", "model", "quality"), 0.0)
-    p_triangulated = None
-    recent_moves: list[float] = []
-    triangulations = 0
+    empty = np.zeros((0, 4), np.int64)
+    state = _LoopArrays(
+        points=points.copy(), fixed=fixed_mask.copy(), bound=model(points.copy()), scale=h, tets=empty, delaunay_tets=empty,
+        history={name: [] for name in HISTORY}, timings=dict.fromkeys(("delaunay", "bars", "forces", "model", "quality"), 0.0),
+    )
+    history = state.history
     converged = False
-    last_print = 0.0
-    tets = delaunay_tets = np.zeros((0, 4), np.int64)
+    last_print = previous_end = 0.0
     iteration = 0
-    scale: np.ndarray | float = h
     iteration_seconds: list[float] = []
-    previous_end = 0.0
 
     for iteration in range(1, o.maxiter + 1):
-        # -- retriangulate when points moved far enough (or move averaging asks for it)
-        retriangulate = p_triangulated is None
-        if not retriangulate:
-            moved = (np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h
-            retriangulate = moved > ttol
-            if o.retriangulation == "move_average" and len(recent_moves) > o.move_average_window:
-                window = recent_moves[-o.move_average_window - 1 : -1]
-                retriangulate |= recent_moves[-1] > np.mean(window)
+        retriangulate = _needs_triangulation(state, o, h)
         if retriangulate:
-            t0 = time.perf_counter()
-            if o.sort == "hilbert" and triangulations % o.sort_interval == 0:
-                order = hilbert_order(p)
-                p, bound, fixed = p[order], bound[order], fixed[order]
-            scale = np.maximum(local_size(p), h) if local_size is not None else h  # per point
-            delaunay_tets = loop_tetrahedralize(p, o.delaunay, h, o.parallel)
-            tets = delaunay_tets[centroid_inside(model, p, delaunay_tets, bound, -geps)]
-            t1 = time.perf_counter()
-            bars = bars_of(tets, n)
-            p_triangulated = p.copy()
-            recent_moves.clear()
-            triangulations += 1
-            timings["delaunay"] += t1 - t0
-            timings["bars"] += time.perf_counter() - t1
-
-        # -- forces and move
-        t0 = time.perf_counter()
-        hbars = None
-        if size is not None:
-            hbars = evaluate_size(size, 0.5 * (p[bars[:, 0]] + p[bars[:, 1]]))
-        force, _ = bar_forces(p, bars, o.fscale, o.nonlinear, hbars)
-        force[fixed] = 0.0
-        move = o.deltat * force
-        t1 = time.perf_counter()
-        timings["forces"] += t1 - t0
-
-        # -- quality of the current triangulation (volume-edge ratio, from the bar lengths)
-        q = volume_edge_ratio(p, tets)
-        history["min_quality"].append(float(q.min()) if len(q) else 0.0)
-        history["mean_quality"].append(float(q.mean()) if len(q) else 0.0)
-        t2 = time.perf_counter()
-        timings["quality"] += t2 - t1
-
-        p += move
-        step = np.sqrt(np.einsum("ij,ij->i", move, move))
-
-        # -- sdf where it may have reached -geps; project points that left the domain
-        if o.distance_cache:
-            bound += step
-            near = np.flatnonzero(bound >= -geps)
-        else:
-            near = np.arange(n)
-        values = model(p[near]) if len(near) else np.zeros(0)
-        bound[near] = values
-        outside = near[(values > 0) & ~fixed[near]]
-        project_outside(model, p, bound[outside], outside, o.deps, h)
-        bound[outside] = 0.0
-        if protect is not None:
-            pushed, distance = protect(p, ~fixed)
-            bound[pushed] += distance  # the sdf is 1-Lipschitz
-            step[pushed] += distance
-        timings["model"] += time.perf_counter() - t2
-
-        interior = bound < -geps
-        max_dp = float((step / scale)[interior].max()) if interior.any() else 0.0
-        max_move = float(step.max())
-        recent_moves.append(max_move)
+            _triangulate(state, model, o, h, local_size)
+        q, max_move, max_dp = _move(state, model, size, o, h, protect)
+        state.recent_moves.append(max_move)
         history["max_move"].append(max_move)
         history["max_dp"].append(max_dp)
         history["retriangulated"].append(bool(retriangulate))
@@ -279,36 +326,29 @@ def iterate(
         previous_end = seconds
         if callback is not None:
             callback(
-                DistMeshState(iteration, p, tets, max_move, max_dp, history["min_quality"][-1],
+                DistMeshState(iteration, state.points, state.tets, max_move, max_dp, history["min_quality"][-1],
                               history["mean_quality"][-1], bool(retriangulate), seconds)
             )
-        if max_dp < o.ptol:
-            converged = True
-        elif o.termination == "quality" and iteration >= 2 * o.quality_window:
-            w = o.quality_window
-            converged = all(
-                max(history[k][-w:]) - max(history[k][:-w]) < o.quality_tol for k in ("min_quality", "mean_quality")
-            )
+        converged = _converged(history, o, iteration, max_dp)
         if progress and (converged or seconds - last_print > 0.5):
             last_print = seconds
-            left = "" if converged else _time_left(history, o, iteration_seconds, timings["forces"] / iteration)
-            _print_progress(iteration, p, tets, q, seconds, converged, left)
+            left = "" if converged else _time_left(history, o, iteration_seconds, state.timings["forces"] / iteration)
+            _print_progress(iteration, state.points, state.tets, q, seconds, converged, left)
         if converged:
             break
 
     seconds = time.perf_counter() - start
-    moved_since = float((np.sqrt(np.einsum("ij,ij->i", p - p_triangulated, p - p_triangulated)) / scale).max() * h)
     if progress and not converged:
-        _print_progress(iteration, p, tets, q, seconds, True)
+        _print_progress(iteration, state.points, state.tets, q, seconds, True)
     return LoopResult(
-        points=p,
-        fixed_mask=fixed,
+        points=state.points,
+        fixed_mask=state.fixed,
         history={k: np.asarray(v, dtype=np.int8 if k == "retriangulated" else np.float64) for k, v in history.items()},
         converged=converged,
         iterations=iteration,
         seconds=seconds,
-        triangulations=triangulations,
-        timings=timings,
-        delaunay_tets=delaunay_tets,
-        moved_since_delaunay=moved_since,
+        triangulations=state.triangulations,
+        timings=state.timings,
+        delaunay_tets=state.delaunay_tets,
+        moved_since_delaunay=state.moved_since_triangulation(h),
     )

@@ -1,23 +1,20 @@
-"""fepre.distmesh: argument checks, initial points, the loop, the final mesh."""
+"""fepre.distmesh: the arguments checked, the constraints built, the pipeline run."""
 
 from __future__ import annotations
 
-import time
 from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import as_points, domain_bounds, positive_float
-from ..errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning, warn_user
-from ..features import features as detect_features
+from ..arguments import domain_bounds, positive_float
+from ..constraint_keywords import constraint_for
 from ..sdf.core import SDF
-from .estimate import StageLog
-from .feature_protection import FeatureProtection
-from .finalize import final_mesh
-from .initial_points import evaluate_size, initial_points
-from .loop import DistMeshState, iterate
+from .constraints import FeatureNodes, FixedPoints
+from .initial_points import evaluate_size
+from .loop import DistMeshState
 from .options import DistMeshOptions, resolve_options
-from .output import to_grid
+from .job import MeshingJob
+from .pipeline import run_pipeline
 
 __all__ = ["distmesh", "MAX_CELLS"]
 
@@ -29,17 +26,6 @@ def _is_dataset(value: Any) -> bool:
     import pyvista as pv
 
     return isinstance(value, pv.DataSet)
-
-
-def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
-    """Called when no lattice point fell inside: tell an empty domain from a too-large h."""
-    axes = [np.linspace(lower[k], upper[k], 48) for k in range(3)]
-    if float(model.values_on_axes(*axes, dtype=np.float64).min()) >= 0:
-        raise MeshingError(
-            f"the model's negative region misses the bounds {(tuple(lower), tuple(upper))}: "
-            "nothing to mesh (check the model's sign and the bounds)"
-        )
-    raise ValueError(f"h={h!r} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
 
 
 def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any):
@@ -174,267 +160,42 @@ def distmesh(
     >>> bool((mesh["volume"] > 0).all()), 3.5 < mesh.volume < 4.19
     (True, True)
     """
-    start = time.perf_counter()
     if not isinstance(model, SDF) or model.dim != 3:
         raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
-    o = resolve_options(options, overrides)
+    job = MeshingJob(model=model, given_model=model, h=h, size=size, options=resolve_options(options, overrides),
+                     bounds=bounds, progress=progress, callback=callback, keywords={"periodic": periodic, "regions": regions})
     if size is not None and not callable(size) and not _is_dataset(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
-    if periodic is not None and (size is not None or isinstance(h, (tuple, list, np.ndarray))):
-        raise ValueError("periodic meshes take one h (a number); size= and h=(hmin, hmax) are not supported with periodic=")
-    if periodic is not None and regions is not None:
-        raise ValueError("periodic= and regions= cannot be combined yet; mesh the periodic cell of one material")
-    if periodic is not None and bounds is None:
-        from ..periodic.cell import periodic_cell
-
-        bounds = (tuple(np.zeros(3)), tuple(np.broadcast_to(periodic_cell(periodic, None).period, 3)))
-    h, size, absolute = _resolve_sizes(model, h, size, bounds)
-    cell = None
-    if periodic is not None:
-        from ..periodic.cell import check_periodic_model, periodic_cell
-
-        cell = periodic_cell(periodic, bounds)
-        check_periodic_model(model, cell, h)
-        periodic_model, model = model, cell.solid(model)
-        bounds = (tuple(cell.lower), tuple(cell.upper))
-    lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(model, bounds))
-    extent = float((upper - lower).max())
-    if h >= extent:
-        raise ValueError(f"h={h!r} must be smaller than the domain's largest extent {extent:g}")
-    region_set = None
-    if regions is not None:
-        from ..regions import region_set as checked_regions
-
-        region_set = checked_regions(regions, model, h, lower, upper)
+    keyword_constraints = [constraint_for(key, value, job) for key, value in job.keywords.items() if value is not None]
+    job.h, job.size, job.absolute = _resolve_sizes(model, h, size, job.bounds)
+    for constraint in keyword_constraints:
+        constraint.restrict_domain(job)
+    job.lower, job.upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(job.model, job.bounds))
+    extent = float((job.upper - job.lower).max())
+    if job.h >= extent:
+        raise ValueError(f"h={job.h!r} must be smaller than the domain's largest extent {extent:g}")
+    for constraint in keyword_constraints:
+        constraint.check_domain(job)
     if callback is not None and not callable(callback):
         raise TypeError(f"callback must be a callable or None; got {type(callback).__name__}")
-    if fixed is None:
-        fixed_points = np.zeros((0, 3))
-    else:
-        fixed_points, _ = as_points(fixed, 3, "fixed")
-        values = model(fixed_points)
-        outside = values > 1e-3 * h
-        if outside.any():
-            raise ValueError(
-                f"fixed points must lie in the domain (sdf <= 1e-3 h); point {fixed_points[outside][0].tolist()} "
-                f"has sdf {values[outside][0]:.4g}"
-            )
-        if len(np.unique(fixed_points, axis=0)) != len(fixed_points):
-            raise ValueError("fixed must not contain duplicate points")
-        if cell is not None and cell.on_planes(fixed_points, cell.tolerance(h)).any():
-            raise ValueError("fixed points must not lie on the faces of the periodic cell (fepre lays the periodic face nodes itself)")
-    if size is not None:
-        evaluate_size(size, np.stack([lower, 0.5 * (lower + upper), upper]))
+    user_fixed = FixedPoints.checked(job, fixed, keyword_constraints)
+    job.user_fixed = None if user_fixed is None else user_fixed.points
+    _check_sizes(job)
+    job.constraints = [c for c in (user_fixed, FeatureNodes() if job.options.features else None) if c is not None]
+    job.constraints += keyword_constraints
+    return run_pipeline(job)
+
+
+def _check_sizes(job: MeshingJob) -> None:
+    """The size function answers, and the mesh's estimated cells stay under MAX_CELLS."""
     from ..sizing.estimate import estimated_cells
 
-    expected = estimated_cells(model, size, h, lower, upper, absolute, ceiling=MAX_CELLS)
+    if job.size is not None:
+        evaluate_size(job.size, np.stack([job.lower, 0.5 * (job.lower + job.upper), job.upper]))
+    expected = estimated_cells(job.model, job.size, job.h, job.lower, job.upper, job.absolute, ceiling=MAX_CELLS)
     if expected > MAX_CELLS:
-        advice = "a larger hmin or hmax" if absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
+        advice = "a larger hmin or hmax" if job.absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
         raise ValueError(
             f"the mesh would have about {expected:,.0f} cells, more than fepre.distmesh.mesher.MAX_CELLS = "
             f"{MAX_CELLS:,} (about 1.4 KB of memory each); use {advice}, or raise MAX_CELLS if the machine has the memory"
         )
-
-    t0 = time.perf_counter()
-    found = None
-    periodic_count = 0
-    if cell is not None:
-        from ..periodic.boundary_nodes import boundary_nodes
-
-        face_nodes = boundary_nodes(periodic_model, cell, h, seed=o.seed)
-        periodic_count = len(face_nodes)
-        fixed_points = np.concatenate([face_nodes, fixed_points])
-    if region_set is not None:
-        from ..regions import interface_nodes
-
-        if o.features:  # the part's features, laid on the interfaces too
-            found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
-        on_interface, interface_triangles, interface_inner = interface_nodes(
-            model, region_set, h, (lower, upper), o, progress, part_features=found)
-        if len(fixed_points) and len(on_interface):  # a fixed point on an interface stands for its node
-            from scipy.spatial import cKDTree
-
-            distance, _ = cKDTree(fixed_points).query(on_interface)
-            on_interface = on_interface[distance > 1e-9 * h]
-        fixed_points = np.concatenate([on_interface, fixed_points])
-        from ..regions.protection import InterfaceProtection
-
-        guard = InterfaceProtection(interface_triangles, interface_inner, region_set.region_of)
-    protection, feature_nodes = None, 0
-    if o.features:
-        if found is None:
-            found = detect_features(model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False)
-        # a periodic cell's faces get their own nodes: warn only of the model's own features
-        skipped = found.skipped if cell is None else detect_features(
-            periodic_model, h, angle=o.feature_angle, bounds=(lower, upper), size=size, warn=False).skipped
-        for message in skipped:
-            warn_user(f"distmesh: {message}", FeatureWarning)
-        if found:
-            nodes = found.nodes
-            if cell is not None:  # the face nodes stand for the features on the cell's faces
-                nodes = nodes[~cell.on_planes(nodes, 1e-3 * h).any(axis=1)]
-            feature_nodes = len(nodes)
-            if len(fixed_points) and len(nodes):
-                from scipy.spatial import cKDTree
-
-                distance, _ = cKDTree(fixed_points).query(nodes)
-                nodes = nodes[distance >= 0.5 * h]
-            fixed_points = np.concatenate([fixed_points, nodes])
-            protection = FeatureProtection(found, model, h)
-    features_seconds = time.perf_counter() - t0
-
-    rng = np.random.default_rng(o.seed)
-    points = initial_points(
-        model, lower, upper, h, o.distribution, o.geps * h, o.jitter, size, fixed_points, rng, o.boundary_layer,
-        absolute=absolute,
-    )
-    if protection is not None:
-        free = np.arange(len(points)) >= len(fixed_points)
-        points = points[~(free & protection.inside(points))]
-    protect = None if protection is None else protection.push
-    if cell is not None:
-        from ..periodic.cell import FACE_MARGIN, compose
-
-        free = np.arange(len(points)) >= len(fixed_points)
-        near_face = (np.minimum(points - cell.lower, cell.upper - points) < FACE_MARGIN * h).any(axis=1)
-        points = points[~(free & near_face)]
-        protect = compose(protect, cell.keep_off_faces(FACE_MARGIN * h))
-    if region_set is not None:
-        from ..periodic.cell import compose
-
-        free = np.arange(len(points)) >= len(fixed_points)
-        points = points[~(free & guard.inside(points))]
-        protect = compose(protect, guard.push)
-    if len(points) - len(fixed_points) < 4:
-        _check_domain(model, lower, upper, h)
-    fixed_mask = np.zeros(len(points), bool)
-    fixed_mask[: len(fixed_points)] = True
-
-    loop = iterate(model, h, points, fixed_mask, size, o, progress=progress, callback=callback,
-                   protect=protect, local_size=size if absolute else None)
-    stage_log = StageLog(progress, loop.timings["forces"] / max(loop.iterations, 1))  # the final mesh starts now
-    # the loop's last triangulation goes to the final mesh only (90 MB at 2.6M cells)
-    previous, loop.delaunay_tets = (loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * h else None), None
-    if region_set is None:
-        points, tets, fixed_mask = final_mesh(model, loop.points, loop.fixed_mask, h, o.geps, o.delaunay, previous)
-    else:
-        from ..regions.conform import final_region_mesh
-        from ..regions.protection import drop_protected
-
-        loop_points, loop_fixed, dropped = drop_protected(model, loop.points, loop.fixed_mask, guard, h)
-        points, tets, fixed_mask, region_ids, repaired, crossing = final_region_mesh(
-            model, loop_points, loop_fixed, h, o.geps, o.delaunay, previous if dropped == 0 else None, region_set,
-            kept=np.concatenate([on_interface] + ([] if fixed is None else [as_points(fixed, 3, "fixed")[0]])))
-    del previous
-    loop_seconds = time.perf_counter() - start
-    stage_log("final mesh", f"{len(points):,} nodes, {len(tets):,} cells")
-    interface_mask = None
-    if region_set is not None:
-        from ..regions.interface import interface_node_mask
-
-        if crossing.any():
-            raise MeshingError(
-                f"distmesh: {int(crossing.sum())} cell(s) cross an interface between regions after dropping "
-                f"{repaired} node(s) near it (e.g. at {np.round(points[tets[crossing][0]].mean(axis=0), 6).tolist()}: "
-                f"a gap or wedge of the part thinner than h next to an interface); the interfaces are not "
-                f"resolved at h={h:g} (try a smaller h)"
-            )
-        interface_mask = interface_node_mask(tets, region_ids, len(points))
-
-    sliver_seconds = 0.0
-    if o.slivers:
-        from .slivers import improve_arrays
-
-        t0 = time.perf_counter()
-        from .improve_mesh import stage_pins
-
-        pinned = stage_pins(points, tets, fixed_mask, None if fixed is None else as_points(fixed, 3, "fixed")[0], model, h)
-        try:
-            locked = None if cell is None else cell.on_planes(points, cell.tolerance(h)).any(axis=1)
-            if region_set is not None:
-                from ..regions.conform import region_quality_stage
-
-                points, tets, region_ids = region_quality_stage(
-                    points, tets, region_ids, region_set, model, h, pinned, interface_mask, o.seed, size)
-            else:
-                points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
-        except MeshingError as exc:
-            # the stage checks its own result and refuses it; the loop's mesh is valid
-            warn_user(
-                f"the quality stage (slivers=True) failed and was skipped: {exc}; returning the "
-                "DistMesh mesh without it",
-                ConvergenceWarning,
-            )
-        if cell is not None:
-            from ..periodic.face_smoothing import smooth_face_nodes
-            from .tet_shape import ShapeTargets
-
-            points, moves = smooth_face_nodes(points, tets, cell, periodic_model, h, ShapeTargets(), seed=o.seed)
-            if moves:  # the cells around the moved face nodes may now be improved further
-                try:
-                    points, tets, _ = improve_arrays(points, tets, model, h, fixed_mask=pinned, size=size, seed=o.seed, locked=locked)
-                except MeshingError:
-                    pass
-        sliver_seconds = time.perf_counter() - t0
-        if progress:
-            from ..quality import tet_quality
-
-            measured = tet_quality(points, tets)
-            stage_log.started = t0
-            stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
-                      f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
-                      f"{measured['radius_ratio'].min():.3f}")
-
-    from .lost_material import added_material_message, lost_material_message, material_checks
-
-    local = size if absolute else None
-    lost, added = material_checks(model, points, tets, h, local) if o.check_resolution else ([], [])
-    if lost:
-        warn_user(f"distmesh: {lost_material_message(lost, None if absolute else h)}", ResolutionWarning)
-    if added:
-        warn_user(f"distmesh: {added_material_message(added, None if absolute else h)}", ResolutionWarning)
-    history = dict(loop.history)
-    history.update(
-        iterations=np.array([loop.iterations]),
-        converged=np.array([int(loop.converged)]),
-        triangulations=np.array([loop.triangulations]),
-        loop_seconds=np.array([loop_seconds]),
-        slivers_seconds=np.array([sliver_seconds]),
-        features_seconds=np.array([features_seconds]),
-        feature_nodes=np.array([feature_nodes]),
-        lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
-        added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
-        seconds=np.array([time.perf_counter() - start]),
-    )
-    if cell is not None:
-        from ..periodic.nodes import match_faces
-
-        *_, unpaired = match_faces(points, cell, cell.tolerance(h), model, h)  # MeshingError: a node off the surface
-        if unpaired.size:
-            warn_user(
-                f"distmesh: {unpaired.size} node(s) on the rim of the periodic cell's faces have no partner on the "
-                "opposite face (the mesh kept their cells on one face only); they are left unconstrained",
-                ResolutionWarning,
-            )
-        history.update(periodic_nodes=np.array([periodic_count]), periodic_unpaired=np.array([unpaired.size]))
-    if region_set is not None:
-        from ..regions.conform import check_interfaces
-
-        interface_faces, _ = check_interfaces(points, tets, region_ids, region_set, model, h)  # MeshingError
-        history.update(interface_faces=np.array([len(interface_faces)]), interface_nodes_dropped=np.array([repaired]))
-    grid = to_grid(points, tets, model, history, found)
-    if region_set is not None:
-        grid.cell_data["region_id"] = region_ids
-        grid.field_data["region_names"] = np.array(region_set.names)
-        grid.point_data["interface"] = interface_node_mask(tets, region_ids, len(points)).astype(np.uint8)
-    if cell is not None:
-        grid.field_data["periodic_lower"] = cell.lower
-        grid.field_data["periodic_period"] = cell.period
-    stage_log("checks and output", f"{grid.n_points:,} nodes, {grid.n_cells:,} cells, {time.perf_counter() - start:.1f} s in all")
-    if not loop.converged:
-        warn_user(
-            f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "
-            f"(last interior move {loop.history['max_dp'][-1]:.3g} h > ptol={o.ptol:g}); returning the mesh reached",
-            ConvergenceWarning,
-        )
-    return grid

@@ -93,6 +93,8 @@ REGULAR_DIHEDRAL = float(np.degrees(np.arccos(1.0 / 3.0)))
 #: Boundary vertices further than this (times h) from the zero set mean the model is not the
 #: mesh's model.
 MODEL_MISMATCH = 0.5
+#: Boundary vertices stay within this (times h) of the zero set after each move.
+SURFACE_TOL = 1e-4
 
 
 def _boundary_edge_keys(faces: np.ndarray, n_points: int) -> np.ndarray:
@@ -230,6 +232,26 @@ def improve_arrays(
     """
     start = time.perf_counter()
     points, tets, h, fixed_mask = _check_arrays(points, tets, h, fixed_mask)
+    locked, labels = _check_masks(points, tets, size, locked, labels)
+    targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
+    maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
+    deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
+    volumes, faces = _check_solid(points, tets, model, h, fixed_mask)
+
+    stage = _SliverStage(points, tets, model, h, fixed_mask, faces, targets, locked, labels, seed, node_regions)
+    volume_before = float(volumes.sum())
+    before = _extremes(stage.points, stage.tets)
+    stage.first_flips_and_relaxation()
+    stage.shape_rounds()
+    rounds = stage.target_rounds(maxiter, deadline, start)
+
+    _verify(stage.points, stage.tets, stage.quality, model, stage.on_boundary, fixed_mask, h, volume_before,
+            stage.boundary_face_keys)
+    return stage.points, stage.tets, _report(stage, before, rounds, maxiter, start)
+
+
+def _check_masks(points: np.ndarray, tets: np.ndarray, size: Any, locked: Any, labels: Any):
+    """``locked`` (N,) bool and ``labels`` (M,) int64 checked (None stays None); ``size`` callable."""
     if locked is not None:
         locked = np.asarray(locked)
         if locked.shape != (points.shape[0],) or locked.dtype != bool:
@@ -241,13 +263,14 @@ def improve_arrays(
         if labels.shape != (tets.shape[0],) or labels.dtype.kind not in "iu":
             raise ValueError(f"labels must be an int array of shape ({tets.shape[0]},); got {labels.shape} {labels.dtype}")
         labels = labels.astype(np.int64)
-    tagged = {} if labels is None else {"labels": labels}
-    targets = _check_targets(min_dihedral, max_dihedral, min_radius_ratio)
-    target = targets.min_dihedral  # the score of a cell that meets all three targets
-    maxiter = DEFAULT_MAXITER if maxiter is None else positive_int(maxiter, "maxiter")
-    deadline = None if deadline_seconds is None else positive_float(deadline_seconds, "deadline_seconds")
-    n = points.shape[0]
+    return locked, labels
 
+
+def _check_solid(points: np.ndarray, tets: np.ndarray, model, h: float, fixed_mask: np.ndarray):
+    """Refuse inverted cells, a boundary that is not closed and manifold, and a model whose zero
+    set misses the boundary nodes; put the free boundary nodes on it (``points`` in place).
+    Returns the corner volumes and the boundary faces."""
+    n = points.shape[0]
     volumes = corner_volumes(points, tets)
     if np.any(volumes < 0):
         worst = int(np.argmin(volumes))
@@ -272,131 +295,165 @@ def improve_arrays(
             f"model does not match the mesh: boundary node {far} at {points[far].tolist()} is "
             f"{distance.max():.3g} from the model's zero set (more than {MODEL_MISMATCH:g} h = {MODEL_MISMATCH * h:.3g})"
         )
-    surface_tol = 1e-4 * h
     if boundary_nodes.size:
-        points[boundary_nodes] = model.project(points[boundary_nodes], iterations=20, tol=0.05 * surface_tol, warn=False)
-    used = np.bincount(tets.ravel(), minlength=n) > 0
-    movable = used & ~fixed_mask
-    rng = np.random.default_rng(seed)
-    boundary_edges = _boundary_edge_keys(faces, n)
-    boundary_face_keys = np.unique(face_keys(faces, n))
-    guard = SurfaceGuard(model, h, points, on_boundary)
-    guard.regions = node_regions
-    threshold = min(target + MARGIN, REGULAR_DIHEDRAL)
-    volume_before = float(volumes.sum())
+        points[boundary_nodes] = model.project(points[boundary_nodes], iterations=20, tol=0.05 * (SURFACE_TOL * h), warn=False)
+    return volumes, faces
 
-    quality = targets.score(points[tets])
-    before = _extremes(points, tets)
-    timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
-    counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
 
-    def timed(kind: str, function, *args, **kwargs):
+class _SliverStage:
+    """The quality stage's working mesh and its operations, each timed and counted."""
+
+    def __init__(self, points, tets, model, h, fixed_mask, faces, targets: ShapeTargets, locked, labels, seed: int,
+                 node_regions: tuple | None):
+        n = points.shape[0]
+        self.points, self.tets, self.model, self.h = points, tets, model, h
+        self.targets, self.locked, self.labels = targets, locked, labels
+        self.target = targets.min_dihedral  # the score of a cell that meets all three targets
+        self.threshold = min(self.target + MARGIN, REGULAR_DIHEDRAL)
+        self.surface_tol = SURFACE_TOL * h
+        self.on_boundary = np.zeros(n, dtype=bool)
+        self.on_boundary[faces.ravel()] = True
+        used = np.bincount(tets.ravel(), minlength=n) > 0
+        self.movable = used & ~fixed_mask
+        self.rng = np.random.default_rng(seed)
+        self.boundary_edges = _boundary_edge_keys(faces, n)
+        self.boundary_face_keys = np.unique(face_keys(faces, n))
+        self.guard = SurfaceGuard(model, h, points, self.on_boundary)
+        self.guard.regions = node_regions
+        self.tagged = {} if labels is None else {"labels": labels}
+        self.quality = targets.score(points[tets])
+        self.timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
+        self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
+
+    def timed(self, kind: str, function, *args, **kwargs):
         t0 = time.perf_counter()
         result = function(*args, **kwargs)
-        timings[kind] += time.perf_counter() - t0
+        self.timings[kind] += time.perf_counter() - t0
         return result
 
-    def relax(quality):
-        return timed(
-            "relax", relax_round, points, tets, quality, target, movable, on_boundary, model, surface_tol,
-            targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
+    def relax(self) -> None:
+        self.points, self.quality, relaxed = self.timed(
+            "relax", relax_round, self.points, self.tets, self.quality, self.target, self.movable, self.on_boundary,
+            self.model, self.surface_tol, targets=self.targets, guard=self.guard, boundary_face_keys=self.boundary_face_keys,
         )
+        self.counts["relaxed"] += relaxed
 
-    def flip(*args, **kwargs):
-        result = timed("flip", flip_round, *args, targets=targets, **tagged, **kwargs)
-        if labels is not None:
-            tagged["labels"] = result[-1]
-        return result[:4]
+    def flip(self, active=None) -> tuple[int, np.ndarray]:
+        """A flip round (of the cells near ``active`` vertices, or every bad cell); returns the
+        flips made and the vertices they touched."""
+        result = self.timed("flip", flip_round, self.points, self.tets, self.quality, self.threshold, self.boundary_edges,
+                            active, targets=self.targets, **self.tagged)
+        if self.labels is not None:
+            self.tagged["labels"] = result[-1]
+        self.tets, self.quality, flipped, touched = result[:4]
+        return flipped, touched
 
-    def removal(function, *args, **kwargs):
-        result = timed("flip", function, *args, guard=guard, locked=locked, **kwargs)
+    def removal(self, function, *args, **kwargs):
+        result = self.timed("flip", function, *args, guard=self.guard, locked=self.locked, **kwargs)
         before, after = args[1], result[0 if function is remove_boundary_slivers else 1]
-        if labels is not None and after.shape[0] != before.shape[0]:  # cells were removed, none added
-            tagged["labels"] = tagged["labels"][_kept_rows(before, after)]
+        if self.labels is not None and after.shape[0] != before.shape[0]:  # cells were removed, none added
+            self.tagged["labels"] = self.tagged["labels"][_kept_rows(before, after)]
         return result
 
-    # Flip the worst slivers away first: they pin their vertices during relaxation.
-    tets, quality, flipped, _ = flip(points, tets, quality, threshold, boundary_edges)
-    counts["flips"] += flipped
-    for _ in range(RELAX_ROUNDS):
-        points, quality, relaxed = relax(quality)
-        counts["relaxed"] += relaxed
+    def first_flips_and_relaxation(self) -> None:
+        """Flip the worst slivers away first: they pin their vertices during relaxation."""
+        flipped, _ = self.flip()
+        self.counts["flips"] += flipped
+        for _ in range(RELAX_ROUNDS):
+            self.relax()
 
-    # Shape rounds: flips that raise the radius ratio of the poorest cells free the relaxation,
-    # which had stopped at a fixed point of the old connectivity; repeat while the mean rises.
-    ratio = radius_ratio(points[tets])
-    mean_ratio = float(ratio.mean())
-    for _ in range(SHAPE_ROUNDS):
-        result = timed(
-            "flip", shape_flip_round, points, tets, quality, ratio, SHAPE_RATIO, threshold, boundary_edges,
-            targets=targets, **tagged,
-        )
-        tets, quality, ratio, flipped = result[:4]
-        if labels is not None:
-            tagged["labels"] = result[4]
-        counts["flips"] += flipped
-        points, quality, relaxed = relax(quality)
-        counts["relaxed"] += relaxed
-        ratio = radius_ratio(points[tets])
-        gain = float(ratio.mean()) - mean_ratio
-        mean_ratio += gain
-        if gain < SHAPE_GAIN:
-            break
+    def shape_rounds(self) -> None:
+        """Flips that raise the radius ratio of the poorest cells free the relaxation, which had
+        stopped at a fixed point of the old connectivity; repeated while the mean rises."""
+        ratio = radius_ratio(self.points[self.tets])
+        mean_ratio = float(ratio.mean())
+        for _ in range(SHAPE_ROUNDS):
+            result = self.timed(
+                "flip", shape_flip_round, self.points, self.tets, self.quality, ratio, SHAPE_RATIO, self.threshold,
+                self.boundary_edges, targets=self.targets, **self.tagged,
+            )
+            self.tets, self.quality, ratio, flipped = result[:4]
+            if self.labels is not None:
+                self.tagged["labels"] = result[4]
+            self.counts["flips"] += flipped
+            self.relax()
+            ratio = radius_ratio(self.points[self.tets])
+            gain = float(ratio.mean()) - mean_ratio
+            mean_ratio += gain
+            if gain < SHAPE_GAIN:
+                break
 
-    rounds = 0
-    best = float(quality.min())
-    stalled = 0
-    met_at = None  # the round in which the target was first met
-    active = None  # flips try every bad cell in the first round, then those near a change
-    while rounds < maxiter and quality.min() < threshold:
-        if deadline is not None and time.perf_counter() - start > deadline:
-            break
-        rounds += 1
-        tets, quality, flipped, touched = flip(points, tets, quality, threshold, boundary_edges, active)
+    def target_round(self, active) -> tuple[int, np.ndarray | None]:
+        """Flips, smoothing and boundary removals on the cells under the threshold; returns the
+        number of changes and the vertices they touched."""
+        flipped, touched = self.flip(active)
         # Smoothing retries every bad cell: its random candidates differ from round to round.
-        points, quality, moved, moved_vertices = timed(
-            "smooth", smooth_round, points, tets, quality, threshold, movable, on_boundary, model, h, rng,
-            surface_tol, targets=targets, guard=guard, boundary_face_keys=boundary_face_keys,
+        self.points, self.quality, moved, moved_vertices = self.timed(
+            "smooth", smooth_round, self.points, self.tets, self.quality, self.threshold, self.movable, self.on_boundary,
+            self.model, self.h, self.rng, self.surface_tol, targets=self.targets, guard=self.guard,
+            boundary_face_keys=self.boundary_face_keys,
         )
-        tets, quality, removed, boundary_face_keys, boundary_edges = removal(
-            remove_boundary_slivers, points, tets, quality, threshold, on_boundary, boundary_face_keys,
-            boundary_edges, model, h,
+        self.tets, self.quality, removed, self.boundary_face_keys, self.boundary_edges = self.removal(
+            remove_boundary_slivers, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
+            self.boundary_face_keys, self.boundary_edges, self.model, self.h,
         )
-        points, tets, quality, exposed, on_boundary, boundary_face_keys, boundary_edges = removal(
-            expose_shallow_vertices, points, tets, quality, threshold, on_boundary, movable,
-            boundary_face_keys, boundary_edges, model, h, surface_tol, targets=targets,
+        (self.points, self.tets, self.quality, exposed, self.on_boundary, self.boundary_face_keys,
+         self.boundary_edges) = self.removal(
+            expose_shallow_vertices, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
+            self.movable, self.boundary_face_keys, self.boundary_edges, self.model, self.h, self.surface_tol,
+            targets=self.targets,
         )
-        counts["flips"] += flipped
-        counts["moves"] += moved
-        counts["removed"] += removed + exposed
-        if flipped == 0 and moved == 0 and removed == 0 and exposed == 0:
-            if active is None:
-                break
-            active = None  # one more round over every bad cell before giving up
-            continue
-        active = touched | moved_vertices
-        worst = float(quality.min())
-        stalled = 0 if worst > best + PROGRESS else stalled + 1
-        best = max(best, worst)
-        if worst >= target:
-            met_at = rounds if met_at is None else met_at
-            if stalled >= PATIENCE or rounds - met_at >= POLISH_ROUNDS:
-                break
+        self.counts["flips"] += flipped
+        self.counts["moves"] += moved
+        self.counts["removed"] += removed + exposed
+        return flipped + moved + removed + exposed, touched | moved_vertices
 
-    _verify(points, tets, quality, model, on_boundary, fixed_mask, h, volume_before, boundary_face_keys)
-    after = _extremes(points, tets)
-    converged = bool(quality.min() >= target)
+    def target_rounds(self, maxiter: int, deadline: float | None, start: float) -> int:
+        """Rounds until no cell is under the threshold, or the target holds and the worst angle
+        stops rising (or ``POLISH_ROUNDS`` passed since it first held), or ``maxiter``; returns
+        the rounds run."""
+        rounds = 0
+        best = float(self.quality.min())
+        stalled = 0
+        met_at = None  # the round in which the target was first met
+        active = None  # flips try every bad cell in the first round, then those near a change
+        while rounds < maxiter and self.quality.min() < self.threshold:
+            if deadline is not None and time.perf_counter() - start > deadline:
+                break
+            rounds += 1
+            changes, touched = self.target_round(active)
+            if changes == 0:
+                if active is None:
+                    break
+                active = None  # one more round over every bad cell before giving up
+                continue
+            active = touched
+            worst = float(self.quality.min())
+            stalled = 0 if worst > best + PROGRESS else stalled + 1
+            best = max(best, worst)
+            if worst >= self.target:
+                met_at = rounds if met_at is None else met_at
+                if stalled >= PATIENCE or rounds - met_at >= POLISH_ROUNDS:
+                    break
+        return rounds
+
+
+def _report(stage: _SliverStage, before: dict[str, float], rounds: int, maxiter: int, start: float) -> dict:
+    """The stage's ``info`` dict; warns when the targets were not met."""
+    after = _extremes(stage.points, stage.tets)
+    targets = stage.targets
+    converged = bool(stage.quality.min() >= stage.target)
     info = {
         "seconds": time.perf_counter() - start,
-        "relax_seconds": timings["relax"],
-        "flip_seconds": timings["flip"],
-        "smooth_seconds": timings["smooth"],
+        "relax_seconds": stage.timings["relax"],
+        "flip_seconds": stage.timings["flip"],
+        "smooth_seconds": stage.timings["smooth"],
         "rounds": rounds,
-        **counts,
+        **stage.counts,
         **{f"{key}_before": value for key, value in before.items()},
         **{f"{key}_after": value for key, value in after.items()},
         "converged": converged,
-        **tagged,
+        **stage.tagged,
     }
     if not converged:
         warn_user(
@@ -407,7 +464,7 @@ def improve_arrays(
             "returning the best mesh reached",
             ConvergenceWarning,
         )
-    return points, tets, info
+    return info
 
 
 def _kept_rows(before: np.ndarray, after: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import as_bounds, as_vector
+from ..distmesh.constraints import compose  # noqa: F401  (the loop's hooks composed; public here before)
 
 __all__ = ["PeriodicCell", "periodic_cell", "check_periodic_model", "compose", "AXES", "FACE_MARGIN"]
 
@@ -136,17 +137,3 @@ def check_periodic_model(model, cell: PeriodicCell, h: float) -> None:
                 "(fepre cuts it with the cell itself)"
             )
 
-
-def compose(first, second):
-    """One ``protect`` hook that runs ``first`` (or nothing) then ``second``; the moved indices
-    and distances of both are returned together (a point moved twice, once with the sum)."""
-    if first is None:
-        return second
-
-    def both(points: np.ndarray, movable: np.ndarray):
-        a, da = first(points, movable)
-        b, db = second(points, movable)
-        index, where = np.unique(np.concatenate([a, b]), return_inverse=True)
-        return index, np.bincount(where, np.concatenate([da, db]), index.size)
-
-    return both

@@ -1,0 +1,95 @@
+"""The state of one DistMesh run, handed from stage to stage (:mod:`fepre.distmesh.pipeline`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..sdf.core import SDF
+from .estimate import StageLog
+from .loop import DistMeshState, LoopResult
+from .options import DistMeshOptions
+
+__all__ = ["MeshingJob"]
+
+
+@dataclass
+class MeshingJob:
+    """The state the stages pass on: the run's arguments, the constraints, the mesh so far.
+
+    Attributes
+    ----------
+    model : fepre.sdf.SDF
+        The solid meshed (a periodic cell's cut of ``given_model``).
+    given_model : fepre.sdf.SDF
+        The model as the user gave it.
+    h : float
+        The smallest target edge length (the argument as given until the sizes are resolved).
+    size : callable or None
+        Relative sizes, or edge lengths when ``absolute`` (a size field); as given until resolved.
+    keywords : dict
+        The keyword arguments that constraints of other packages are made from (``periodic``,
+        ``regions``; see :mod:`fepre.constraint_keywords`).
+    constraints : list of fepre.distmesh.constraints.MeshConstraint
+        Consulted by every stage, in this order.
+    user_fixed : (M, 3) array or None
+        The user's ``fixed=`` points, checked.
+    features : fepre.Features or None
+        The solid's sharp features once found (:meth:`detected_features`).
+    bounds, lower, upper
+        The box given (or None) and the domain's corners, (3,) arrays.
+    fixed_count : int
+        The first ``fixed_count`` of ``points`` are the fixed nodes, laid by the constraints.
+    points, fixed_mask, tets
+        The mesh so far; ``fixed_mask`` marks nodes that never moved.
+    loop : LoopResult
+        The loop's result; ``previous`` its last triangulation, for the final mesh to reuse.
+    history : dict
+        Field data ``distmesh_<key>`` of the output.
+    seconds : dict
+        Stage times: ``features``, ``loop`` (everything up to the final mesh), ``slivers``.
+    """
+
+    model: SDF
+    given_model: SDF
+    h: Any
+    size: Any
+    options: DistMeshOptions
+    bounds: Any = None
+    absolute: bool = False
+    progress: bool = False
+    callback: Callable[[DistMeshState], object] | None = None
+    keywords: dict[str, Any] = field(default_factory=dict)
+    constraints: list = field(default_factory=list)  # of fepre.distmesh.constraints.MeshConstraint
+    user_fixed: np.ndarray | None = None
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+    features: Any = None
+    feature_nodes: int = 0
+    fixed_count: int = 0
+    points: np.ndarray | None = None
+    fixed_mask: np.ndarray | None = None
+    tets: np.ndarray | None = None
+    protect: Callable | None = None  # the loop's push hook, composed of the constraints'
+    loop: LoopResult | None = None
+    previous: np.ndarray | None = None
+    stage_log: StageLog | None = None
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+    started: float = field(default_factory=time.perf_counter)
+
+    def detected_features(self, model: SDF | None = None):
+        """The sharp features of ``model`` (default: the solid meshed), found once."""
+        from ..features import features as detect_features
+
+        model = self.model if model is None else model
+        if model is self.model and self.features is not None:
+            return self.features
+        o = self.options
+        found = detect_features(model, self.h, angle=o.feature_angle, bounds=(self.lower, self.upper), size=self.size, warn=False)
+        if model is self.model:
+            self.features = found
+        return found

@@ -1,0 +1,192 @@
+"""The mesher as a pipeline: named stages, each a function of one :class:`MeshingJob`.
+
+``constraint_nodes -> starting_points -> run_loop -> make_final_mesh -> quality_stage ->
+check_mesh -> output_grid``; every stage consults the job's constraints
+(:class:`~fepre.distmesh.constraints.MeshConstraint`) and never names one.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import ConvergenceWarning, MeshingError, ResolutionWarning, warn_user
+from ..sdf.core import SDF
+from .constraints import compose
+from .estimate import StageLog
+from .finalize import final_mesh
+from .initial_points import initial_points
+from .job import MeshingJob
+from .loop import iterate
+from .output import to_grid
+
+__all__ = ["MeshingJob", "STAGES", "run_pipeline", "constraint_nodes", "starting_points", "run_loop",
+           "make_final_mesh", "quality_stage", "check_mesh", "output_grid"]
+
+
+def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
+    """Called when no lattice point fell inside: tell an empty domain from a too-large h."""
+    axes = [np.linspace(lower[k], upper[k], 48) for k in range(3)]
+    if float(model.values_on_axes(*axes, dtype=np.float64).min()) >= 0:
+        raise MeshingError(
+            f"the model's negative region misses the bounds {(tuple(lower), tuple(upper))}: "
+            "nothing to mesh (check the model's sign and the bounds)"
+        )
+    raise ValueError(f"h={h!r} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
+
+
+def constraint_nodes(job: MeshingJob) -> None:
+    """The fixed nodes: each constraint's in front of those laid before it, then the yielding
+    ones (feature nodes) after all of them."""
+    started = time.perf_counter()
+    fixed = np.zeros((0, 3))
+    for constraint in job.constraints:
+        fixed = np.concatenate([constraint.fixed_nodes(job, fixed), fixed])
+    for constraint in job.constraints:
+        fixed = np.concatenate([fixed, constraint.yielding_nodes(job, fixed)])
+    job.points, job.fixed_count = fixed, len(fixed)
+    job.seconds["features"] = time.perf_counter() - started
+
+
+def starting_points(job: MeshingJob) -> None:
+    """The loop's starting points (the fixed nodes first), less those the constraints drop."""
+    o, h = job.options, job.h
+    fixed = job.points
+    rng = np.random.default_rng(o.seed)
+    points = initial_points(
+        job.model, job.lower, job.upper, h, o.distribution, o.geps * h, o.jitter, job.size, fixed, rng,
+        o.boundary_layer, absolute=job.absolute,
+    )
+    for constraint in job.constraints:
+        drop = constraint.drop_starting(job, points)
+        if drop is not None:
+            free = np.arange(len(points)) >= job.fixed_count
+            points = points[~(free & drop)]
+        job.protect = compose(job.protect, constraint.push(job))
+    if len(points) - job.fixed_count < 4:
+        _check_domain(job.model, job.lower, job.upper, h)
+    job.points = points
+    job.fixed_mask = np.zeros(len(points), bool)
+    job.fixed_mask[: job.fixed_count] = True
+
+
+def run_loop(job: MeshingJob) -> None:
+    """The DistMesh loop; hands its last triangulation on when the points barely moved since."""
+    o = job.options
+    loop = iterate(job.model, job.h, job.points, job.fixed_mask, job.size, o, progress=job.progress,
+                   callback=job.callback, protect=job.protect, local_size=job.size if job.absolute else None)
+    job.stage_log = StageLog(job.progress, loop.timings["forces"] / max(loop.iterations, 1))  # the final mesh starts now
+    # the loop's last triangulation goes to the final mesh only (90 MB at 2.6M cells)
+    job.previous, loop.delaunay_tets = (loop.delaunay_tets if loop.moved_since_delaunay < o.ttol * job.h else None), None
+    job.loop = loop
+
+
+def make_final_mesh(job: MeshingJob) -> None:
+    """The final triangulation of the loop's points, by a constraint or by default."""
+    o, loop = job.options, job.loop
+    if not any(constraint.final_mesh(job) for constraint in job.constraints):
+        job.points, job.tets, job.fixed_mask = final_mesh(
+            job.model, loop.points, loop.fixed_mask, job.h, o.geps, o.delaunay, job.previous)
+    job.previous = None
+    job.seconds["loop"] = time.perf_counter() - job.started
+    job.stage_log("final mesh", f"{len(job.points):,} nodes, {len(job.tets):,} cells")
+
+
+def _either(*masks: np.ndarray | None) -> np.ndarray | None:
+    """The union of the masks given (None: none given)."""
+    given = [mask for mask in masks if mask is not None]
+    return np.logical_or.reduce(given) if len(given) > 1 else (given[0] if given else None)
+
+
+def quality_stage(job: MeshingJob) -> None:
+    """Slivers out and shapes improved (``slivers=True``), with the nodes the stage must keep."""
+    from .improve_mesh import stage_pins
+    from .slivers import improve_arrays
+
+    o, h = job.options, job.h
+    job.seconds["slivers"] = 0.0
+    if not o.slivers:
+        return
+    started = time.perf_counter()
+    pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
+    pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
+    locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
+    try:
+        if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
+            job.points, job.tets, _ = improve_arrays(
+                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked)
+    except MeshingError as exc:
+        # the stage checks its own result and refuses it; the loop's mesh is valid
+        warn_user(
+            f"the quality stage (slivers=True) failed and was skipped: {exc}; returning the "
+            "DistMesh mesh without it",
+            ConvergenceWarning,
+        )
+    for constraint in job.constraints:
+        constraint.after_quality_stage(job, pinned, locked)
+    job.seconds["slivers"] = time.perf_counter() - started
+    if job.progress:
+        from ..quality import tet_quality
+
+        measured = tet_quality(job.points, job.tets)
+        job.stage_log.started = started
+        job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
+                      f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
+                      f"{measured['radius_ratio'].min():.3f}")
+
+
+def check_mesh(job: MeshingJob) -> None:
+    """The resolution check (material lost or added), the history, the constraints' checks."""
+    from .lost_material import added_material_message, lost_material_message, material_checks
+
+    o, loop, h = job.options, job.loop, job.h
+    local = job.size if job.absolute else None
+    lost, added = material_checks(job.model, job.points, job.tets, h, local) if o.check_resolution else ([], [])
+    if lost:
+        warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
+    if added:
+        warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
+    job.history = dict(loop.history)
+    job.history.update(
+        iterations=np.array([loop.iterations]),
+        converged=np.array([int(loop.converged)]),
+        triangulations=np.array([loop.triangulations]),
+        loop_seconds=np.array([job.seconds["loop"]]),
+        slivers_seconds=np.array([job.seconds["slivers"]]),
+        features_seconds=np.array([job.seconds["features"]]),
+        feature_nodes=np.array([job.feature_nodes]),
+        lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
+        added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
+        seconds=np.array([time.perf_counter() - job.started]),
+    )
+    for constraint in job.constraints:
+        constraint.check(job)
+
+
+def output_grid(job: MeshingJob):
+    """The pyvista.UnstructuredGrid with every constraint's data; warns if the loop stopped at maxiter."""
+    grid = to_grid(job.points, job.tets, job.model, job.history, job.features)
+    for constraint in job.constraints:
+        constraint.annotate(job, grid)
+    job.stage_log("checks and output", f"{grid.n_points:,} nodes, {grid.n_cells:,} cells, "
+                  f"{time.perf_counter() - job.started:.1f} s in all")
+    if not job.loop.converged:
+        o = job.options
+        warn_user(
+            f"distmesh stopped at maxiter={o.maxiter} before meeting its tolerance "
+            f"(last interior move {job.loop.history['max_dp'][-1]:.3g} h > ptol={o.ptol:g}); returning the mesh reached",
+            ConvergenceWarning,
+        )
+    return grid
+
+
+#: the stages in order; each takes the job and leaves its result in it (the last returns the grid)
+STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_stage, check_mesh, output_grid)
+
+
+def run_pipeline(job: MeshingJob):
+    """Run :data:`STAGES` on ``job``; returns the output grid."""
+    for stage in STAGES[:-1]:
+        stage(job)
+    return STAGES[-1](job)
