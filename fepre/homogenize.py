@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import choice, positive_float
-from ..materials import elastic_material
+from .arguments import choice, positive_float
+from .materials import elastic_material
 
 __all__ = ["Homogenized", "homogenize", "VOIGT"]
 
@@ -200,8 +200,8 @@ def homogenize(
     >>> round(result.relative_density, 2)  # doctest: +SKIP
     0.89
     """
-    from ..export import export
-    from .nodes import periodic_nodes
+    from .export import export
+    from .periodic.nodes import periodic_nodes
 
     start = time.perf_counter()
     choice(solver, "solver", ("calculix",))

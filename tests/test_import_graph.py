@@ -21,29 +21,10 @@ def import_graph():
     sys.modules.pop(spec.name, None)
 
 
-# Imports in files another branch of issue 34 rewrites (the DistMesh pipeline breaks the
-# distmesh.mesher <-> regions/periodic cycle; homogenize and partition are in the same files'
-# hands). The graph is checked without them; once that branch lands, empty this list (the last
-# test fails while an entry names an import that is gone).
-PENDING = {
-    ("fepre.distmesh.mesher", "fepre.periodic"),
-    ("fepre.distmesh.mesher", "fepre.periodic.face_smoothing"),
-    ("fepre.distmesh.mesher", "fepre.regions"),
-    ("fepre.distmesh.mesher", "fepre.regions.conform"),
-    ("fepre.distmesh.mesher", "fepre.regions.interface"),
-    ("fepre.periodic.homogenize", "fepre.export"),
-    ("fepre.regions.partition", "fepre.export"),
-    ("fepre.regions.partition", "fepre.export.boundaries"),
-}
-
-
-def _without_pending(graph):
-    graph.edges = [e for e in graph.edges if (e.source, e.target) not in PENDING]
-    return graph
 
 
 def test_fepre_has_no_import_cycle(import_graph):
-    graph = _without_pending(import_graph.build_graph(ROOT / "fepre"))
+    graph = import_graph.build_graph(ROOT / "fepre")
     found = import_graph.cycles(graph)
     details = [
         f"{', '.join(c)}: " + "; ".join(f"{e.source} -> {e.target} {e.where()}" for e in import_graph.cycle_edges(graph, c))
@@ -53,16 +34,11 @@ def test_fepre_has_no_import_cycle(import_graph):
 
 
 def test_fepre_modules_import_only_from_their_layer_or_below(import_graph):
-    graph = _without_pending(import_graph.build_graph(ROOT / "fepre"))
+    graph = import_graph.build_graph(ROOT / "fepre")
     assert import_graph.unlayered(graph) == []
     violations = [f"{e.source} -> {e.target} {e.where()}" for e in import_graph.layer_violations(graph)]
     assert violations == []
 
-
-def test_pending_imports_still_exist(import_graph):
-    graph = import_graph.build_graph(ROOT / "fepre")
-    present = {(e.source, e.target) for e in graph.edges}
-    assert sorted(PENDING - present) == [], "these imports are gone: remove them from PENDING"
 
 
 def _write(root: Path, files: dict[str, str]) -> Path:

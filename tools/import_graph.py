@@ -38,13 +38,15 @@ from pathlib import Path
 # The layers, bottom first: a module imports from its own layer or the ones before it, never the
 # ones after it (docs/design.md, Layout). Keys are module names or package prefixes.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("fepre.errors", "fepre.config", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version", "fepre.vtk_messages", "fepre.callable_package")),
+    ("base", ("fepre.errors", "fepre.config", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version", "fepre.vtk_messages", "fepre.callable_package",
+              "fepre.constraint_keywords")),
     ("model", ("fepre.sdf",)),
     ("grid", ("fepre.sampling", "fepre.surface")),
     ("chunked", ("fepre.chunked",)),  # grids beyond memory, cut from sampling's and surface's
     ("features", ("fepre.features",)),
     ("sizing", ("fepre.sizing",)),
-    ("mesh", ("fepre._cell_kernels", "fepre.quality", "fepre.distmesh", "fepre.regions", "fepre.periodic")),
+    ("mesh", ("fepre._cell_kernels", "fepre.quality", "fepre.distmesh")),
+    ("constraints", ("fepre.regions", "fepre.periodic")),  # the mesher's constraints: they import it, never the reverse
     ("export", ("fepre.export",)),
     (
         "application",
@@ -56,6 +58,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "fepre.references",
             "fepre.compare",
             "fepre.comparison_table",
+            "fepre.homogenize",
             "fepre.report",
             "fepre.plotting",
             "fepre.parts",

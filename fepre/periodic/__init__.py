@@ -1,7 +1,6 @@
 """Periodic unit cells: meshes whose opposite faces match, node pairs, homogenised stiffness."""
 
 from .cell import PeriodicCell
-from .homogenize import Homogenized, homogenize
 from .nodes import PeriodicNodes, periodic_nodes
 
-__all__ = ["PeriodicCell", "PeriodicNodes", "periodic_nodes", "Homogenized", "homogenize"]
+__all__ = ["PeriodicCell", "PeriodicNodes", "periodic_nodes"]

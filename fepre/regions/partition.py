@@ -68,7 +68,7 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
     must cover it: both are checked on a grid over the bounds (spacing about ``h/2``, at most
     ``CHECK_SAMPLES`` points) to ``OVERLAP_DEPTH h``.
     """
-    from ..export.boundaries import check_names
+    from ..arguments import check_names
     from ..sdf.core import SDF
 
     if not isinstance(regions, dict):
