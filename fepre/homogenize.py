@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import choice, positive_float
+from .arguments import choice, positive_float, shown
 from .materials import elastic_material
 
 __all__ = ["Homogenized", "homogenize", "VOIGT"]
@@ -206,7 +206,7 @@ def homogenize(
     start = time.perf_counter()
     choice(solver, "solver", ("calculix",))
     if isinstance(order, bool) or order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2; got {order!r}")
+        raise ValueError(f"order must be 1 or 2; got {shown(order)}")
     young, poisson = elastic_material(material)
     executable = _ccx(ccx)
     nodes = periodic_nodes(mesh)  # refuses a mesh that is not a periodic cell

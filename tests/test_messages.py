@@ -37,6 +37,11 @@ def _tiny_mesh():
         (lambda: sdf.sphere(1.0).scale((np.float64(-1.0), 1.0, 1.0)), "(-1.0, 1.0, 1.0)"),
         (lambda: fepre.config.resolve_workers(np.int64(0)), "0"),
         (lambda: fepre.export(_tiny_mesh(), "unused.vtu", boundary_angle=np.float64(100.0)), "100.0"),
+        (lambda: fepre.DistMeshOptions(deltat=np.float64(2.0)), "2.0"),
+        (lambda: fepre.DistMeshOptions(seed=np.float64(1.5)), "1.5"),
+        (lambda: fepre.distmesh(sdf.sphere(1.0), h=np.float64(5.0)), "5.0"),
+        (lambda: fepre.improve(_tiny_mesh(), sdf.sphere(1.0), min_dihedral=np.float64(80.0)), "80.0"),
+        (lambda: fepre.distmesh(sdf.gyroid(1.0, 0.2), h=0.1, periodic=(np.float64(-1.0), 1.0, 1.0)), "-1.0"),
     ],
 )
 def test_messages_print_plain_numbers(call, number):

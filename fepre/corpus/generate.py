@@ -19,6 +19,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ..arguments import shown
 from .. import sdf
 from ..sdf.core import SDF
 
@@ -244,7 +245,7 @@ def parts(seed: int = 0, per_category: int = 4, categories=None) -> list[CorpusP
     if unknown:
         raise ValueError(f"categories must be among {', '.join(CATEGORIES)}; got {unknown}")
     if isinstance(per_category, bool) or not isinstance(per_category, (int, np.integer)) or per_category < 1:
-        raise ValueError(f"per_category must be a positive integer; got {per_category!r}")
+        raise ValueError(f"per_category must be a positive integer; got {shown(per_category)}")
     result = []
     for index, category in enumerate(CATEGORIES):
         if category not in chosen:

@@ -6,7 +6,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import domain_bounds, positive_float
+from ..arguments import domain_bounds, positive_float, shown
 from ..constraint_keywords import constraint_for
 from ..sdf.core import SDF
 from .constraints import FeatureNodes, FixedPoints
@@ -38,7 +38,7 @@ def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any):
     if isinstance(h, (tuple, list, np.ndarray)):
         pair = np.asarray(h, dtype=object).reshape(-1)
         if pair.size != 2:
-            raise ValueError(f"h must be a number or a pair (hmin, hmax); got {h!r}")
+            raise ValueError(f"h must be a number or a pair (hmin, hmax); got {shown(h)}")
         field = size_field(model, pair[0], pair[1], bounds=bounds)
         if size is not None:
             field = field.minimum(_as_field(size, model, bounds) if isinstance(size, pv.DataSet) else size)
@@ -173,7 +173,7 @@ def distmesh(
     job.lower, job.upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(job.model, job.bounds))
     extent = float((job.upper - job.lower).max())
     if job.h >= extent:
-        raise ValueError(f"h={job.h!r} must be smaller than the domain's largest extent {extent:g}")
+        raise ValueError(f"h={shown(job.h)} must be smaller than the domain's largest extent {extent:g}")
     for constraint in keyword_constraints:
         constraint.check_domain(job)
     if callback is not None and not callable(callback):

@@ -7,7 +7,7 @@ import numbers
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from ..arguments import choice, nonnegative_float, positive_float, positive_int
+from ..arguments import choice, nonnegative_float, positive_float, positive_int, shown
 
 __all__ = ["DistMeshOptions", "resolve_options"]
 
@@ -149,23 +149,23 @@ class DistMeshOptions:
         if self.deps is not None:
             put("deps", positive_float(self.deps, "deps"))
         if self.deltat > 1.0:
-            raise ValueError(f"deltat must be in (0, 1]; got {self.deltat!r}")
+            raise ValueError(f"deltat must be in (0, 1]; got {shown(self.deltat)}")
         if self.geps >= 1.0:
-            raise ValueError(f"geps must be in (0, 1) (a fraction of h); got {self.geps!r}")
+            raise ValueError(f"geps must be in (0, 1) (a fraction of h); got {shown(self.geps)}")
         put("jitter", nonnegative_float(self.jitter, "jitter"))
         if self.jitter >= 0.25:
-            raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {self.jitter!r}")
+            raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {shown(self.jitter)}")
         put("quality_tol", nonnegative_float(self.quality_tol, "quality_tol"))
         for name in ("maxiter", "sort_interval", "quality_window", "move_average_window"):
             put(name, positive_int(getattr(self, name), name))
         put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
         if self.feature_angle >= 180.0:
-            raise ValueError(f"feature_angle must be in (0, 180) degrees; got {self.feature_angle!r}")
+            raise ValueError(f"feature_angle must be in (0, 180) degrees; got {shown(self.feature_angle)}")
         for name in ("nonlinear", "distance_cache", "slivers", "boundary_layer", "features", "check_resolution",
                      "parallel"):
             value = getattr(self, name)
             if not isinstance(value, (bool, numbers.Integral)) or value not in (0, 1):
-                raise TypeError(f"{name} must be True or False; got {value!r}")
+                raise TypeError(f"{name} must be True or False; got {shown(value)}")
             put(name, bool(value))
         choice(self.distribution, "distribution", DISTRIBUTIONS)
         choice(self.termination, "termination", TERMINATIONS)
@@ -173,7 +173,7 @@ class DistMeshOptions:
         choice(self.delaunay, "delaunay", DELAUNAY_BACKENDS)
         choice(self.sort, "sort", SORTS)
         if isinstance(self.seed, bool) or not isinstance(self.seed, numbers.Integral) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
+            raise ValueError(f"seed must be a non-negative integer; got {shown(self.seed)}")
         put("seed", int(self.seed))
 
 

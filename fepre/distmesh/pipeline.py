@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from ..arguments import shown
 from ..errors import ConvergenceWarning, MeshingError, ResolutionWarning, warn_user
 from ..sdf.core import SDF
 from .constraints import compose
@@ -33,7 +34,7 @@ def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) ->
             f"the model's negative region misses the bounds {(tuple(lower), tuple(upper))}: "
             "nothing to mesh (check the model's sign and the bounds)"
         )
-    raise ValueError(f"h={h!r} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
+    raise ValueError(f"h={shown(h)} is too large for the domain: fewer than 4 points fit inside; use a smaller h")
 
 
 def constraint_nodes(job: MeshingJob) -> None:

@@ -48,7 +48,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .._cell_kernels import corner_volumes
-from ..arguments import finite_float, positive_float, positive_int
+from ..arguments import finite_float, positive_float, positive_int, shown
 from ..errors import ConvergenceWarning, MeshingError, warn_user
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .flips import flip_round, shape_flip_round
@@ -126,16 +126,16 @@ def _check_targets(min_dihedral: Any, max_dihedral: Any, min_radius_ratio: Any) 
     smallest = DEFAULT_MIN_DIHEDRAL if min_dihedral is None else finite_float(min_dihedral, "min_dihedral")
     if not 0.0 < smallest < REGULAR_DIHEDRAL:
         raise ValueError(
-            f"min_dihedral must be in (0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {min_dihedral!r}"
+            f"min_dihedral must be in (0, {REGULAR_DIHEDRAL:.2f}) degrees (a regular tetrahedron's angle); got {shown(min_dihedral)}"
         )
     largest = DEFAULT_MAX_DIHEDRAL if max_dihedral is None else finite_float(max_dihedral, "max_dihedral")
     if not REGULAR_DIHEDRAL < largest < 180.0:
         raise ValueError(
-            f"max_dihedral must be in ({REGULAR_DIHEDRAL:.2f}, 180) degrees (above a regular tetrahedron's angle); got {max_dihedral!r}"
+            f"max_dihedral must be in ({REGULAR_DIHEDRAL:.2f}, 180) degrees (above a regular tetrahedron's angle); got {shown(max_dihedral)}"
         )
     ratio = DEFAULT_MIN_RADIUS_RATIO if min_radius_ratio is None else finite_float(min_radius_ratio, "min_radius_ratio")
     if not 0.0 < ratio < 1.0:
-        raise ValueError(f"min_radius_ratio must be in (0, 1) (1 is a regular tetrahedron); got {min_radius_ratio!r}")
+        raise ValueError(f"min_radius_ratio must be in (0, 1) (1 is a regular tetrahedron); got {shown(min_radius_ratio)}")
     return ShapeTargets(smallest, largest, ratio)
 
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..arguments import as_bounds, as_vector
+from ..arguments import as_bounds, as_vector, shown
 from ..distmesh.constraints import compose  # noqa: F401  (the loop's hooks composed; public here before)
 
 __all__ = ["PeriodicCell", "periodic_cell", "check_periodic_model", "compose", "AXES", "FACE_MARGIN"]
@@ -80,7 +80,7 @@ def periodic_cell(periodic: Any, bounds: Any) -> PeriodicCell:
     """
     period = as_vector(periodic, 3, "periodic", allow_scalar=True)
     if not np.all(np.isfinite(period)) or np.any(period <= 0):
-        raise ValueError(f"periodic must be three positive periods (Lx, Ly, Lz); got {periodic!r}")
+        raise ValueError(f"periodic must be three positive periods (Lx, Ly, Lz); got {shown(periodic)}")
     if bounds is None:
         return PeriodicCell(np.zeros(3), period)
     lower, upper = (np.asarray(v, dtype=np.float64) for v in as_bounds(bounds, 3, "bounds"))
