@@ -33,6 +33,9 @@ def _as_polydata(source: Any, name: str):
 
         from ...vtk_messages import vtk_messages_kept
 
+        own = _read_own_format(path)
+        if own is not None:
+            return own
         with warnings.catch_warnings(record=True) as caught, vtk_messages_kept():
             warnings.simplefilter("always")
             try:
@@ -55,10 +58,32 @@ def _as_polydata(source: Any, name: str):
     return data
 
 
+def _read_own_format(path: Path):
+    """The PolyData of an OFF file or a PLY file of triangle strips (formats VTK misses), else None."""
+    import pyvista as pv
+
+    from .formats import ply_has_strips, read_off, read_ply_strips
+
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".off":
+            vertices, polygons = read_off(path)
+            faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons]) if polygons else np.zeros(0, np.int64)
+            return pv.PolyData(vertices, faces=faces) if len(faces) else pv.PolyData(vertices)
+        if suffix == ".ply" and ply_has_strips(path):
+            vertices, triangles = read_ply_strips(path)
+            return pv.PolyData.from_regular_faces(vertices, triangles) if len(triangles) else pv.PolyData(vertices)
+    except (ValueError, OSError, UnicodeError) as exc:
+        raise MeshInputError(f"mesh file {path} could not be read: {exc}") from None
+    return None
+
+
 def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
     """Vertices (V, 3) float64, triangles (F, 3) int64 and a name for messages.
 
-    Polygons are triangulated; lines and vertices are ignored.
+    Polygons and triangle strips are triangulated; lines and vertices are ignored. Files are read
+    by VTK's readers (STL, OBJ, PLY, VTK formats), except OFF and PLY triangle strips
+    (:mod:`fepre.sdf.meshmodel.formats`).
 
     Raises
     ------
@@ -67,7 +92,7 @@ def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
     """
     name = _describe(source)
     data = _as_polydata(source, name)
-    if np.asarray(data.faces).size == 0:
+    if np.asarray(data.faces).size == 0 and data.n_strips == 0:
         raise MeshInputError(
             f"{name} holds no surface faces (points {data.n_points}, cells {data.n_cells}, none of them polygons)"
         )

@@ -1,0 +1,156 @@
+"""Triangle-mesh models from the files users have: STL (ASCII and binary, several solids), OBJ
+(polygons, negative indices, groups), PLY (ASCII and binary, faces or triangle strips,
+``vertex_indices`` or ``vertex_index``, extra properties), OFF and VTK formats. Every file here
+holds the unit cube, so each reads to volume 1 and the unit box."""
+
+from __future__ import annotations
+
+import struct
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+from fepre import sdf
+from fepre.sdf.meshmodel import MeshInputError
+from fepre.sdf.meshmodel.formats import strip_triangles
+
+VERTICES = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+QUADS = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [1, 2, 6, 5], [3, 0, 4, 7]]  # outward
+TRIANGLES = [t for q in QUADS for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])]
+STRIPS = [i for q in QUADS for i in (q[0], q[1], q[3], q[2], -1)]  # one strip of two triangles a quad
+
+
+def _ply_header(fmt: str, faces: str, vertex_extra: str = "", face_extra: str = "") -> str:
+    return (f"ply\nformat {fmt} 1.0\ncomment made by fepre's tests\nelement vertex 8\nproperty float x\n"
+            f"property float y\nproperty float z\n{vertex_extra}{faces}{face_extra}end_header\n")
+
+
+def write_ply_ascii(path, key="vertex_indices", extra=False):
+    header = _ply_header("ascii", f"element face 6\nproperty list uchar int {key}\n",
+                         "property uchar red\nproperty float confidence\n" if extra else "",
+                         "property uchar flags\n" if extra else "")
+    rows = [" ".join(map(str, v)) + (" 255 0.5" if extra else "") for v in VERTICES]
+    rows += ["4 " + " ".join(map(str, q)) + (" 1" if extra else "") for q in QUADS]
+    path.write_text(header + "\n".join(rows) + "\n")
+
+
+def write_ply_binary(path):
+    header = _ply_header("binary_little_endian", "element face 6\nproperty list uchar int vertex_indices\n",
+                         "property double quality\n")
+    vertex = np.zeros(8, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("quality", "<f8")])
+    for k, axis in enumerate("xyz"):
+        vertex[axis] = VERTICES[:, k]
+    faces = b"".join(struct.pack("<B4i", 4, *q) for q in QUADS)
+    path.write_bytes(header.encode() + vertex.tobytes() + faces)
+
+
+def write_ply_strips(path, binary):
+    fmt = "binary_little_endian" if binary else "ascii"
+    header = _ply_header(fmt, "element tristrips 1\nproperty list int int vertex_indices\n")
+    if binary:
+        body = VERTICES.astype("<f4").tobytes() + struct.pack("<i", len(STRIPS)) + np.array(STRIPS, "<i4").tobytes()
+        path.write_bytes(header.encode() + body)
+    else:
+        rows = [" ".join(map(str, v)) for v in VERTICES] + [f"{len(STRIPS)} " + " ".join(map(str, STRIPS))]
+        path.write_text(header + "\n".join(rows) + "\n")
+
+
+def write_obj(path):
+    rows = ["# the unit cube", "o cube", *("v " + " ".join(map(str, v)) for v in VERTICES), "vt 0 0", "vn 0 0 1"]
+    for k, quad in enumerate(QUADS):
+        if k % 2 == 0:
+            rows.append(f"g side{k}")
+        # negative indices count back from the last vertex; v/vt/vn triplets on odd faces
+        rows.append("f " + " ".join(str(i - 8) if k % 2 == 0 else f"{i + 1}/1/1" for i in quad))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def write_off(path, header="OFF"):
+    colour = " 0.5 0.5 0.5 1" if "C" in header else ""
+    rows = [header, "# a comment", "8 6 0", *(" ".join(map(str, v)) + colour for v in VERTICES)]
+    rows += ["4 " + " ".join(map(str, q)) + (" 255 0 0" if "C" in header else "") for q in QUADS]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def write_stl_two_solids(path):
+    rows = []
+    for name, offset in (("a", 0.0), ("b", 3.0)):
+        rows.append(f"solid {name}")
+        for t in TRIANGLES:
+            p = VERTICES[t] + [offset, 0, 0]
+            n = np.cross(p[1] - p[0], p[2] - p[0])
+            rows += [f" facet normal {n[0]} {n[1]} {n[2]}", "  outer loop", *(f"   vertex {x} {y} {z}" for x, y, z in p),
+                     "  endloop", " endfacet"]
+        rows.append(f"endsolid {name}")
+    path.write_text("\n".join(rows) + "\n")
+
+
+WRITERS = {
+    "ascii.ply": write_ply_ascii,
+    "vertex_index.ply": lambda p: write_ply_ascii(p, key="vertex_index"),
+    "extra.ply": lambda p: write_ply_ascii(p, extra=True),
+    "binary.ply": write_ply_binary,
+    "strips.ply": lambda p: write_ply_strips(p, binary=False),
+    "strips_binary.ply": lambda p: write_ply_strips(p, binary=True),
+    "groups.obj": write_obj,
+    "cube.off": write_off,
+    "colours.off": lambda p: write_off(p, "COFF"),
+    "binary.stl": lambda p: pv.PolyData.from_regular_faces(VERTICES, np.array(TRIANGLES)).save(p, binary=True),
+    "cube.vtp": lambda p: pv.PolyData.from_regular_faces(VERTICES, np.array(TRIANGLES)).strip().save(p),
+}
+
+
+@pytest.mark.parametrize("name", list(WRITERS))
+def test_every_format_reads_the_unit_cube(name, tmp_path):
+    path = tmp_path / name
+    WRITERS[name](path)
+    model = sdf.mesh(path)
+    assert model.volume == pytest.approx(1.0, abs=1e-6)
+    assert np.allclose(model.bounds, ((0, 0, 0), (1, 1, 1)))
+    assert model([[0.5, 0.5, 0.5]])[0] == pytest.approx(-0.5, abs=1e-6)  # inside, half a side from every face
+    assert model([[2.0, 0.5, 0.5]])[0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_an_stl_of_two_solids_is_both(tmp_path):
+    path = tmp_path / "two.stl"
+    write_stl_two_solids(path)
+    model = sdf.mesh(path)
+    assert model.volume == pytest.approx(2.0, abs=1e-6)
+    assert np.allclose(model.bounds, ((0, 0, 0), (4, 1, 1)))
+
+
+def test_triangle_strips_unroll_with_one_orientation():
+    assert strip_triangles(np.array([0, 1, 2, 3, 4, -1, 5, 6, 7])).tolist() == [[0, 1, 2], [2, 1, 3], [2, 3, 4], [5, 6, 7]]
+    # a repeated index turns the strip: its degenerate triangles are dropped, the parity goes on
+    assert strip_triangles(np.array([0, 1, 2, 2, 3, 4])).tolist() == [[0, 1, 2], [3, 2, 4]]
+    assert strip_triangles(np.array([0, 1, -1])).shape == (0, 3)
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("OFF\n8 6 0\n0 0 0\n", "ends after 1 of 8"),
+        ("4OFF\n1 1 0\n", "not an OFF file"),
+        ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "outside 0..2"),
+        ("OFF\n", "counts are missing"),
+    ],
+)
+def test_a_broken_off_file_names_the_file_and_the_problem(tmp_path, text, words):
+    path = tmp_path / "broken.off"
+    path.write_text(text)
+    with pytest.raises(MeshInputError, match="broken.off") as caught:
+        sdf.mesh(path)
+    assert words in str(caught.value)
+
+
+def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
+    for name in ("cube.off", "strips.ply"):
+        WRITERS[name](tmp_path / name)
+        out = tmp_path / f"{name}.vtu"
+        done = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(tmp_path / name), "--h", "0.25",
+                               "-o", str(out), "--quiet"], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        assert pv.read(out).volume == pytest.approx(1.0, rel=1e-3)
