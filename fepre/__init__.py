@@ -24,7 +24,7 @@ from . import constraint_keywords as _constraint_keywords
 from . import sdf
 from ._version import __version__
 from .config import config
-from .errors import ConvergenceWarning, FeatureWarning, MeshingError, ResolutionWarning
+from .errors import ConvergenceWarning, FeatureWarning, MeshingError, RepairWarning, ResolutionWarning
 
 
 # public name -> module that defines it (imported on first access). fepre.distmesh,
@@ -50,7 +50,7 @@ _LAZY: dict[str, str] = {
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 
-__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
+__all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarning", "RepairWarning", "ResolutionWarning", "__version__", *_LAZY, *_SUBMODULES]
 
 
 # sample(chunks=) and isosurface(chunks=) hand over to fepre.chunked, which builds on sampling and

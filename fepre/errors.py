@@ -39,6 +39,16 @@ class ResolutionWarning(UserWarning):
     """
 
 
+class RepairWarning(UserWarning):
+    """Repairing a triangle-mesh model changed the solid noticeably.
+
+    Raised by :func:`fepre.sdf.mesh` when the patches that close its holes add or remove more
+    than 0.5% of its volume beyond flat caps across the holes, or reach past the input's bounds;
+    the message gives the figures, so that the user can decide whether the fill is what the part
+    should be (planar holes are closed flat and never warn).
+    """
+
+
 def warn_user(message: str, category: type[Warning]) -> None:
     """``warnings.warn`` pointing at the first caller outside fepre (the user's line), however
     deep inside fepre the warning is raised (``stacklevel`` counted by hand pointed into fepre's

@@ -1,13 +1,20 @@
-"""Close the holes of a triangle surface with smooth patches.
+"""Close the holes of a triangle surface: flat where the rim is planar, else with smooth patches.
 
-Every boundary loop that is a simple cycle is filled with rings of triangles shrinking to its
-centroid, about one rim edge apart, and the new vertices are then placed by a bi-Laplacian
-fairing (Liepa 2003): they solve ``L^2 x = 0`` with the rim and one ring of the surrounding surface
-held, so the patch continues the surface's slope across the rim instead of folding there. A flat
-fan would leave a crease along the rim that feature detection takes for a sharp edge.
+A rim that lies in a plane (to ``PLANAR_TOLERANCE`` of its size: a CAD face missing from an STL,
+a cut) is closed in that plane, so the filled solid is the one the rim bounds (a box with a
+missing face gets its volume back exactly). Any other boundary loop that is a simple cycle is
+filled with rings of triangles shrinking to its centroid, about one rim edge apart, and the new
+vertices are then placed by a bi-Laplacian fairing (Liepa 2003): they solve ``L^2 x = 0`` with the
+rim and one ring of the surrounding surface held, so the patch continues the surface's slope
+across the rim instead of folding there (a flat fan would leave a crease along the rim that
+feature detection takes for a sharp edge). :func:`fill_holes` reports how much volume the faired
+patches add beyond flat fans across their rims, so that a caller can say when a fill changed
+the solid.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse
@@ -16,10 +23,27 @@ from scipy.sparse.linalg import spsolve
 
 from .tables import edge_table, face_normals
 
-__all__ = ["fill_holes", "MAX_RINGS"]
+__all__ = ["fill_holes", "FilledHoles", "MAX_RINGS", "PLANAR_TOLERANCE"]
 
 #: Most rings of triangles in one patch (a patch is about as many rim edges across).
 MAX_RINGS = 30
+
+#: A rim is planar when no vertex is farther than this fraction of the rim's diameter from its
+#: best-fitting plane (STL stores float32 coordinates: about 1e-7 relative).
+PLANAR_TOLERANCE = 1e-5
+
+
+@dataclass(frozen=True)
+class FilledHoles:
+    """What :func:`fill_holes` did: the surface with its patches and the figures of the fill."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    holes: int
+    flat: int  # of them closed flat (planar rims)
+    area: float
+    bulge: float  # volume the faired patches add beyond flat fans across their rims (signed)
+    open_edges: int
 
 
 def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
@@ -100,6 +124,48 @@ def _ring_patch(vertices: np.ndarray, rim: np.ndarray, first_new: int) -> tuple[
     return new_points, np.concatenate([bands, fan])
 
 
+def _planar_normal(points: np.ndarray) -> np.ndarray | None:
+    """The unit normal of the plane holding ``points`` (to PLANAR_TOLERANCE), or None."""
+    centred = points - points.mean(axis=0)
+    diameter = float(np.ptp(points, axis=0).max())
+    if diameter == 0.0:
+        return None
+    normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
+    return normal if float(np.abs(centred @ normal).max()) <= PLANAR_TOLERANCE * diameter else None
+
+
+def _flat_patch(vertices: np.ndarray, rim: np.ndarray, normal: np.ndarray, first_new: int):
+    """New vertices and triangles closing the planar loop ``rim`` in its plane.
+
+    The rings shrinking to the centroid when the rim is star-shaped from it (every fan triangle
+    turns the same way about the normal); otherwise the polygon's own triangulation (VTK's, ear
+    cutting), with no new vertices.
+    """
+    points = vertices[rim]
+    centre = points.mean(axis=0)
+    turns = np.cross(points - centre, np.roll(points, -1, axis=0) - centre) @ normal
+    if np.all(turns > 0) or np.all(turns < 0):
+        return _ring_patch(vertices, rim, first_new)
+    import pyvista as pv
+
+    polygon = pv.PolyData(points, faces=np.concatenate([[len(rim)], np.arange(len(rim))])).triangulate()
+    local = np.asarray(polygon.faces).reshape(-1, 4)[:, 1:]
+    triangles = rim[local]
+    # the rim's edges run one way round the hole: the patch turns the other way, as _ring_patch
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    rim_turn = float(turns.sum())
+    if np.sign((np.cross(b - a, c - a) @ normal).sum()) == np.sign(rim_turn):
+        triangles = triangles[:, ::-1]
+    return np.zeros((0, 3)), triangles
+
+
+def _bulge(vertices: np.ndarray, rim: np.ndarray, triangles: np.ndarray) -> float:
+    """Signed volume between a patch and the flat fan across its rim from the rim's centroid."""
+    centre = vertices[rim].mean(axis=0)
+    a, b, c = (vertices[triangles[:, k]] - centre for k in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
 def _fair(vertices: np.ndarray, faces: np.ndarray, free: np.ndarray) -> np.ndarray:
     """Solve ``(L^2 x)[free] = 0`` for the free vertices, the others held (uniform Laplacian)."""
     n = len(vertices)
@@ -119,44 +185,55 @@ def _fair(vertices: np.ndarray, faces: np.ndarray, free: np.ndarray) -> np.ndarr
     return result
 
 
-def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
-    """Fill every simple boundary loop with a faired patch.
+def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
+    """Fill every simple boundary loop: flat when it is planar, else with a faired patch.
 
     Returns
     -------
-    vertices, faces : ndarray
-        The surface with the patches.
-    holes : int
-        Loops filled.
-    area : float
-        Area of the patches.
-    open_edges : int
-        Boundary edges left open (where the edges into and out of a vertex do not match).
+    FilledHoles
+        The surface with the patches, the loops filled (and how many flat), the patches' area,
+        the volume the faired patches add beyond flat fans across their rims, and the boundary
+        edges left open (where the edges into and out of a vertex do not match).
 
     Examples
     --------
     >>> import numpy as np, pyvista as pv
     >>> sphere = pv.Sphere(theta_resolution=64, phi_resolution=64)   # radius 0.5
     >>> points, faces = np.asarray(sphere.points, float), sphere.faces.reshape(-1, 4)[:, 1:]
-    >>> cut = points[faces].mean(axis=1)[:, 2] < 0.4                  # a cap off: rim at z = 0.4
-    >>> filled, _, holes, _, _ = fill_holes(points, faces[cut])
-    >>> holes, round(float(filled[len(points):, 2].max()), 2)         # the patch bulges like the sphere
-    (1, 0.47)
+    >>> centres = points[faces].mean(axis=1)
+    >>> cut = np.abs(centres[:, 0] - 0.3) + np.abs(centres[:, 2] - 0.3) > 0.12   # a skewed window
+    >>> filled = fill_holes(points, faces[cut])
+    >>> filled.holes, filled.flat, bool(filled.bulge > 0)              # faired: it bulges like the sphere
+    (1, 0, True)
+    >>> box = pv.Box().triangulate()                                   # the cube [-1, 1]^3
+    >>> quads = box.faces.reshape(-1, 4)[:, 1:]
+    >>> top = np.asarray(box.points)[quads].mean(axis=1)[:, 2] > 0.99
+    >>> open_box = fill_holes(np.asarray(box.points, float), quads[~top])  # the top face missing
+    >>> open_box.flat, open_box.bulge                                   # closed flat: volume 8 again
+    (1, 0.0)
     """
     loops, open_edges = _boundary_loops(vertices, faces)
     if not loops:
-        return vertices, faces, 0, 0.0, open_edges
-    new_points, new_faces = [], []
+        return FilledHoles(vertices, faces, 0, 0, 0.0, 0.0, open_edges)
+    new_points, new_faces, free, faired = [], [], [], []
     first = len(vertices)
     for rim in loops:  # one patch per hole; each is built with array operations
-        points, triangles = _ring_patch(vertices, rim, first)
+        normal = _planar_normal(vertices[rim])
+        if normal is None:
+            points, triangles = _ring_patch(vertices, rim, first)
+            free.append(np.arange(first, first + len(points)))
+            faired.append((rim, len(np.concatenate(new_faces)) if new_faces else 0, len(triangles)))
+        else:
+            points, triangles = _flat_patch(vertices, rim, normal, first)
         new_points.append(points)
         new_faces.append(triangles)
         first += len(points)
-    free = np.arange(len(vertices), first)
     vertices = np.concatenate([vertices] + new_points)
     patches = np.concatenate(new_faces)
     faces = np.concatenate([faces, patches])
-    vertices = _fair(vertices, faces, free)
+    bulge = 0.0
+    if free:
+        vertices = _fair(vertices, faces, np.concatenate(free))
+        bulge = sum(_bulge(vertices, rim, patches[start : start + count]) for rim, start, count in faired)
     area = float(face_normals(vertices, patches)[1].sum())
-    return vertices, faces, len(loops), area, open_edges
+    return FilledHoles(vertices, faces, len(loops), len(loops) - len(faired), area, bulge, open_edges)

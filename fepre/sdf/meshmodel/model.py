@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from ...arguments import finite_float
+from ...errors import RepairWarning, warn_user
 from ..core import SDF, Coords
 from .distance import TriangleDistance
 from .patches import PatchPlanes, segment_patches
@@ -209,6 +210,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
     vertices, faces, name = read_triangles(source)
     repaired = repair(vertices, faces)
     _check_solid(repaired, name)
+    _warn_of_changes(repaired, vertices[np.unique(faces)], name)
     if sign == "pseudonormal" and not (repaired.closed and repaired.internal == 0):
         raise MeshInputError(
             f"{name}: sign='pseudonormal' needs a closed, consistently oriented surface, and this one is not "
@@ -217,6 +219,37 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
     if isinstance(source, (str, os.PathLike)):
         name = os.fspath(source)
     return MeshModel(repaired, name, sign=sign, features=features)
+
+
+#: A repair that changes the volume by more than this fraction (beyond flat caps on holes) warns.
+REPAIR_VOLUME_WARNING = 0.005
+
+
+def _box(lower: np.ndarray, upper: np.ndarray) -> str:
+    return f"({', '.join(f'{v:.6g}' for v in lower)}) to ({', '.join(f'{v:.6g}' for v in upper)})"
+
+
+def _warn_of_changes(repaired: Repair, given: np.ndarray, name: str) -> None:
+    """Warn when the hole patches change the solid by more than REPAIR_VOLUME_WARNING of its
+    volume beyond flat caps, or reach past the input's bounds."""
+    a, b, c = (repaired.vertices[repaired.faces[:, k]] for k in range(3))
+    volume = abs(float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0))
+    used = repaired.vertices[np.unique(repaired.faces)]
+    lower, upper = given.min(axis=0), given.max(axis=0)
+    reach = float(np.maximum(lower - used.min(axis=0), used.max(axis=0) - upper).max())
+    changes = []
+    if abs(repaired.hole_bulge) > REPAIR_VOLUME_WARNING * volume:
+        changes.append(
+            f"the smooth patches on its {repaired.holes - repaired.flat_holes} non-planar hole(s) "
+            f"{'add' if repaired.hole_bulge > 0 else 'remove'} a volume of {abs(repaired.hole_bulge):.4g} "
+            f"({100 * abs(repaired.hole_bulge) / volume:.2f}% of {volume:.4g}) beyond flat caps")
+    if reach > 1e-9 * float(np.ptp(given, axis=0).max()):
+        changes.append(
+            f"the patches reach {reach:.4g} past the input's bounds ({_box(lower, upper)} -> "
+            f"{_box(used.min(axis=0), used.max(axis=0))})")
+    if changes:
+        warn_user(f"{name}: closing holes changed the solid: {'; '.join(changes)}; close the holes in the "
+                  "source if this is not the part", RepairWarning)
 
 
 def _check_solid(repaired: Repair, name: str) -> None:

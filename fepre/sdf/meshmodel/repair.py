@@ -9,8 +9,8 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
    material lies outside it) the right way;
-3. close holes: every boundary loop that is a simple cycle gets a smooth patch
-   (:mod:`.hole_fill`);
+3. close holes: every boundary loop that is a simple cycle is closed, flat when its rim is planar
+   (a missing CAD face), else with a smooth patch (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
    is on the same side of 1/2 just in front of and just behind a triangle (the inner parts of
    overlapping shells, sheets hanging in or out of the solid), after splitting the triangles that
@@ -51,6 +51,11 @@ class Repair:
         not (wholly) separating inside from outside.
     hole_area : float
         Area of the triangles added to close holes.
+    flat_holes : int
+        Of the holes, those closed in the plane of their rim (planar rims).
+    hole_bulge : float
+        Volume the faired patches of the other holes add beyond flat fans across their rims
+        (signed: positive where they bulge out).
     open_edges : int
         Boundary edges left open (where the edges into and out of a vertex do not match).
     closed : bool
@@ -71,6 +76,8 @@ class Repair:
     open_edges: int
     closed: bool
     filled: np.ndarray = field(repr=False)
+    flat_holes: int = 0
+    hole_bulge: float = 0.0
 
     @property
     def changed(self) -> bool:
@@ -84,7 +91,7 @@ class Repair:
             (self.degenerate, "degenerate triangles dropped"),
             (self.duplicates, "duplicate triangles dropped"),
             (self.flipped, "triangles turned over"),
-            (self.holes, f"holes closed (area {self.hole_area:.4g})"),
+            (self.holes, f"holes closed (area {self.hole_area:.4g}, {self.flat_holes} of them flat)"),
             (self.internal, "triangles inside or outside the solid dropped"),
             (self.open_edges, "boundary edges left open"),
         ):
@@ -348,7 +355,8 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
     original = len(faces)
-    vertices, faces, holes, hole_area, open_edges = fill_holes(vertices, faces)
+    holes = fill_holes(vertices, faces)
+    vertices, faces, open_edges = holes.vertices, holes.faces, holes.open_edges
     filled = np.arange(len(faces)) >= original
     if _is_closed(faces) and _pieces(faces) == 1:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
@@ -362,10 +370,12 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
         degenerate=degenerate,
         duplicates=duplicates,
         flipped=flipped + backwards,
-        holes=holes,
-        hole_area=hole_area,
+        holes=holes.holes,
+        hole_area=holes.area,
         internal=internal,
         open_edges=open_edges,
         closed=_is_closed(faces),
         filled=filled,
+        flat_holes=holes.flat,
+        hole_bulge=holes.bulge,
     )

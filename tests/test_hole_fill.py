@@ -1,0 +1,80 @@
+"""Holes of triangle-mesh models: planar holes are closed flat (a CAD face missing from an STL
+gives back the exact solid), others by faired patches, and a fill that changes the solid by more
+than 0.5% of its volume or reaches past the input's bounds warns with the figures."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import fepre
+from fepre import sdf
+
+
+def _open_box(missing: str, bounds=(0, 10, 0, 10, 0, 10), subdivide: int = 0) -> pv.PolyData:
+    box = pv.Box(bounds=bounds, level=subdivide).triangulate()
+    faces = box.faces.reshape(-1, 4)[:, 1:]
+    centres = np.asarray(box.points)[faces].mean(axis=1)
+    axis, side = "xyz".index(missing[0]), missing[1]
+    level = bounds[2 * axis + (side == "+")]
+    keep = np.abs(centres[:, axis] - level) > 1e-9
+    return pv.PolyData.from_regular_faces(np.asarray(box.points), faces[keep])
+
+
+@pytest.mark.parametrize("missing, subdivide", [("z+", 0), ("x-", 3), ("y+", 1)])
+def test_a_box_with_a_missing_face_gets_its_exact_volume_and_bounds_back(tmp_path, missing, subdivide):
+    # before: the face's hole was closed by a faired patch, a pyramid cap 4 mm high on the
+    # 10 mm cube (volume 1133), with only an info line
+    path = tmp_path / "open_box.stl"
+    _open_box(missing, subdivide=subdivide).save(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.RepairWarning)
+        model = sdf.mesh(path)
+    assert model.volume == pytest.approx(1000.0, rel=1e-9)
+    assert np.allclose(model.bounds, ((0, 0, 0), (10, 10, 10)), atol=1e-9)
+    assert model.repaired.holes == 1 and model.repaired.flat_holes == 1
+    assert model([[5.0, 5.0, 5.0]])[0] == pytest.approx(-5.0, abs=1e-9)
+    mesh = fepre.distmesh(model, h=2.0)
+    assert mesh.volume == pytest.approx(1000.0, rel=0.005)
+
+
+def test_a_planar_hole_that_is_not_star_shaped_closes_flat():
+    # an L-shaped window cut out of the top of a block: its centroid lies outside the L
+    block = pv.Box(bounds=(0, 4, 0, 4, 0, 1), level=7).triangulate().clean()
+    faces = block.faces.reshape(-1, 4)[:, 1:]
+    centres = np.asarray(block.points)[faces].mean(axis=1)
+    in_l = (centres[:, 2] > 0.999) & (((centres[:, 0] < 1.5) & (centres[:, 1] < 3.5)) | ((centres[:, 1] < 1.5) & (centres[:, 0] < 3.5))) \
+        & (centres[:, 0] > 0.5) & (centres[:, 1] > 0.5)
+    model = sdf.mesh(pv.PolyData.from_regular_faces(np.asarray(block.points), faces[~in_l]))
+    assert model.repaired.flat_holes == 1
+    assert model.volume == pytest.approx(16.0, rel=1e-9)
+    assert model([[2.5, 2.5, 0.5]])[0] == pytest.approx(-0.5, abs=1e-9)
+
+
+def test_a_patch_that_bulges_warns_with_the_figures():
+    sphere = pv.Sphere(radius=1.0, theta_resolution=60, phi_resolution=60)
+    faces = sphere.faces.reshape(-1, 4)[:, 1:]
+    points = np.asarray(sphere.points)
+    centres = points[faces].mean(axis=1)
+    cut = (np.abs(centres[:, 0]) < 0.3) & (centres[:, 2] > 0)  # a saddle-shaped window over the top
+    with pytest.warns(fepre.RepairWarning, match=r"add a volume of 0\.2\d+ \(6\.\d+% of 4\.0\d+\) beyond flat caps") as caught:
+        model = sdf.mesh(pv.PolyData.from_regular_faces(points, faces[~cut]))
+    assert "past the input's bounds" in str(caught[0].message)
+    assert model.repaired.flat_holes == 0 and model.repaired.hole_bulge > 0
+
+
+def test_a_small_curved_hole_closes_smoothly_without_a_warning():
+    sphere = pv.Sphere(radius=1.0, theta_resolution=80, phi_resolution=80)
+    faces = sphere.faces.reshape(-1, 4)[:, 1:]
+    points = np.asarray(sphere.points)
+    centres = points[faces].mean(axis=1)
+    cut = np.linalg.norm(centres - [0.6, 0.0, 0.8], axis=1) < 0.15
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.RepairWarning)
+        model = sdf.mesh(pv.PolyData.from_regular_faces(points, faces[~cut]))
+    assert model.repaired.holes == 1 and model.repaired.flat_holes == 0
+    closed = sdf.mesh(sphere)
+    assert model.volume == pytest.approx(closed.volume, rel=5e-4)  # the patch follows the sphere
