@@ -54,6 +54,23 @@ def test_smooth_union_matches_the_polynomial_blend(rng):
     np.testing.assert_allclose(sdf.difference(A, B, k=k)(p), sdf.intersection(A, -B, k=k)(p), atol=1e-15)
 
 
+@pytest.mark.parametrize("k", [0.2, 0.6])
+def test_smooth_booleans_move_coplanar_faces_by_a_quarter_of_k(k):
+    # What the docstrings of union, intersection and difference state: where a == b the smooth
+    # minimum is min - k/4, so faces the operands share in one plane move by exactly k/4.
+    bar = sdf.box((2, 1, 1), center=(1, 0.5, 0.5))
+    post = sdf.box((1, 2, 1), center=(0.5, 1, 0.5))
+    joined = sdf.union(bar, post, k=k)
+    face = np.array([[0.0, 0.5, 0.5], [0.5, 0.0, 0.5], [0.5, 0.5, 1.0]])  # shared faces, overlap
+    normal = np.array([[-1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]])
+    np.testing.assert_allclose(joined(face), -k / 4, atol=1e-12)
+    np.testing.assert_allclose(joined(face + k / 4 * normal), 0.0, atol=1e-12)
+    common = sdf.intersection(sdf.box(2), sdf.box((2, 3, 3)), k=k)  # the x faces shared
+    np.testing.assert_allclose(common([[1 - k / 4, 0, 0]]), 0.0, atol=1e-12)
+    cut = sdf.difference(sdf.box(2), sdf.box((3, 3, 1), center=(0, 0, 1.5)), k=k)  # on the top
+    np.testing.assert_allclose(cut([[0.3, 0.3, 1 - k / 4]]), 0.0, atol=1e-12)
+
+
 def test_boolean_bounds():
     assert (A | B).bounds == ((-1.0, -1.0, -1.0), (2.0, 1.0, 1.0))
     np.testing.assert_allclose((A & B).bounds, ((0.4, -0.8, -0.8), (1.0, 0.8, 0.8)))
