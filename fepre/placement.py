@@ -16,9 +16,11 @@ extent) is not moved, so its mesh is the one it always had.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-__all__ = ["FAR", "local_offset"]
+__all__ = ["FAR", "local_offset", "moved_size", "moved_features"]
 
 #: a box whose centre is farther from the origin than this many times its largest extent is
 #: moved to the origin
@@ -61,3 +63,28 @@ def local_offset(lower, upper) -> np.ndarray:
         return np.zeros_like(centre)
     quantum = 10.0 ** np.floor(np.log10(extent))
     return np.round(centre / quantum) * quantum + 0.0  # no -0.0
+
+
+def moved_size(size: Any, shift: np.ndarray) -> Any:
+    """A ``size=`` argument moved by ``shift``: a size field (``translated``) or a background
+    mesh moved, a relative size callable composed with the translation; anything else as given
+    (the argument checks say what is wrong with it)."""
+    if size is None:
+        return None
+    shift = np.asarray(shift, dtype=np.float64)
+    if getattr(size, "world_units", False) and hasattr(size, "translated"):
+        return size.translated(shift)
+    if callable(size):
+        return lambda points: size(np.asarray(points, dtype=np.float64) - shift)
+    if hasattr(size, "translate"):  # a pyvista dataset (a background mesh)
+        return size.translate(tuple(float(v) for v in shift), inplace=False)
+    return size
+
+
+def moved_features(found: Any, shift: np.ndarray) -> Any:
+    """A :class:`fepre.Features` with its corners and curve nodes moved by ``shift``."""
+    import dataclasses
+
+    shift = np.asarray(shift, dtype=np.float64)
+    curves = tuple(dataclasses.replace(curve, points=curve.points + shift) for curve in found.curves)
+    return dataclasses.replace(found, corners=found.corners + shift, curves=curves)

@@ -226,6 +226,7 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
     import dataclasses
 
     from ..arguments import as_bounds
+    from ..placement import moved_size
 
     local_bounds = None if bounds is None else tuple(np.asarray(b, np.float64) - offset for b in as_bounds(bounds, 3, "bounds"))
     local_fixed = None if fixed is None else np.asarray(fixed, np.float64) - offset
@@ -238,7 +239,7 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
             return given_callback(dataclasses.replace(state, points=state.points + offset))
 
     try:
-        grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=_moved_size(size, -offset),
+        grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=moved_size(size, -offset),
                         fixed=local_fixed, periodic=periodic, regions=regions, callback=callback,
                         _frame=offset, **rest)
     except (ValueError, MeshingError) as exc:
@@ -258,19 +259,6 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
     if "periodic_lower" in grid.field_data:
         grid.field_data["periodic_lower"] = np.asarray(grid.field_data["periodic_lower"]) + offset
     return grid
-
-
-def _moved_size(size: Any, shift: np.ndarray) -> Any:
-    """``size=`` moved by ``shift``: a background mesh or a size field moved, a callable composed."""
-    if size is None:
-        return None
-    if _is_dataset(size):
-        return size.translate(tuple(shift), inplace=False)
-    if getattr(size, "world_units", False) and hasattr(size, "translated"):
-        return size.translated(shift)
-    if callable(size):
-        return lambda points: size(np.asarray(points, np.float64) - shift)
-    return size  # not a size: the argument checks say so
 
 
 def _check_sizes(job: MeshingJob) -> None:
