@@ -30,11 +30,12 @@ FAR = 1.0
 def local_offset(lower, upper) -> np.ndarray:
     """The translation the local frame subtracts from a box ``(lower, upper)``, (3,) floats.
 
-    Zero for a box near the origin (centre within ``FAR`` times the largest extent ``L``);
-    otherwise the box's centre rounded to a multiple of ``10^floor(log10 L)``, per axis. The
-    rounding keeps the offset a round number: a part placed by ``translate((1e4, 0, 0))`` is
-    moved back by exactly ``1e4`` and meshes as it does at the origin; the centre of the moved
-    box is within ``L / 2`` of the origin.
+    Per axis: zero where the box's centre is within ``FAR`` times its largest extent ``L`` of
+    the origin (a part near the origin keeps its mesh); else the roundest number (a multiple of
+    the largest power of ten) within ``FAR * L`` of the centre. A part is usually placed by a
+    round translation: ``part.translate((1e4, 0, 0))`` is moved back by exactly ``1e4`` even when
+    its box is not centred on its own origin, and meshes as it does there. The moved box's centre
+    is within ``L`` of the origin on every axis.
 
     Parameters
     ----------
@@ -51,18 +52,27 @@ def local_offset(lower, upper) -> np.ndarray:
     [0.0, 0.0, 0.0]
     >>> local_offset((9999, 9999, -1), (10001, 10001, 1)).tolist()
     [10000.0, 10000.0, 0.0]
-    >>> local_offset((1233.9, 0, 0), (1325.2, 50, 50)).tolist()   # 10s for a part 91 long
-    [1280.0, 0.0, 0.0]
+    >>> local_offset((10000, 0, 0), (10002, 1, 1)).tolist()   # box(2) translated by (10001, 0, 0)
+    [10000.0, 0.0, 0.0]
+    >>> local_offset((1233.9, 0, 0), (1325.2, 50, 50)).tolist()
+    [1300.0, 0.0, 0.0]
     """
     lower, upper = (np.asarray(v, dtype=np.float64).reshape(-1) for v in (lower, upper))
     extent = float((upper - lower).max())
     centre = 0.5 * (lower + upper)
     if not (np.isfinite(extent) and extent > 0 and np.isfinite(centre).all()):
         return np.zeros_like(centre)
-    if float(np.abs(centre).max()) <= FAR * extent:
-        return np.zeros_like(centre)
-    quantum = 10.0 ** np.floor(np.log10(extent))
-    return np.round(centre / quantum) * quantum + 0.0  # no -0.0
+    offset = np.zeros_like(centre)
+    for axis in np.flatnonzero(np.abs(centre) > FAR * extent):
+        c = float(centre[axis])
+        # the roundest number within FAR * extent of the centre: 10^k down to 10^floor(log10 L),
+        # whose multiples are at most L / 2 away, so one always is
+        for k in range(int(np.floor(np.log10(abs(c)))) + 1, int(np.floor(np.log10(extent))) - 1, -1):
+            candidate = float(np.round(c / 10.0**k)) * 10.0**k
+            if abs(c - candidate) <= FAR * extent:
+                offset[axis] = candidate
+                break
+    return offset + 0.0  # no -0.0
 
 
 def moved_size(size: Any, shift: np.ndarray) -> Any:
