@@ -153,6 +153,12 @@ def distmesh(
     fepre.FeatureWarning
         When sharp features closer together than ``h/2`` were skipped (``features=True``).
 
+    Notes
+    -----
+    A part far from the origin (the centre of its box more than its largest extent away on an
+    axis) is meshed near it and the grid moved back (:func:`fepre.placement.local_offset`): a
+    part placed by a round translation gets the mesh it has at the origin, moved.
+
     Examples
     --------
     >>> import fepre

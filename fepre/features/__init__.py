@@ -81,6 +81,11 @@ def features(
         ``corners``, ``curves``, ``nodes``, ``segments``, ``to_polydata()`` to look at them,
         ``skipped`` in words.
 
+    Notes
+    -----
+    A part far from the origin is handled near it and the result moved back
+    (:mod:`fepre.placement`), so it does not depend on where the part is placed.
+
     Examples
     --------
     >>> import fepre

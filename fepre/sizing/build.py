@@ -121,6 +121,11 @@ def size_field(
         On a grid of spacing ``hmin`` (coarser when that would exceed
         ``fepre.sizing.MAX_NODES`` nodes) over the box; ``field.seconds`` is the time it took.
 
+    Notes
+    -----
+    A part far from the origin is handled near it and the result moved back
+    (:mod:`fepre.placement`), so it does not depend on where the part is placed.
+
     Examples
     --------
     >>> import fepre
