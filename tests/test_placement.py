@@ -10,6 +10,7 @@ result back: the same mesh up to the translation.
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import numpy as np
@@ -140,3 +141,23 @@ def test_a_periodic_cell_with_its_lower_corner_far_from_the_origin():
     points = np.asarray(mesh.points)
     assert len(nodes.slaves) > 0
     assert np.abs(points[nodes.slaves] - nodes.shifts * 1.0 - points[nodes.masters]).max() < 1e-9
+
+
+@pytest.mark.parametrize("backend", ["scipy", "gmsh"])
+def test_delaunay_of_far_points_is_the_one_near_the_origin(backend):
+    """Before: Qhull triangulated a 6^3 lattice at 1e4 with other cells than at the origin."""
+    if backend == "gmsh":
+        pytest.importorskip("gmsh")
+    from fepre.distmesh.delaunay import loop_tetrahedralize, tetrahedralize
+
+    lattice = np.stack(np.meshgrid(*[np.arange(6.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    np.testing.assert_array_equal(tetrahedralize(lattice + 1e4, backend), tetrahedralize(lattice, backend))
+    np.testing.assert_array_equal(loop_tetrahedralize(lattice - 1e5, backend, 1.0), loop_tetrahedralize(lattice, backend, 1.0))
+
+
+def test_an_error_about_a_far_part_names_the_frame():
+    part = sdf.box(2).translate((1e4, 0.0, 0.0))
+    with pytest.raises(ValueError, match="fixed") as raised:
+        fepre.distmesh(part, 0.5, fixed=[[1e4 + 5.0, 0.0, 0.0]])
+    if sys.version_info >= (3, 11):  # exception notes
+        assert any("moved by (-10000.0, 0.0, 0.0)" in note for note in raised.value.__notes__)
