@@ -122,7 +122,9 @@ def test_fixed_points_size_callable_and_callback_stay_in_the_users_frame():
     assert abs(mesh.volume - 8.0) < 1e-6 * 8.0
 
 
+@pytest.mark.slow
 def test_regions_far_from_the_origin():
+    """Before: a valid mesh, but another one (1146 cells against 1166 at h = 0.25)."""
     offset = (1e4, 0.0, 0.0)
     bar = sdf.box((2, 1, 1), center=(1, 0.5, 0.5))
     left, right = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5)), sdf.box((1, 1, 1), center=(1.5, 0.5, 0.5))
