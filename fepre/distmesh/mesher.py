@@ -235,7 +235,10 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
     from ..placement import moved_size
 
     local_bounds = None if bounds is None else tuple(np.asarray(b, np.float64) - offset for b in as_bounds(bounds, 3, "bounds"))
-    local_fixed = None if fixed is None else np.asarray(fixed, np.float64) - offset
+    try:
+        local_fixed = None if fixed is None else np.asarray(fixed, np.float64) - offset
+    except (TypeError, ValueError):  # not points: the checks say so
+        local_fixed, fixed = fixed, None
     if isinstance(regions, dict):
         regions = {name: part.translate(-offset) if isinstance(part, SDF) else part for name, part in regions.items()}
     if callable(callback):
