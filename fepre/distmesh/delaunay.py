@@ -167,6 +167,7 @@ def tetrahedralize(
     >>> bool((signed_volumes(cube, tets) > 0).all()), round(float(signed_volumes(cube, tets).sum()), 9)
     (True, 1.0)
     """
+    points = _near_origin(points)
     return _canonical(points, _triangulate(points, backend, None), scale, keep_flat)
 
 
@@ -182,8 +183,22 @@ def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel
     >>> len(loop_tetrahedralize(cube, "scipy", 1.0))
     6
     """
+    points = _near_origin(points)
     tets = _triangulate(points, backend, None if parallel else 1)
     return _canonical(points, tets, scale, False, ordered=False)
+
+
+def _near_origin(points: np.ndarray) -> np.ndarray:
+    """``points`` moved near the origin when they are far from it (:func:`fepre.placement.local_offset`
+    of their box; the same array otherwise): Qhull's precision and the flat cells' volumes follow
+    the coordinates' size, HXT's initial box too."""
+    from ..placement import local_offset
+
+    points = np.asarray(points, dtype=np.float64)
+    if len(points) == 0:
+        return points
+    offset = local_offset(points.min(axis=0), points.max(axis=0))
+    return points - offset if offset.any() else points
 
 
 def _triangulate(points: np.ndarray, backend: str, threads: int | None) -> np.ndarray:

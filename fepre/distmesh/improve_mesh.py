@@ -131,7 +131,15 @@ def improve(
         raise ValueError("mesh must have cells of positive size; all its edges have zero length")
     if not isinstance(features, (bool, np.bool_)):
         raise TypeError(f"features must be True or False; got {features!r}")
+    from ..placement import local_offset
     from .finalize import crease_nodes
+
+    # a mesh far from the origin is improved near it and moved back (fepre.placement)
+    offset = local_offset(points.min(axis=0), points.max(axis=0))
+    given = points
+    if offset.any():
+        points, model = points - offset, model.translate(-offset)
+    local = points
 
     pinned = crease_nodes(model, points, tets, h)
     found = None
@@ -150,6 +158,12 @@ def improve(
     info["pinned"] = int(pinned.sum())
     info["snapped"] = snapped
     grid = to_grid(new_points, new_tets, model, {}, found)
+    if offset.any():
+        moved = np.asarray(grid.points) + offset
+        if len(new_points) == len(local):  # the nodes that stayed keep their coordinates bit for bit
+            stayed = (new_points == local).all(axis=1)
+            moved[stayed] = given[stayed]
+        grid.points = moved
     for key, value in info.items():
         grid.field_data[f"improve_{key}"] = np.array([value])
     return grid

@@ -49,6 +49,9 @@ class MeshingJob:
         The loop's result; ``previous`` its last triangulation, for the final mesh to reuse.
     history : dict
         Field data ``distmesh_<key>`` of the output.
+    frame_offset : (3,) array
+        The user's frame is the job's moved by this (:mod:`fepre.placement`: a part far from the
+        origin is meshed near it); warnings that name a place add it.
     seconds : dict
         Stage times: ``features``, ``loop`` (everything up to the final mesh), ``slivers``.
     """
@@ -79,6 +82,7 @@ class MeshingJob:
     stage_log: StageLog | None = None
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
+    frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)
 
     def detected_features(self, model: SDF | None = None):

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..arguments import domain_bounds, positive_float, shown
 from ..constraint_keywords import constraint_for
+from ..errors import MeshingError
 from ..sdf.core import SDF
 from .constraints import FeatureNodes, FixedPoints
 from .initial_points import evaluate_size
@@ -152,6 +153,12 @@ def distmesh(
     fepre.FeatureWarning
         When sharp features closer together than ``h/2`` were skipped (``features=True``).
 
+    Notes
+    -----
+    A part far from the origin (the centre of its box more than its largest extent away on an
+    axis) is meshed near it and the grid moved back (:func:`fepre.placement.local_offset`): a
+    part placed by a round translation gets the mesh it has at the origin, moved.
+
     Examples
     --------
     >>> import fepre
@@ -162,6 +169,18 @@ def distmesh(
     """
     if not isinstance(model, SDF) or model.dim != 3:
         raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    offset = _frame_offset(model, bounds)
+    if offset.any():
+        return _in_local_frame(offset, model, h, bounds=bounds, size=size, fixed=fixed, periodic=periodic,
+                               regions=regions, options=options, progress=progress, callback=callback, **overrides)
+    return _mesh(model, h, bounds=bounds, size=size, fixed=fixed, periodic=periodic, regions=regions, options=options,
+                 progress=progress, callback=callback, **overrides)
+
+
+def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: Any, regions: Any,
+          options: DistMeshOptions | None, progress: bool, callback: Any, _frame: Any = None, **overrides: Any):
+    """:func:`distmesh` in the frame given (``_frame``: the user's frame is this one moved by
+    it; the resolution warnings add it to the places they name)."""
     job = MeshingJob(model=model, given_model=model, h=h, size=size, options=resolve_options(options, overrides),
                      bounds=bounds, progress=progress, callback=callback, keywords={"periodic": periodic, "regions": regions})
     if size is not None and not callable(size) and not _is_dataset(size):
@@ -183,7 +202,72 @@ def distmesh(
     _check_sizes(job)
     job.constraints = [c for c in (user_fixed, FeatureNodes() if job.options.features else None) if c is not None]
     job.constraints += keyword_constraints
+    if _frame is not None:
+        job.frame_offset = np.asarray(_frame, np.float64)
     return run_pipeline(job)
+
+
+def _frame_offset(model: SDF, bounds: Any) -> np.ndarray:
+    """The local frame's offset (:func:`fepre.placement.local_offset`) of the box given or the
+    model's own; zero when there is none yet (the argument checks will say why)."""
+    from ..placement import local_offset
+
+    try:
+        lower, upper = domain_bounds(model, bounds)
+    except (TypeError, ValueError):
+        return np.zeros(3)
+    return local_offset(lower, upper)
+
+
+def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: Any,
+                    regions: Any, callback: Any, **rest: Any):
+    """``distmesh`` of the part moved by ``-offset`` (every argument with it), its grid moved back.
+
+    The model is composed with the translation, which cancels a ``translate`` of the part
+    exactly; sizes, fixed points, regions and the callback's points are moved too; the output's
+    points (and ``periodic_lower``) are moved back, and the user's fixed points are put back
+    bit for bit. Messages naming a place name it in the user's coordinates (the note on an
+    exception, the resolution warnings' ``job.frame_offset``).
+    """
+    import dataclasses
+
+    from ..arguments import as_bounds
+    from ..placement import moved_size
+
+    local_bounds = None if bounds is None else tuple(np.asarray(b, np.float64) - offset for b in as_bounds(bounds, 3, "bounds"))
+    try:
+        local_fixed = None if fixed is None else np.asarray(fixed, np.float64) - offset
+    except (TypeError, ValueError):  # not points: the checks say so
+        local_fixed, fixed = fixed, None
+    if isinstance(regions, dict):
+        regions = {name: part.translate(-offset) if isinstance(part, SDF) else part for name, part in regions.items()}
+    if callable(callback):
+        given_callback = callback
+
+        def callback(state):  # noqa: F811 - the user's callback sees the user's coordinates
+            return given_callback(dataclasses.replace(state, points=state.points + offset))
+
+    try:
+        grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=moved_size(size, -offset),
+                        fixed=local_fixed, periodic=periodic, regions=regions, callback=callback,
+                        _frame=offset, **rest)
+    except (ValueError, MeshingError) as exc:
+        if hasattr(exc, "add_note"):  # Python 3.11
+            exc.add_note(f"fepre meshed the part moved by {shown(tuple(0.0 - offset))} (fepre.placement): "
+                         "coordinates above are in that frame")
+        raise
+    grid.points = np.asarray(grid.points) + offset
+    if fixed is not None:
+        from scipy.spatial import cKDTree
+
+        distance, index = cKDTree(np.asarray(grid.points)).query(local_fixed + offset)
+        exact = distance <= 1e-12 * max(float(np.abs(offset).max()), 1.0)  # rounding of (x - offset) + offset
+        points = np.asarray(grid.points).copy()
+        points[index[exact]] = np.asarray(fixed, np.float64)[exact]
+        grid.points = points
+    if "periodic_lower" in grid.field_data:
+        grid.field_data["periodic_lower"] = np.asarray(grid.field_data["periodic_lower"]) + offset
+    return grid
 
 
 def _check_sizes(job: MeshingJob) -> None:

@@ -8,6 +8,7 @@ check_mesh -> output_grid``; every stage consults the job's constraints
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -144,6 +145,9 @@ def check_mesh(job: MeshingJob) -> None:
     o, loop, h = job.options, job.loop, job.h
     local = job.size if job.absolute else None
     lost, added = material_checks(job.model, job.points, job.tets, h, local) if o.check_resolution else ([], [])
+    if job.frame_offset.any():  # the places named in the user's frame
+        lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
+                       for found in (lost, added))
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
     if added:

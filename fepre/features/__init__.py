@@ -25,6 +25,7 @@ import numpy as np
 from ..callable_package import make_callable
 from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
 from ..errors import FeatureWarning, warn_user
+from ..placement import local_offset, moved_features, moved_size
 from ..sdf.core import SDF
 from .conflicts import resolve_conflicts
 from .curves import FeatureCurve, build_curves
@@ -80,6 +81,11 @@ def features(
         ``corners``, ``curves``, ``nodes``, ``segments``, ``to_polydata()`` to look at them,
         ``skipped`` in words.
 
+    Notes
+    -----
+    A part far from the origin is handled near it and the result moved back
+    (:mod:`fepre.placement`), so it does not depend on where the part is placed.
+
     Examples
     --------
     >>> import fepre
@@ -99,6 +105,11 @@ def features(
     if size is not None and not callable(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,) or None; got {type(size).__name__}")
     lower, upper = (np.asarray(b, dtype=np.float64) for b in domain_bounds(model, bounds))
+    offset = local_offset(lower, upper)
+    if offset.any():  # found near the origin, where Newton's tolerances can be met (fepre.placement)
+        found = features(model.translate(-offset), h, angle=angle, spacing=spacing, bounds=(lower - offset, upper - offset),
+                         size=moved_size(size, -offset), warn=warn)
+        return moved_features(found, offset)
     scale = float(np.max(upper - lower))
     spacing = h / 4.0 if spacing is None else positive_float(spacing, "spacing")
     if spacing >= scale:

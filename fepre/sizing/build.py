@@ -27,6 +27,7 @@ import numpy as np
 
 from ..arguments import domain_bounds, finite_float, positive_float
 from ..sdf.core import SDF
+from ..placement import local_offset
 from .curvature import max_curvature
 from .field import MAX_NODES, SizeField
 from .gradation import graded_sizes
@@ -120,6 +121,11 @@ def size_field(
         On a grid of spacing ``hmin`` (coarser when that would exceed
         ``fepre.sizing.MAX_NODES`` nodes) over the box; ``field.seconds`` is the time it took.
 
+    Notes
+    -----
+    A part far from the origin is handled near it and the result moved back
+    (:mod:`fepre.placement`), so it does not depend on where the part is placed.
+
     Examples
     --------
     >>> import fepre
@@ -135,6 +141,14 @@ def size_field(
     hmin, hmax, elements_across, chord_tolerance, gradation = _check(hmin, hmax, elements_across, chord_tolerance, gradation)
     if not isinstance(features, bool):
         raise TypeError(f"features must be True or False; got {features!r}")
+    offset = local_offset(*domain_bounds(model, bounds))
+    if offset.any():  # sized near the origin and moved back (fepre.placement)
+        box = None if bounds is None else tuple(np.asarray(b, dtype=np.float64) - offset for b in domain_bounds(model, bounds))
+        local = size_field(model.translate(-offset), hmin, hmax, elements_across=elements_across,
+                           chord_tolerance=chord_tolerance, gradation=gradation, features=features, bounds=box)
+        field = local.translated(offset)
+        field.seconds = time.perf_counter() - start
+        return field
     lower, upper, spacing, counts, axes, values = _sampled_box(model, bounds, hmin)
     near = np.flatnonzero(np.abs(values.reshape(-1)) < spacing)
     if near.size == 0:

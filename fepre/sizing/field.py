@@ -130,6 +130,23 @@ class SizeField:
             np.minimum(values, evaluate_size(other, nodes).reshape(values.shape), out=values)
         return SizeField(self.origin, self.spacing, values)
 
+    def translated(self, offset: Any) -> "SizeField":
+        """The same sizes moved by ``offset`` (the grid's origin moved; a background mesh's
+        coverage with it).
+
+        Examples
+        --------
+        >>> field = SizeField((0, 0, 0), (1, 1, 1), np.array([[[1.0, 3.0]]]))
+        >>> field.translated((10, 0, 0))([[10.5, 0.0, 0.0]]).tolist()
+        [2.0]
+        """
+        offset = np.asarray(offset, dtype=np.float64).reshape(3)
+        moved = SizeField(self.origin + offset, self.spacing, self.values)
+        moved.seconds = self.seconds
+        if self.coverage is not None:
+            moved.coverage = _Coverage(self.coverage.mesh.translate(tuple(offset), inplace=False))
+        return moved
+
     def clip(self, hmin: float, hmax: float) -> "SizeField":
         """The field with its sizes clamped to ``[hmin, hmax]``."""
         if not (0 < hmin <= hmax):
