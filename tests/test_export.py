@@ -218,7 +218,11 @@ def test_round_trip_through_meshio(tmp_path, block, name, order):
         return
     if name == "vtu":  # the tagged grid: tetrahedra only, boundary faces as field data
         assert list(blocks) == [volume_type]
-        assert {k: v.tolist() for k, v in back.field_data.items() if k != "boundary_faces"} == {
+        # each set's faces and area travel too (the block's sides, exactly)
+        assert back.field_data["boundary_areas"] == pytest.approx([FACE_AREAS[n] for n in names[1]], rel=1e-12)
+        assert back.field_data["boundary_face_counts"].tolist() == face_counts.tolist()
+        sets_only = ("boundary_faces", "boundary_areas", "boundary_face_counts")
+        assert {k: v.tolist() for k, v in back.field_data.items() if k not in sets_only} == {
             **{n: [i, 3] for i, n in enumerate(names[0])},
             **{n: [i, 2] for i, n in enumerate(names[1])},
         }
@@ -501,7 +505,7 @@ def names_read_back(name: str, path: Path) -> set[str]:
         return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
     if name == "vtu":  # a set named like a point or cell array is written as <name>_set
         arrays = set(back.point_data) | set(back.cell_data)
-        return {n[:-4] if n.endswith("_set") and n[:-4] in arrays else n for n in back.field_data} - {"boundary_faces"}
+        return {n[:-4] if n.endswith("_set") and n[:-4] in arrays else n for n in back.field_data} - {"boundary_faces", "boundary_areas", "boundary_face_counts"}
     return set(back.field_data) - {"boundary_faces"}
 
 

@@ -147,8 +147,10 @@ def export(
     pyvista.UnstructuredGrid
         The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with the input mesh's arrays, cell
         data ``"region_id"``, point data ``"boundary_id"`` (-1 inside), field data
-        ``"region_names"``/``"boundary_names"`` and ``"boundary_faces"`` (element, face 1..4, set
-        of each boundary face; :func:`boundary_faces` gives them as triangles). A VTU file holds
+        ``"region_names"``/``"boundary_names"``, ``"boundary_faces"`` (element, face 1..4, set
+        of each boundary face; :func:`boundary_faces` gives them as triangles) and
+        ``"boundary_face_counts"``/``"boundary_areas"`` (faces and area of each set, quadratic
+        faces over their curved shape; :mod:`fepre.export.areas`). A VTU file holds
         exactly this grid (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
         ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid). A periodic
         mesh (``fepre.distmesh(..., periodic=)``) keeps ``"periodic_lower"``/``"periodic_period"``

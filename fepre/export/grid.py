@@ -14,7 +14,9 @@
   its two ends' values;
 * field data ``"boundary_faces"`` (K, 3): each boundary face as its tetrahedron (0-based), its
   face number 1..4 (Abaqus ``S1``..``S4``) and its set (index into ``"boundary_names"``), which
-  :func:`boundary_faces` turns back into tagged triangles.
+  :func:`boundary_faces` turns back into tagged triangles;
+* field data ``"boundary_face_counts"`` and ``"boundary_areas"``: each set's number of faces and
+  area (quadratic faces over their curved shape; :mod:`fepre.export.areas`).
 
 A VTU file holds this grid with one change: the set names travel as integer field data
 ``name -> [index, dimension]`` (3 for regions, 2 for boundaries; Gmsh's and meshio's convention)
@@ -39,7 +41,7 @@ __all__ = ["tagged_grid", "boundary_faces", "set_names", "file_grid", "midside_v
 
 FACE_FIELD = "boundary_faces"
 FEPRE_ARRAYS = ("region_id", "boundary_id")
-RESERVED_FIELD_NAMES = (FACE_FIELD, "region_names", "boundary_names")
+RESERVED_FIELD_NAMES = (FACE_FIELD, "region_names", "boundary_names", "boundary_face_counts", "boundary_areas")
 #: boundary faces meeting at more than this (degrees) make a crease: the feature curves of a mesh
 CREASE_ANGLE = 30.0
 #: appended to a set name in a VTU's field data when a point or cell array has that name
@@ -149,6 +151,11 @@ def tagged_grid(
     grid.field_data[FACE_FIELD] = np.column_stack(
         [data.faces.elements, data.faces.local_faces + 1, data.faces.set_ids]
     ).astype(np.int64)
+    from .areas import AREA_FIELD, COUNT_FIELD, set_areas
+
+    counts, areas = set_areas(data.points, data.face_nodes, data.faces.set_ids, len(data.boundary_names))
+    grid.field_data[COUNT_FIELD] = counts
+    grid.field_data[AREA_FIELD] = areas
     return grid
 
 
