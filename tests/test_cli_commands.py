@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import textwrap
 
 import meshio
@@ -391,3 +392,24 @@ def test_mesh_xdmf_names_every_file_and_info_reads_the_facet_tags(folder, tmp_pa
     assert f"base ({int(np.count_nonzero(ids == 1))})" in info, info
     assert f"boundary ({int(np.count_nonzero(ids == 2))})" in info, info
     assert "ball_facets.xdmf" in info
+
+
+def test_mesh_and_info_print_each_boundary_sets_faces_and_area(folder, tmp_path, capsys):
+    # Issue 33: nothing printed showed a set's area, so a set taking extra faces went unseen. The
+    # ball's flat base is a disc of radius sqrt(0.75): area 0.75 pi; quadratic faces follow its rim.
+    out = tmp_path / "ball.inp"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--order", "2", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    lines = {line.split()[2]: line for line in printed.splitlines() if line.startswith("boundary set ")}
+    assert set(lines) == {"base", "boundary"}, printed
+    base = re.search(r"base\s+(\d+) faces  area ([\d.]+)", lines["base"])
+    assert float(base.group(2)) == pytest.approx(0.75 * math.pi, rel=1e-3)
+    for name in (out, tmp_path / "ball.vtu", tmp_path / "ball.xdmf"):
+        if name != out:
+            assert main(["mesh", str(folder / "ball.py"), "-o", str(name), "--order", "2", "--quiet"]) == 0
+            capsys.readouterr()
+        assert main(["info", str(name)]) == 0
+        info = capsys.readouterr().out
+        assert "boundary set areas" in info, info
+        again = re.search(r"base\s+(\d+) faces  area ([\d.]+)", info.split("boundary set areas")[1])
+        assert again.groups() == base.groups(), (name, info)

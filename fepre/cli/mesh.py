@@ -130,16 +130,29 @@ def run(args: argparse.Namespace) -> int:
         if empty:
             raise ValueError(
                 f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
-                f"mesh (none within a quarter of the local edge length, facing the same way); check "
-                f"where their functions are zero; nothing written"
+                f"mesh (no face with its nodes on their surface, to 1e-3 of the local edge length, and "
+                f"facing the same way); check where their functions are zero; nothing written"
             )
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
                            materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    if part.boundaries:
+        print(set_areas_text(written))
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")
     return 0
+
+
+def set_areas_text(grid) -> str:
+    """One line per boundary set of a tagged grid: its faces and their area (as a solver sees them:
+    quadratic faces over their curved shape)."""
+    from ..export.areas import grid_set_areas
+
+    sets = grid_set_areas(grid)
+    width = max(map(len, sets), default=0)
+    return "\n".join(f"boundary set {name:<{width}}  {count:>8} faces  area {area:.7g}"
+                     for name, (count, area) in sets.items())
 
 
 def _size_file(path: str):
