@@ -71,7 +71,8 @@ def boundary_set_areas(name: str, mesh) -> dict[str, tuple[int, float]]:
     quadratic faces over their curved shape. Empty for other files."""
     import pyvista as pv
 
-    from ..export.areas import grid_set_areas, set_areas
+    from ..export.areas import set_areas
+    from ..export.grid import grid_set_areas
 
     path = Path(name)
     if isinstance(mesh, pv.UnstructuredGrid) and path.suffix.lower() in _VTK_SUFFIXES + (".inp",):

@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
 def set_areas_text(grid) -> str:
     """One line per boundary set of a tagged grid: its faces and their area (as a solver sees them:
     quadratic faces over their curved shape)."""
-    from ..export.areas import grid_set_areas
+    from ..export.grid import grid_set_areas
 
     sets = grid_set_areas(grid)
     width = max(map(len, sets), default=0)

@@ -5,7 +5,8 @@ midside nodes may lie on a curved surface) is integrated over its curved shape b
 degree-6 rule on the reference triangle: the area a pressure on that face acts on in CalculiX.
 The areas are what fepre prints for each set (``fepre mesh``, ``fepre info``) and stores in the
 tagged grid's field data ``"boundary_face_counts"`` and ``"boundary_areas"`` (one value per
-``"boundary_names"`` entry).
+``"boundary_names"`` entry; :func:`fepre.export.grid.grid_set_areas` reads them from a
+tagged grid's faces).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["face_areas", "set_areas", "grid_set_areas", "AREA_FIELD", "COUNT_FIELD"]
+__all__ = ["face_areas", "set_areas", "AREA_FIELD", "COUNT_FIELD"]
 
 AREA_FIELD = "boundary_areas"
 COUNT_FIELD = "boundary_face_counts"
@@ -88,32 +89,3 @@ def set_areas(points: np.ndarray, faces: np.ndarray, set_ids: np.ndarray, n_sets
     counts = np.bincount(set_ids, minlength=n_sets)[:n_sets]
     areas = np.bincount(set_ids, weights=face_areas(points, faces), minlength=n_sets)[:n_sets]
     return counts.astype(np.int64), areas.astype(np.float64)
-
-
-def grid_set_areas(grid: Any) -> dict[str, tuple[int, float]]:
-    """``{set name: (faces, area)}`` of a tagged grid (from :func:`fepre.export`, a fepre VTU or
-    ``.inp``), the boundary sets only; quadratic faces over their curved shape.
-
-    Examples
-    --------
-    >>> import fepre, tempfile, os
-    >>> from fepre import sdf
-    >>> mesh = fepre.distmesh(sdf.box(1.0), h=0.5)
-    >>> grid = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "cube.vtu"),
-    ...                     boundaries={"top": sdf.plane((0, 0, 1), (0, 0, 0.5))})
-    >>> {name: (n, round(a, 9)) for name, (n, a) in grid_set_areas(grid).items()}["top"][1]
-    1.0
-    """
-    from .boundaries import OUTWARD_FACES
-    from .data import FACE_EDGE_NODES
-    from .grid import FACE_FIELD, set_names
-
-    names = set_names(grid)[1]
-    if FACE_FIELD not in grid.field_data or not names:
-        return {}
-    table = np.asarray(grid.field_data[FACE_FIELD], dtype=np.int64).reshape(-1, 3)
-    cells = np.asarray(grid.cell_connectivity).reshape(grid.n_cells, -1)
-    local = OUTWARD_FACES if cells.shape[1] == 4 else np.hstack([OUTWARD_FACES, FACE_EDGE_NODES])
-    faces = np.take_along_axis(cells[table[:, 0]], local[table[:, 1] - 1], axis=1)
-    counts, areas = set_areas(np.asarray(grid.points), faces, table[:, 2], len(names))
-    return {name: (int(counts[i]), float(areas[i])) for i, name in enumerate(names)}
