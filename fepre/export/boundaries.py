@@ -57,6 +57,8 @@ MAX_TOLERANCE = 0.25
 #: faces whose centroid is within NEAR x h of a set's surface are examined (and reported when missed)
 NEAR = 0.25
 DEFAULT_ANGLE = 60.0
+#: faces next to a set turned off it by less than this (degrees) mean its edge is no crease
+TANGENT_ANGLE = 20.0
 
 # Faces in Abaqus/CalculiX order S1..S4 (1-2-3, 1-4-2, 2-4-3, 3-4-1), each written here with its
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
@@ -279,6 +281,7 @@ def assign_boundaries(
         areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
         _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
                      min_cosine, set_ids)
+        _warn_tangent(names, triangles, normals, areas, set_ids)
     all_names = names if default_index < len(names) else names + [DEFAULT_BOUNDARY]
     return FaceSets(elements, local, triangles, set_ids, all_names)
 
@@ -294,6 +297,44 @@ def _warn_overlaps(names, distance, best, nearest, limit) -> None:
             warn_user(
                 f"boundaries {name!r} and {', '.join(repr(names[w]) for w in winners)} overlap "
                 f"on {int(overlapping.sum())} faces; they go to the first name in the dict",
+                BoundaryWarning)
+
+
+def _warn_tangent(names, triangles, normals, areas, set_ids) -> None:
+    """Warn about sets whose edge is no crease: faces next to the set, outside it, turned off its
+    plane by under ``TANGENT_ANGLE`` (a fillet leaving the surface tangentially). No mesh node lies
+    on that tangent line, so the set ends up to a row of faces short of it."""
+    n = int(triangles.max()) + 1 if triangles.size else 0
+    pairs = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]], axis=2)  # (K, 3, 2)
+    keys = pairs[..., 0] * n + pairs[..., 1]  # (K, 3)
+    for j, name in enumerate(names):
+        inside = set_ids == j
+        if not inside.any():
+            continue
+        edge_keys, uses = np.unique(keys[inside].ravel(), return_counts=True)
+        rim = edge_keys[uses == 1]
+        owner = np.repeat(np.flatnonzero(inside), 3)[np.isin(keys[inside].ravel(), rim)]
+        rim_keys = keys[inside].ravel()[np.isin(keys[inside].ravel(), rim)]
+        outside = np.flatnonzero(~inside)
+        hits = np.isin(keys[outside], rim)  # (K_out, 3)
+        neighbour = outside[hits.any(axis=1)]
+        if not neighbour.size:
+            continue
+        # each neighbour against the set face across its shared edge
+        shared = keys[neighbour][hits[hits.any(axis=1)]]
+        first = np.repeat(neighbour, hits[hits.any(axis=1)].sum(axis=1))
+        order = np.argsort(rim_keys)
+        across = owner[order][np.searchsorted(rim_keys[order], shared)]
+        cosine = np.abs(np.einsum("ij,ij->i", normals[first], normals[across]))
+        tangent = np.unique(first[cosine > np.cos(np.radians(TANGENT_ANGLE))])
+        band = float(areas[tangent].sum())
+        total = float(areas[inside].sum())
+        if band > 1e-3 * total:
+            warn_user(
+                f"boundaries {name!r}: along {tangent.size} faces of its edge the part's surface leaves it "
+                f"at under {TANGENT_ANGLE:g} degrees (a fillet tangent to it?); no mesh node lies where it "
+                f"leaves, so the set (area {total:.6g}) may fall short of the surface's flat part by up to "
+                f"{band:.3g}, those faces' area. Put mesh nodes on the tangent line for an exact set",
                 BoundaryWarning)
 
 
