@@ -5,9 +5,8 @@ A boundary face is a tetrahedron face that no other tetrahedron shares. It joins
 surface:
 
 * each of its three nodes is within ``boundary_tolerance`` x h of the surface (``|value| <=
-  1e-3 h`` by default; h is the face's mean edge length, and the limit is at most half the height
-  of its tetrahedron over the face, so a part one element thick never gives a face to the
-  opposite side);
+  1e-3 h`` by default; h is the face's mean edge length), so the far side of a part one element
+  thick is never taken for it (and a flat boundary tetrahedron's face, all on the surface, is);
 * its centroid is within that limit plus the sag of a triangle inscribed in a surface as curved
   as the function's gradients at the nodes say (0 on a plane; a face of a bore is kept, a face
   bridging a groove whose lips are on the surface is not);
@@ -257,8 +256,7 @@ def assign_boundaries(
     elements, local, triangles = boundary_faces(cells)
     corners, centroids, edges, normals, height = _face_geometry(points, cells, elements, local, triangles)
     h = edges.mean(axis=1)
-    limit = np.minimum(tolerance * h, 0.5 * height)
-    near_limit = np.minimum(NEAR * h, 0.5 * height)
+    limit = tolerance * h
     default_index = len(names)
     if DEFAULT_BOUNDARY in names:  # the user's own "boundary" set also takes the unmatched faces
         default_index = names.index(DEFAULT_BOUNDARY)
@@ -268,8 +266,9 @@ def assign_boundaries(
         near_faces = []
         for j, name in enumerate(names):
             values = np.abs(_evaluate(boundaries[name], centroids, "boundaries", name))
-            candidates = np.flatnonzero(values <= near_limit)
-            near_faces.append(candidates)
+            candidates = np.flatnonzero(values <= NEAR * h)
+            # faces reported as missed: not those of the far side of a part one element thick
+            near_faces.append(candidates[values[candidates] <= 0.5 * height[candidates]])
             on = _on_surface(boundaries[name], name, corners, centroids, edges, normals, limit, min_cosine,
                              candidates)
             distance[on, j] = values[on]
