@@ -278,9 +278,9 @@ def assign_boundaries(
         set_ids[matched] = best[matched]
         _warn_overlaps(names, distance, best, nearest, limit)
         areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-        _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
-                     min_cosine, set_ids)
-        _warn_tangent(names, triangles, normals, areas, set_ids)
+        reported = _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance,
+                                angle, min_cosine, set_ids)
+        _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, reported)
     all_names = names if default_index < len(names) else names + [DEFAULT_BOUNDARY]
     return FaceSets(elements, local, triangles, set_ids, all_names)
 
@@ -299,7 +299,7 @@ def _warn_overlaps(names, distance, best, nearest, limit) -> None:
                 BoundaryWarning)
 
 
-def _warn_tangent(names, triangles, normals, areas, set_ids) -> None:
+def _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, reported) -> None:
     """Warn about sets whose edge is no crease: faces next to the set, outside it, turned off its
     plane by under ``TANGENT_ANGLE`` (a fillet leaving the surface tangentially). No mesh node lies
     on that tangent line, so the set ends up to a row of faces short of it."""
@@ -308,7 +308,7 @@ def _warn_tangent(names, triangles, normals, areas, set_ids) -> None:
     keys = pairs[..., 0] * n + pairs[..., 1]  # (K, 3)
     for j, name in enumerate(names):
         inside = set_ids == j
-        if not inside.any():
+        if not inside.any() or name in reported:
             continue
         edge_keys, uses = np.unique(keys[inside].ravel(), return_counts=True)
         rim = edge_keys[uses == 1]
@@ -329,19 +329,23 @@ def _warn_tangent(names, triangles, normals, areas, set_ids) -> None:
         band = float(areas[tangent].sum())
         total = float(areas[inside].sum())
         if band > 1e-3 * total:
+            off = np.abs(_evaluate(boundaries[name], corners[tangent].reshape(-1, 3), "boundaries", name))
+            farthest = float(np.median(off.reshape(-1, 3).max(axis=1) / h[tangent]))
             warn_user(
-                f"boundaries {name!r}: along {tangent.size} faces of its edge the part's surface leaves it "
-                f"at under {TANGENT_ANGLE:g} degrees (a fillet tangent to it?); no mesh node lies where it "
-                f"leaves, so the set (area {total:.6g}) may fall short of the surface's flat part by up to "
-                f"{band:.3g}, those faces' area. Put mesh nodes on the tangent line for an exact set",
+                f"boundaries {name!r}: along {tangent.size} faces of its edge the part's surface turns off it "
+                f"by under {TANGENT_ANGLE:g} degrees, their farthest nodes a median {farthest:.3g} h from it: "
+                f"either a fillet leaves it tangentially (no mesh node lies on the tangent line; put nodes "
+                f"there for an exact set) or the mesh's nodes lie only near it (pass a boundary_tolerance "
+                f"above that). The set's area {total:.6g} may be short by up to {band:.3g}, those faces' area",
                 BoundaryWarning)
 
 
 def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
-                 min_cosine, set_ids) -> None:
+                 min_cosine, set_ids) -> set:
     """Warn about sets that match no face, and about sets most of whose nearby, parallel faces have
-    no node on the surface (a mesh made elsewhere, whose nodes lie only near the model)."""
-    empty = []
+    no node on the surface (a mesh made elsewhere, whose nodes lie only near the model); return the
+    names of the latter."""
+    empty, reported = [], set()
     for j, name in enumerate(names):
         taken = float(areas[set_ids == j].sum())
         near = near_faces[j][~np.isfinite(distance[near_faces[j], j])]
@@ -356,6 +360,7 @@ def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_f
             if off.any() and missed > taken:
                 offset = nodes[off].max(axis=1)
         if offset.size:
+            reported.add(name)
             warn_user(
                 f"boundaries {name!r}: {int(np.count_nonzero(set_ids == j))} faces have their nodes on its "
                 f"surface (within boundary_tolerance={tolerance:g} h), but {offset.size} parallel faces near it "
@@ -371,6 +376,7 @@ def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_f
             f"boundary_tolerance={tolerance:g} x local edge length of the surface and its normal within "
             f"boundary_angle={angle:g} degrees of the surface's)",
             BoundaryWarning)
+    return reported
 
 
 def assign_regions(
