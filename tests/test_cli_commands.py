@@ -413,3 +413,19 @@ def test_mesh_and_info_print_each_boundary_sets_faces_and_area(folder, tmp_path,
         assert "boundary set areas" in info, info
         again = re.search(r"base\s+(\d+) faces  area ([\d.]+)", info.split("boundary set areas")[1])
         assert again.groups() == base.groups(), (name, info)
+
+
+def test_mesh_prints_the_exact_area_a_model_file_gives_beside_the_sets(tmp_path, capsys):
+    # fepre cannot know a set's exact area; the user can (`boundary_areas`), and sees the difference.
+    model = tmp_path / "ball.py"
+    model.write_text(BALL + "import math\nboundary_areas = {'base': 0.75 * math.pi}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "ball.inp"), "--order", "2", "--quiet"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("boundary set base"))
+    difference = float(re.search(r"\(exact 2.356194: ([+-][\d.]+)%\)", line).group(1))
+    assert abs(difference) <= 0.1, line
+    model.write_text(BALL + "boundary_areas = {'lid': 1.0}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "bad.inp"), "--quiet"]) == 1
+    assert "`boundary_areas` names ['lid'], which are not in `boundaries` ['base']" in capsys.readouterr().err
+    model.write_text(BALL + "boundary_areas = {'base': -1.0}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "bad.inp"), "--quiet"]) == 1
+    assert "boundary_areas['base']" in capsys.readouterr().err
