@@ -3,7 +3,8 @@
 A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` (target edge
 length), ``bounds`` (meshing box), ``boundaries`` (name -> SDF for named boundary sets),
 ``regions`` (name -> SDF: material regions that split the part, meshed conformally) and
-``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files).
+``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files) and ``boundary_areas``
+(boundary name -> the exact area the user knows, printed beside the set's by ``fepre mesh``).
 Loading one runs it with ``runpy`` (``__name__`` is not ``"__main__"``, so a file can also be a
 script) and turns every failure into a :class:`ModelFileError` naming the file and the reason.
 
