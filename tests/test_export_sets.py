@@ -98,9 +98,12 @@ def test_tee_end_is_pi_r_squared(tmp_path):
     # area shown.
     part = sdf.cylinder(1.0, 6.0, axis="x") | sdf.cylinder(1.0, 3.0, center=(0, 0, 1.5), axis="z")
     mesh = meshed(part, 0.4)
-    grid = fepre.export(mesh, tmp_path / "tee.vtu", order=2, model=part,
+    grid = fepre.export(mesh, tmp_path / "tee.inp", order=2, model=part,
                         boundaries={"end": sdf.plane((0, 0, 1), (0, 0, 3.0))})
     assert set_area(grid, "end") == pytest.approx(np.pi, rel=1e-3)
+    back = pv.read(tmp_path / "tee.inp")  # fepre's reader: the same sets, the same areas
+    assert np.allclose(back.field_data["boundary_areas"], grid.field_data["boundary_areas"], rtol=1e-9)
+    assert back.field_data["boundary_face_counts"].tolist() == grid.field_data["boundary_face_counts"].tolist()
 
 
 def test_bore_is_two_pi_r_l(tmp_path):
