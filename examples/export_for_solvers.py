@@ -29,11 +29,14 @@ def main(outdir: str = ".") -> None:
     mesh = fepre.distmesh(part, h=0.6)
     out = Path(outdir)
     for name, order in (("cube_with_hole.inp", 2), ("cube_with_hole.msh", 1), ("cube_with_hole.vtu", 1)):
-        fepre.export(mesh, out / name, order=order, boundaries=boundaries, model=part)
+        written = fepre.export(mesh, out / name, order=order, boundaries=boundaries, model=part)
         back = meshio.read(out / name)
-        sets = sorted(set(back.point_sets) | set(back.field_data))
         print(f"{name}: {len(back.points)} nodes, {sum(len(c.data) for c in back.cells)} cells "
-              f"({', '.join(sorted({c.type for c in back.cells}))}); sets: {', '.join(sets) or '-'}")
+              f"({', '.join(sorted({c.type for c in back.cells}))})")
+        # each set's faces and area (hole: 2 pi r L = 31.42; top and bottom: 25 - pi = 21.86)
+        counts, areas = written.field_data["boundary_face_counts"], written.field_data["boundary_areas"]
+        for set_name, count, area in zip(written.field_data["boundary_names"], counts, areas):
+            print(f"  {set_name:<8} {count:5d} faces  area {area:.4f}")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,8 @@
 A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` (target edge
 length), ``bounds`` (meshing box), ``boundaries`` (name -> SDF for named boundary sets),
 ``regions`` (name -> SDF: material regions that split the part, meshed conformally) and
-``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files).
+``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files) and ``boundary_areas``
+(boundary name -> the exact area the user knows, printed beside the set's by ``fepre mesh``).
 Loading one runs it with ``runpy`` (``__name__`` is not ``"__main__"``, so a file can also be a
 script) and turns every failure into a :class:`ModelFileError` naming the file and the reason.
 
@@ -60,6 +61,9 @@ class ModelFile:
         Material regions (name -> SDF) that split the part, possibly empty.
     materials : dict
         Elastic material of each region (name -> ``(E, nu)`` or ``{"E": ..., "nu": ...}``), possibly empty.
+    boundary_areas : dict
+        The exact area of named boundary sets (name -> float > 0), as the user knows it from the
+        drawing; ``fepre mesh`` prints each set's area beside it. Possibly empty.
     namespace : dict
         Every global the file defined.
     """
@@ -71,6 +75,7 @@ class ModelFile:
     boundaries: dict[str, Any] = field(default_factory=dict)
     regions: dict[str, Any] = field(default_factory=dict)
     materials: dict[str, Any] = field(default_factory=dict)
+    boundary_areas: dict[str, float] = field(default_factory=dict)
     namespace: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
@@ -193,5 +198,19 @@ def load_model(path: str | os.PathLike) -> ModelFile:
     unknown = [name for name in materials if name not in regions]
     if unknown and regions:
         raise ModelFileError(f"{path}: `materials` names {unknown}, which are not in `regions` {list(regions)}")
+    areas = _boundary_areas(path, namespace.get("boundary_areas") or {}, boundaries)
     return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), regions=dict(regions),
-                     materials=dict(materials), namespace=namespace)
+                     materials=dict(materials), boundary_areas=areas, namespace=namespace)
+
+
+def _boundary_areas(path: Path, areas: Any, boundaries: dict) -> dict[str, float]:
+    """A model file's ``boundary_areas``: name (one of ``boundaries``) -> exact area > 0."""
+    if not isinstance(areas, dict):
+        raise ModelFileError(f"{path}: `boundary_areas` must be a dict of boundary name -> exact area; got {areas!r:.80}")
+    unknown = [name for name in areas if name not in boundaries]
+    if unknown:
+        raise ModelFileError(f"{path}: `boundary_areas` names {unknown}, which are not in `boundaries` {list(boundaries)}")
+    try:
+        return {name: positive_float(value, f"boundary_areas[{name!r}]") for name, value in areas.items()}
+    except (TypeError, ValueError) as exc:
+        raise ModelFileError(f"{path}: {exc}") from None

@@ -187,3 +187,24 @@ def test_c3d10_pressure_on_an_annulus_gives_p_times_its_area(tmp_path, washer):
     area = np.pi * (25.0**2 - 10.0**2)
     assert abs(total[2] - area) <= 5e-4 * area
     assert np.abs(total[:2]).max() <= 1e-6 * area
+
+
+def test_pressure_on_the_enclosure_floor_gives_p_times_the_flat_floor(tmp_path):
+    # Issue 33: a pressure on the "floor" set of an enclosure whose bottom edges are chamfered
+    # 30 degrees. The floor set held the chamfer's first row of faces (60.02 against 45): the
+    # reaction was 33% over p A. With only the faces on the floor it is p A (C3D10).
+    from test_export_sets import FLOOR, FLOOR_AREA, enclosure, meshed
+
+    part = enclosure()
+    mesh = meshed(part, 1.0)
+    top = sdf.plane((0, 0, 1), (0, 0, 5.0))
+    grid = fepre.export(mesh, tmp_path / "part.inp", order=2, model=part, boundaries={"floor": FLOOR, "rim": top})
+    job = (
+        "*INCLUDE, INPUT=part.inp\n" + material() + "*STEP\n*STATIC\n*BOUNDARY\nrim, 1, 3\n"
+        "*DSLOAD\nfloor, P, 2.0\n*NODE PRINT, NSET=rim, TOTALS=ONLY\nRF\n*END STEP\n"
+    )
+    total = dat_block(run_ccx(tmp_path, "enclosure", job), "total force")[0]
+    assert abs(total[2] + 2.0 * FLOOR_AREA) <= 1e-3 * 2.0 * FLOOR_AREA  # the pressure pushes up (+z)
+    assert np.abs(total[:2]).max() <= 1e-6 * FLOOR_AREA
+    names = grid.field_data["boundary_names"].tolist()
+    assert grid.field_data["boundary_areas"][names.index("floor")] == pytest.approx(FLOOR_AREA, rel=1e-9)

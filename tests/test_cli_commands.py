@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import textwrap
 
 import meshio
@@ -391,3 +392,40 @@ def test_mesh_xdmf_names_every_file_and_info_reads_the_facet_tags(folder, tmp_pa
     assert f"base ({int(np.count_nonzero(ids == 1))})" in info, info
     assert f"boundary ({int(np.count_nonzero(ids == 2))})" in info, info
     assert "ball_facets.xdmf" in info
+
+
+def test_mesh_and_info_print_each_boundary_sets_faces_and_area(folder, tmp_path, capsys):
+    # Issue 33: nothing printed showed a set's area, so a set taking extra faces went unseen. The
+    # ball's flat base is a disc of radius sqrt(0.75): area 0.75 pi; quadratic faces follow its rim.
+    out = tmp_path / "ball.inp"
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--order", "2", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    lines = {line.split()[2]: line for line in printed.splitlines() if line.startswith("boundary set ")}
+    assert set(lines) == {"base", "boundary"}, printed
+    base = re.search(r"base\s+(\d+) faces  area ([\d.]+)", lines["base"])
+    assert float(base.group(2)) == pytest.approx(0.75 * math.pi, rel=1e-3)
+    for name in (out, tmp_path / "ball.vtu", tmp_path / "ball.xdmf"):
+        if name != out:
+            assert main(["mesh", str(folder / "ball.py"), "-o", str(name), "--order", "2", "--quiet"]) == 0
+            capsys.readouterr()
+        assert main(["info", str(name)]) == 0
+        info = capsys.readouterr().out
+        assert "boundary set areas" in info, info
+        again = re.search(r"base\s+(\d+) faces  area ([\d.]+)", info.split("boundary set areas")[1])
+        assert again.groups() == base.groups(), (name, info)
+
+
+def test_mesh_prints_the_exact_area_a_model_file_gives_beside_the_sets(tmp_path, capsys):
+    # fepre cannot know a set's exact area; the user can (`boundary_areas`), and sees the difference.
+    model = tmp_path / "ball.py"
+    model.write_text(BALL + "import math\nboundary_areas = {'base': 0.75 * math.pi}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "ball.inp"), "--order", "2", "--quiet"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("boundary set base"))
+    difference = float(re.search(r"\(exact 2.356194: ([+-][\d.]+)%\)", line).group(1))
+    assert abs(difference) <= 0.1, line
+    model.write_text(BALL + "boundary_areas = {'lid': 1.0}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "bad.inp"), "--quiet"]) == 1
+    assert "`boundary_areas` names ['lid'], which are not in `boundaries` ['base']" in capsys.readouterr().err
+    model.write_text(BALL + "boundary_areas = {'base': -1.0}\n")
+    assert main(["mesh", str(model), "-o", str(tmp_path / "bad.inp"), "--quiet"]) == 1
+    assert "boundary_areas['base']" in capsys.readouterr().err

@@ -109,16 +109,16 @@ def test_tagging_property_sides_of_any_rotated_block(size, divisions, angle):
 
 
 def test_faces_next_to_a_sharp_edge_stay_on_their_side():
-    # One layer of coarse elements: top faces have centroids within the distance tolerance of
-    # the y sides. Only the normal check (boundary_angle) keeps them off those sides.
+    # One layer of coarse elements: top faces have centroids within a quarter of h of the y
+    # sides (fepre < 0.9 kept them off only by the normal check); a face joins a side only with
+    # all its nodes on it, so even with the normal check off (90 degrees) they stay on the top.
     mesh = kuhn_box((0, 0, 0), (1, 1, 1), (1, 2, 1))
     sides = {"ymin": lambda c: c[:, 1], "ymax": lambda c: c[:, 1] - 1.0}
     faces = tag_boundaries(mesh, sides)
     areas = triangle_areas(np.asarray(faces.points), faces.regular_faces)
     assert np.allclose(np.bincount(faces["boundary_id"], weights=areas), [1.0, 1.0, 4.0])
     loose = tag_boundaries(mesh, sides, boundary_angle=90)
-    loose_areas = np.bincount(loose["boundary_id"], weights=areas)
-    assert loose_areas[0] > 1.0  # without it, top/bottom faces join "ymin"
+    assert np.allclose(np.bincount(loose["boundary_id"], weights=areas), [1.0, 1.0, 4.0])
     with pytest.raises(ValueError, match="boundary_angle must be in"):
         tag_boundaries(mesh, sides, boundary_angle=120)
 
@@ -126,13 +126,21 @@ def test_faces_next_to_a_sharp_edge_stay_on_their_side():
 def test_callables_and_tolerance(block):
     faces = tag_boundaries(block, {"bottom": lambda c: c[:, 2] + 0.5})
     assert np.count_nonzero(faces["boundary_id"] == 0) == 2 * 6 * 3
-    # A plane 0.05 below the bottom: within the default tolerance (0.25 x edge length ~ 0.1) but
-    # not within 0.1 x edge length.
+    # A plane 0.05 below the bottom (0.13 x the faces' mean edge length of 0.38): the nodes are
+    # not on it to the default 1e-3 h, so the set is empty and the warning says how far they are
+    # and which tolerance would take them; 0.2 takes them, 0.1 does not.
     shifted = {"bottom": lambda c: c[:, 2] + 0.55}
-    assert np.count_nonzero(tag_boundaries(block, shifted)["boundary_id"] == 0) == 36
-    with pytest.warns(BoundaryWarning, match="'bottom' match no boundary face"):
+    with pytest.warns(BoundaryWarning, match=r"'bottom': 0 faces .* none: their nodes lie a median 0.132 h "
+                                             r"from it .* pass boundary_tolerance=0.198"):
+        faces = tag_boundaries(block, shifted)
+    assert np.all(faces["boundary_id"] == 1)
+    assert np.count_nonzero(tag_boundaries(block, shifted, boundary_tolerance=0.2)["boundary_id"] == 0) == 36
+    with pytest.warns(BoundaryWarning, match="'bottom'"):
         faces = tag_boundaries(block, shifted, boundary_tolerance=0.1)
     assert np.all(faces["boundary_id"] == 1)
+    for bad in (0.0, -1e-3, 0.5, float("nan")):
+        with pytest.raises(ValueError, match=r"boundary_tolerance must be .*\(0, 0.25\]|boundary_tolerance"):
+            tag_boundaries(block, shifted, boundary_tolerance=bad)
 
 
 def test_overlapping_and_empty_boundaries_warn_with_names(block):
@@ -210,7 +218,11 @@ def test_round_trip_through_meshio(tmp_path, block, name, order):
         return
     if name == "vtu":  # the tagged grid: tetrahedra only, boundary faces as field data
         assert list(blocks) == [volume_type]
-        assert {k: v.tolist() for k, v in back.field_data.items() if k != "boundary_faces"} == {
+        # each set's faces and area travel too (the block's sides, exactly)
+        assert back.field_data["boundary_areas"] == pytest.approx([FACE_AREAS[n] for n in names[1]], rel=1e-12)
+        assert back.field_data["boundary_face_counts"].tolist() == face_counts.tolist()
+        sets_only = ("boundary_faces", "boundary_areas", "boundary_face_counts")
+        assert {k: v.tolist() for k, v in back.field_data.items() if k not in sets_only} == {
             **{n: [i, 3] for i, n in enumerate(names[0])},
             **{n: [i, 2] for i, n in enumerate(names[1])},
         }
@@ -493,7 +505,7 @@ def names_read_back(name: str, path: Path) -> set[str]:
         return {f"id{i}" for block in back.cell_data[key] for i in np.unique(block)}
     if name == "vtu":  # a set named like a point or cell array is written as <name>_set
         arrays = set(back.point_data) | set(back.cell_data)
-        return {n[:-4] if n.endswith("_set") and n[:-4] in arrays else n for n in back.field_data} - {"boundary_faces"}
+        return {n[:-4] if n.endswith("_set") and n[:-4] in arrays else n for n in back.field_data} - {"boundary_faces", "boundary_areas", "boundary_face_counts"}
     return set(back.field_data) - {"boundary_faces"}
 
 

@@ -65,6 +65,44 @@ def read_mesh(name: str):
     return mesh, sets
 
 
+def boundary_set_areas(name: str, mesh) -> dict[str, tuple[int, float]]:
+    """{set: (faces, area)} of the named boundary sets of a mesh file fepre wrote: a ``.inp`` or
+    VTU (the tagged grid's ``boundary_faces``), or an XDMF's ``<stem>_facets.xdmf`` facet tags;
+    quadratic faces over their curved shape. Empty for other files."""
+    import pyvista as pv
+
+    from ..export.areas import set_areas
+    from ..export.grid import grid_set_areas
+
+    path = Path(name)
+    if isinstance(mesh, pv.UnstructuredGrid) and path.suffix.lower() in _VTK_SUFFIXES + (".inp",):
+        return grid_set_areas(mesh)
+    if path.suffix.lower() not in (".xdmf", ".xmf"):
+        return {}
+    import meshio
+
+    from ..export.xdmf import facets_name
+
+    facets_path = path.with_name(facets_name(path.name))
+    if not facets_path.is_file() or facets_path == path:
+        return {}
+    facets = meshio.read(str(facets_path))
+    names = {int(np.asarray(v).ravel()[0]): k for k, v in facets.field_data.items()}
+    if "boundary_id" not in facets.cell_data or not names:
+        return {}
+    found: dict[str, tuple[int, float]] = {}
+    for block, tags in zip(facets.cells, facets.cell_data["boundary_id"]):
+        if block.type not in ("triangle", "triangle6"):
+            continue
+        tags = np.asarray(tags, dtype=np.int64).ravel()
+        counts, areas = set_areas(facets.points, np.asarray(block.data), tags, int(tags.max()) + 1)
+        for tag, set_name in sorted(names.items()):
+            if tag < len(counts):
+                count, area = found.get(set_name, (0, 0.0))
+                found[set_name] = (count + int(counts[tag]), area + float(areas[tag]))
+    return found
+
+
 def _tag_counts(mesh, array: str) -> dict[str, int]:
     """{name: cells} of the integer cell data ``array`` of a meshio mesh, named by its field data
     (name -> [tag, dim]); tags without a name are listed as ``tag N``."""

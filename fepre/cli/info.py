@@ -54,4 +54,9 @@ def _describe_file(name: str) -> str:
         lines.append(f"{kind}: " + (", ".join(f"{k} ({v})" for k, v in named.items()) or "none"))
     if not sets:
         lines.append("named sets: none")
+    areas = files.boundary_set_areas(name, mesh)
+    if areas:
+        width = max(map(len, areas))
+        lines.append("boundary set areas (faces as the solver sees them):")
+        lines.extend(f"  {set_name:<{width}}  {count:>8} faces  area {area:.7g}" for set_name, (count, area) in areas.items())
     return "\n".join(lines)

@@ -130,16 +130,50 @@ def run(args: argparse.Namespace) -> int:
         if empty:
             raise ValueError(
                 f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
-                f"mesh (none within a quarter of the local edge length, facing the same way); check "
-                f"where their functions are zero; nothing written"
+                f"mesh (no face with its nodes on their surface, to 1e-3 of the local edge length, and "
+                f"facing the same way); check where their functions are zero; nothing written"
             )
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
                            materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
+    if part.boundaries:
+        print(set_areas_text(written, part.boundary_areas))
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")
     return 0
+
+
+def set_areas_text(grid, exact: dict | None = None) -> str:
+    """One line per boundary set of a tagged grid: its faces and their area (as a solver sees them:
+    quadratic faces over their curved shape), and beside it the exact area the model file gave
+    (``boundary_areas``) with the difference.
+
+    fepre cannot know the exact area of an arbitrary SDF set, so it shows one only when given.
+
+    Examples
+    --------
+    >>> import fepre, tempfile, os
+    >>> from fepre import sdf
+    >>> mesh = fepre.distmesh(sdf.box(1.0), h=0.5)
+    >>> grid = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "cube.vtu"),
+    ...                     boundaries={"top": sdf.plane((0, 0, 1), (0, 0, 0.5))})
+    >>> print(set_areas_text(grid, {"top": 1.0}))
+    boundary set top              8 faces  area 1  (exact 1: +0.000%)
+    boundary set boundary        40 faces  area 5
+    """
+    from ..export.grid import grid_set_areas
+
+    sets = grid_set_areas(grid)
+    exact = exact or {}
+    width = max(map(len, sets), default=0)
+    lines = []
+    for name, (count, area) in sets.items():
+        line = f"boundary set {name:<{width}}  {count:>8} faces  area {area:.7g}"
+        if name in exact:
+            line += f"  (exact {exact[name]:.7g}: {100.0 * (area / exact[name] - 1.0):+.3f}%)"
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def _size_file(path: str):

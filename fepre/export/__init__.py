@@ -2,8 +2,10 @@
 
 fepre writes Abaqus/CalculiX ``.inp`` itself (C3D4/C3D10, ``*NSET``/``*ELSET``/``*SURFACE`` per
 named set) and lets meshio write Gmsh 2.2, VTU, XDMF (dolfinx), Nastran, Medit, MED and Exodus
-with the cell data each format needs for its named sets. Boundary faces are named by the SDF (or
-callable) nearest to zero at their centroid (:mod:`fepre.export.boundaries`); ``order=2`` adds
+with the cell data each format needs for its named sets. A boundary face is in a named set when
+its nodes lie on the set's SDF (or callable) zero set and it faces the same way
+(:mod:`fepre.export.boundaries`); each set's area is in the returned grid
+(:mod:`fepre.export.areas`); ``order=2`` adds
 curved midside nodes (:mod:`fepre.export.quadratic`). Every write is atomic.
 
 Examples
@@ -112,11 +114,13 @@ def export(
         2 writes 10-node tetrahedra; boundary midside nodes are projected onto ``model`` (curved)
         where that keeps every Jacobian positive, straight midpoints otherwise or without a model.
     boundaries : dict name -> SDF or callable on (N, 3) points, optional
-        Each boundary face joins the set whose ``|value|`` at the face centroid is smallest, if at
-        most ``boundary_tolerance`` x the face's mean edge length and the face is parallel to that
-        zero set (within ``boundary_angle``); ties go to the first name; the rest form
-        ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface,
-        facet tag) and a node set.
+        A boundary face joins a set only if it lies on the set's zero set: its three nodes within
+        ``boundary_tolerance`` x h of it (h the face's mean edge length), its centroid too (up to
+        the sag of a face inscribed in a curved surface), its normal within ``boundary_angle`` of
+        the function's gradient (:mod:`fepre.export.boundaries`). A face on two sets' surfaces
+        goes to the nearer at its centroid, ties to the first name; the rest form
+        ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface, facet tag)
+        and a node set; its face count and area are in the returned grid.
     regions : dict name -> SDF or callable, optional
         Cells whose centroid value is negative (first match wins) form a region (``*ELSET``,
         physical volume, cell tag); the rest form ``default_region``. Without it, a mesh with
@@ -127,7 +131,10 @@ def export(
     overwrite : bool
         If False, refuse (FileExistsError) to replace an existing file.
     boundary_tolerance : float
-        Fraction of the local edge length within which a face is on a named boundary.
+        How far (a fraction of the local edge length h) a face's nodes may lie from a set's zero
+        set, in (0, 0.25]; default 1e-3 (fepre's meshes put boundary nodes on the model far
+        closer). A mesh made elsewhere whose nodes lie only near the model needs more: a
+        ``BoundaryWarning`` says how far they lie and what value takes them.
     boundary_angle : float
         Largest angle (degrees) between a face's normal and the boundary function's gradient for
         the face to join that boundary (keeps faces next to sharp edges on their own side).
@@ -147,8 +154,10 @@ def export(
     pyvista.UnstructuredGrid
         The written mesh (``VTK_QUADRATIC_TETRA`` for order 2) with the input mesh's arrays, cell
         data ``"region_id"``, point data ``"boundary_id"`` (-1 inside), field data
-        ``"region_names"``/``"boundary_names"`` and ``"boundary_faces"`` (element, face 1..4, set
-        of each boundary face; :func:`boundary_faces` gives them as triangles). A VTU file holds
+        ``"region_names"``/``"boundary_names"``, ``"boundary_faces"`` (element, face 1..4, set
+        of each boundary face; :func:`boundary_faces` gives them as triangles) and
+        ``"boundary_face_counts"``/``"boundary_areas"`` (faces and area of each set, quadratic
+        faces over their curved shape; :mod:`fepre.export.areas`). A VTU file holds
         exactly this grid (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
         ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid). A periodic
         mesh (``fepre.distmesh(..., periodic=)``) keeps ``"periodic_lower"``/``"periodic_period"``

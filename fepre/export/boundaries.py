@@ -1,12 +1,27 @@
 """Boundary faces of a tetrahedral mesh, named face sets and material regions.
 
-A boundary face is a tetrahedron face that no other tetrahedron shares. Each one goes to the
-named set whose function (an SDF, or any callable on (N, 3) points) is nearest to zero at the
-face centroid, provided that ``|value|`` is at most ``boundary_tolerance`` times the face's mean
-edge length (and at most half the height of its tetrahedron over the face, so a face is never
-taken by the opposite side of a part one element thick) and the face is parallel to that zero set (its normal within ``boundary_angle`` of
-the function's gradient, so a coarse face next to a sharp edge is not taken by the neighbouring
-side); ties go to the first name in the mapping; faces near no named set go to ``"boundary"``.
+A boundary face is a tetrahedron face that no other tetrahedron shares. It joins a named set
+(an SDF, or any callable on (N, 3) points, zero on the set's surface) only if it lies on that
+surface:
+
+* each of its three nodes is within ``boundary_tolerance`` x h of the surface (``|value| <=
+  1e-3 h`` by default; h is the face's mean edge length), so the far side of a part one element
+  thick is never taken for it (and a flat boundary tetrahedron's face, all on the surface, is);
+* its centroid is within that limit plus the sag of a triangle inscribed in a surface as curved
+  as the function's gradients at the nodes say (0 on a plane; a face of a bore is kept, a face
+  bridging a groove whose lips are on the surface is not);
+* its normal is within ``boundary_angle`` of the function's gradient at the centroid.
+
+A face on two sets' surfaces (two names for one surface) goes to the one whose value at the
+centroid is nearest zero, ties to the first name in the mapping, with a warning; faces on no
+named set go to ``"boundary"``. A face with only some nodes on the surface (one that turns onto a
+fillet, a chamfer or a rim next to a flat floor) is not on it: naming a face by its centroid
+alone (fepre < 0.9, within a quarter of h) gave a floor plane the first row of a rounded edge's
+faces, 11% of extra area and force. fepre's own meshes put boundary nodes on the model's surface
+to well under 1e-3 h; a mesh made elsewhere (gmsh, pytetwild) may not, and a set most of whose
+nearby parallel faces have no node on the surface gets a warning naming it and how far those
+nodes lie, with the ``boundary_tolerance`` that would take them.
+
 Regions select cells whose centroid has a negative value.
 """
 
@@ -35,8 +50,14 @@ __all__ = [
 
 DEFAULT_BOUNDARY = "boundary"
 DEFAULT_REGION = "volume"
-DEFAULT_TOLERANCE = 0.25
+DEFAULT_TOLERANCE = 1e-3
+#: largest boundary_tolerance: beyond it a face of a neighbouring surface can have every node "on" a set
+MAX_TOLERANCE = 0.25
+#: faces whose centroid is within NEAR x h of a set's surface are examined (and reported when missed)
+NEAR = 0.25
 DEFAULT_ANGLE = 60.0
+#: faces next to a set turned off it by less than this (degrees) mean its edge is no crease
+TANGENT_ANGLE = 20.0
 
 # Faces in Abaqus/CalculiX order S1..S4 (1-2-3, 1-4-2, 2-4-3, 3-4-1), each written here with its
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
@@ -150,6 +171,66 @@ def _as_mapping(value: Any, parameter: str) -> Mapping[str, Callable]:
     return value
 
 
+def _face_geometry(points: np.ndarray, cells: np.ndarray, elements: np.ndarray, local: np.ndarray,
+                   triangles: np.ndarray):
+    """Corners, centroids, mean edge lengths ``h``, unit normals and the height of each face's
+    tetrahedron over it."""
+    corners = points[triangles]
+    centroids = corners.mean(axis=1)
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    apex = points[cells[elements, OPPOSITE_NODE[local]]]
+    height = np.abs(np.einsum("ij,ij->i", apex - corners[:, 0], normals))
+    return corners, centroids, edges, normals, height
+
+
+def _on_surface(function: Any, name: str, corners: np.ndarray, centroids: np.ndarray, edges: np.ndarray,
+                normals: np.ndarray, limit: np.ndarray, min_cosine: float, candidates: np.ndarray) -> np.ndarray:
+    """Which ``candidates`` (faces whose centroid is near the zero set) lie on it: every node within
+    ``limit``, the centroid within ``limit`` plus the sag of a triangle inscribed in a surface of the
+    curvature seen between its nodes, and the normal within the angle of the gradient."""
+    if not candidates.size:
+        return candidates
+    h = edges[candidates].mean(axis=1)
+    nodes = corners[candidates].reshape(-1, 3)
+    node_values = np.abs(_evaluate(function, nodes, "boundaries", name)).reshape(-1, 3)
+    keep = np.all(node_values <= limit[candidates, None], axis=1)
+    chosen = candidates[keep]
+    if not chosen.size:
+        return chosen
+    h = h[keep]
+    node_gradients = _unit_gradient(function, corners[chosen].reshape(-1, 3), np.repeat(1e-4 * h, 3),
+                                    "boundaries", name).reshape(-1, 3, 3)
+    turn = np.linalg.norm(node_gradients - np.roll(node_gradients, 1, axis=1), axis=2)  # |n_i - n_j|
+    face_edges = edges[chosen]
+    curvature = np.max(turn / face_edges, axis=1)
+    # A quadratic surface through the three nodes sits at most curvature * sum(e^2) / 18 off the
+    # face's centroid; twice that is allowed, so a face of a bore is kept, a face bridging a groove
+    # (nodes on the surface, the middle far off it) is not.
+    sag = 2.0 * curvature * np.sum(face_edges**2, axis=1) / 18.0
+    centroid_values = np.abs(_evaluate(function, centroids[chosen], "boundaries", name))
+    gradient = _unit_gradient(function, centroids[chosen], 1e-4 * h, "boundaries", name)
+    cosine = np.abs(np.einsum("ij,ij->i", gradient, normals[chosen]))
+    flat = ~np.any(gradient, axis=1)  # no direction to compare with: keep the face
+    agrees = (cosine >= min_cosine) | flat
+    return chosen[(centroid_values <= limit[chosen] + sag) & agrees]
+
+
+def _checked_tolerances(boundary_tolerance: Any, boundary_angle: Any) -> tuple[float, float]:
+    tolerance = positive_float(boundary_tolerance, "boundary_tolerance")
+    if tolerance > MAX_TOLERANCE:
+        raise ValueError(
+            f"boundary_tolerance must be in (0, {MAX_TOLERANCE:g}] (how far a face's nodes may lie from a "
+            f"set's surface, as a fraction of the local edge length h; default {DEFAULT_TOLERANCE:g}); "
+            f"got {shown(boundary_tolerance)}"
+        )
+    angle = positive_float(boundary_angle, "boundary_angle")
+    if angle > 90:
+        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {shown(boundary_angle)}")
+    return tolerance, angle
+
+
 def assign_boundaries(
     points: np.ndarray,
     cells: np.ndarray,
@@ -157,63 +238,145 @@ def assign_boundaries(
     boundary_tolerance: float = DEFAULT_TOLERANCE,
     boundary_angle: float = DEFAULT_ANGLE,
 ) -> FaceSets:
-    """Find the boundary faces and give each one a set name (see the module docstring)."""
+    """Find the boundary faces and give each one a set name (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> sets = assign_boundaries(points, np.array([[0, 1, 2, 3]]), {"bottom": lambda p: p[:, 2]})
+    >>> sets.names, sets.set_ids.tolist()
+    (['bottom', 'boundary'], [0, 1, 1, 1])
+    """
     boundaries = _as_mapping(boundaries, "boundaries")
-    tolerance = positive_float(boundary_tolerance, "boundary_tolerance")
-    angle = positive_float(boundary_angle, "boundary_angle")
-    if angle > 90:
-        raise ValueError(f"boundary_angle must be in (0, 90] degrees; got {shown(boundary_angle)}")
+    tolerance, angle = _checked_tolerances(boundary_tolerance, boundary_angle)
     min_cosine = np.cos(np.radians(angle)) - 1e-12
     names = list(boundaries)
     check_names(names, "boundaries")
     elements, local, triangles = boundary_faces(cells)
-    corners = points[triangles]
-    centroids = corners.mean(axis=1)
-    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).mean(axis=1)
-    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normals /= np.linalg.norm(normals, axis=1)[:, None]
-    apex = points[cells[elements, OPPOSITE_NODE[local]]]
-    height = np.abs(np.einsum("ij,ij->i", apex - corners[:, 0], normals))
-    limit = np.minimum(tolerance * edges, 0.5 * height)
+    corners, centroids, edges, normals, height = _face_geometry(points, cells, elements, local, triangles)
+    h = edges.mean(axis=1)
+    limit = tolerance * h
     default_index = len(names)
     if DEFAULT_BOUNDARY in names:  # the user's own "boundary" set also takes the unmatched faces
         default_index = names.index(DEFAULT_BOUNDARY)
     set_ids = np.full(elements.size, default_index, dtype=np.int64)
     if names:
-        distance = np.column_stack(
-            [np.abs(_evaluate(boundaries[n], centroids, "boundaries", n)) for n in names]
-        )
+        distance = np.full((elements.size, len(names)), np.inf)
+        near_faces = []
         for j, name in enumerate(names):
-            near = np.flatnonzero(distance[:, j] <= limit)
-            if near.size:
-                gradient = _unit_gradient(boundaries[name], centroids[near], 1e-4 * edges[near], "boundaries", name)
-                cosine = np.abs(np.einsum("ij,ij->i", gradient, normals[near]))
-                flat = ~np.any(gradient, axis=1)  # no direction to compare with: keep the face
-                distance[near[(cosine < min_cosine) & ~flat], j] = np.inf
+            values = np.abs(_evaluate(boundaries[name], centroids, "boundaries", name))
+            candidates = np.flatnonzero(values <= NEAR * h)
+            # faces reported as missed: not those of the far side of a part one element thick
+            near_faces.append(candidates[values[candidates] <= 0.5 * height[candidates]])
+            on = _on_surface(boundaries[name], name, corners, centroids, edges, normals, limit, min_cosine,
+                             candidates)
+            distance[on, j] = values[on]
         best = np.argmin(distance, axis=1)  # first minimum: ties go to the first name
         nearest = distance[np.arange(best.size), best]
-        matched = nearest <= limit
+        matched = np.isfinite(nearest)
         set_ids[matched] = best[matched]
-        within = distance <= limit[:, None]
-        ties = within & (distance <= (nearest + 1e-6 * limit)[:, None])
-        ties[np.arange(best.size), best] = False
-        for j, name in enumerate(names):
-            overlapping = ties[:, j]
-            if overlapping.any():
-                winners = np.unique(best[overlapping])
-                warn_user(
-                    f"boundaries {name!r} and {', '.join(repr(names[w]) for w in winners)} overlap "
-                    f"on {int(overlapping.sum())} faces; they go to the first name in the dict",
-                    BoundaryWarning)
-        empty = [n for j, n in enumerate(names) if not np.any(set_ids == j)]
-        if empty:
-            warn_user(
-                f"boundaries {', '.join(map(repr, empty))} match no boundary face (none within "
-                f"boundary_tolerance={tolerance:g} x local edge length and boundary_angle={angle:g} "
-                f"degrees)",
-                BoundaryWarning)
+        _warn_overlaps(names, distance, best, nearest, limit)
+        areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+        reported = _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance,
+                                angle, min_cosine, set_ids)
+        _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, reported)
     all_names = names if default_index < len(names) else names + [DEFAULT_BOUNDARY]
     return FaceSets(elements, local, triangles, set_ids, all_names)
+
+
+def _warn_overlaps(names, distance, best, nearest, limit) -> None:
+    within = np.isfinite(distance)
+    ties = within & (distance <= (nearest + 1e-6 * limit)[:, None])
+    ties[np.arange(best.size), best] = False
+    for j, name in enumerate(names):
+        overlapping = ties[:, j]
+        if overlapping.any():
+            winners = np.unique(best[overlapping])
+            warn_user(
+                f"boundaries {name!r} and {', '.join(repr(names[w]) for w in winners)} overlap "
+                f"on {int(overlapping.sum())} faces; they go to the first name in the dict",
+                BoundaryWarning)
+
+
+def _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, reported) -> None:
+    """Warn about sets whose edge is no crease: faces next to the set, outside it, turned off its
+    plane by under ``TANGENT_ANGLE`` (a fillet leaving the surface tangentially). No mesh node lies
+    on that tangent line, so the set ends up to a row of faces short of it."""
+    n = int(triangles.max()) + 1 if triangles.size else 0
+    pairs = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]], axis=2)  # (K, 3, 2)
+    keys = pairs[..., 0] * n + pairs[..., 1]  # (K, 3)
+    for j, name in enumerate(names):
+        inside = set_ids == j
+        if not inside.any() or name in reported:
+            continue
+        edge_keys, uses = np.unique(keys[inside].ravel(), return_counts=True)
+        rim = edge_keys[uses == 1]
+        owner = np.repeat(np.flatnonzero(inside), 3)[np.isin(keys[inside].ravel(), rim)]
+        rim_keys = keys[inside].ravel()[np.isin(keys[inside].ravel(), rim)]
+        outside = np.flatnonzero(~inside)
+        hits = np.isin(keys[outside], rim)  # (K_out, 3)
+        neighbour = outside[hits.any(axis=1)]
+        if not neighbour.size:
+            continue
+        # each neighbour against the set face across its shared edge
+        shared = keys[neighbour][hits[hits.any(axis=1)]]
+        first = np.repeat(neighbour, hits[hits.any(axis=1)].sum(axis=1))
+        order = np.argsort(rim_keys)
+        across = owner[order][np.searchsorted(rim_keys[order], shared)]
+        cosine = np.abs(np.einsum("ij,ij->i", normals[first], normals[across]))
+        tangent = np.unique(first[cosine > np.cos(np.radians(TANGENT_ANGLE))])
+        band = float(areas[tangent].sum())
+        total = float(areas[inside].sum())
+        if band > 1e-3 * total:
+            off = np.abs(_evaluate(boundaries[name], corners[tangent].reshape(-1, 3), "boundaries", name))
+            farthest = float(np.median(off.reshape(-1, 3).max(axis=1) / h[tangent]))
+            warn_user(
+                f"boundaries {name!r}: along {tangent.size} faces of its edge the part's surface turns off it "
+                f"by under {TANGENT_ANGLE:g} degrees, their farthest nodes a median {farthest:.3g} h from it: "
+                f"either a fillet leaves it tangentially (no mesh node lies on the tangent line; put nodes "
+                f"there for an exact set) or the mesh's nodes lie only near it (pass a boundary_tolerance "
+                f"above that). The set's area {total:.6g} may be short by up to {band:.3g}, those faces' area",
+                BoundaryWarning)
+
+
+def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
+                 min_cosine, set_ids) -> set:
+    """Warn about sets that match no face, and about sets most of whose nearby, parallel faces have
+    no node on the surface (a mesh made elsewhere, whose nodes lie only near the model); return the
+    names of the latter."""
+    empty, reported = [], set()
+    for j, name in enumerate(names):
+        taken = float(areas[set_ids == j].sum())
+        near = near_faces[j][~np.isfinite(distance[near_faces[j], j])]
+        offset = np.empty(0)
+        if near.size:
+            nodes = np.abs(_evaluate(boundaries[name], corners[near].reshape(-1, 3), "boundaries", name))
+            nodes = nodes.reshape(-1, 3) / h[near, None]
+            gradient = _unit_gradient(boundaries[name], corners[near].mean(axis=1), 1e-4 * h[near], "boundaries", name)
+            parallel = np.abs(np.einsum("ij,ij->i", gradient, normals[near])) >= min_cosine
+            off = parallel & (nodes.min(axis=1) > tolerance)  # no node of the face on the surface
+            missed = float(areas[near[off]].sum())
+            if off.any() and missed > taken:
+                offset = nodes[off].max(axis=1)
+        if offset.size:
+            reported.add(name)
+            warn_user(
+                f"boundaries {name!r}: {int(np.count_nonzero(set_ids == j))} faces have their nodes on its "
+                f"surface (within boundary_tolerance={tolerance:g} h), but {offset.size} parallel faces near it "
+                f"have none: their nodes lie a median {float(np.median(offset)):.3g} h from it (h the local edge "
+                f"length). A mesh made elsewhere puts nodes only near the model; pass boundary_tolerance="
+                f"{min(MAX_TOLERANCE, float(np.quantile(offset, 0.9)) * 1.5):.3g} to take them, or mesh with fepre",
+                BoundaryWarning)
+        elif not np.any(set_ids == j):
+            empty.append(name)
+    if empty:
+        warn_user(
+            f"boundaries {', '.join(map(repr, empty))} match no boundary face (none with its nodes within "
+            f"boundary_tolerance={tolerance:g} x local edge length of the surface and its normal within "
+            f"boundary_angle={angle:g} degrees of the surface's)",
+            BoundaryWarning)
+    return reported
 
 
 def assign_regions(

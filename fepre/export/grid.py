@@ -14,7 +14,9 @@
   its two ends' values;
 * field data ``"boundary_faces"`` (K, 3): each boundary face as its tetrahedron (0-based), its
   face number 1..4 (Abaqus ``S1``..``S4``) and its set (index into ``"boundary_names"``), which
-  :func:`boundary_faces` turns back into tagged triangles.
+  :func:`boundary_faces` turns back into tagged triangles;
+* field data ``"boundary_face_counts"`` and ``"boundary_areas"``: each set's number of faces and
+  area (quadratic faces over their curved shape; :mod:`fepre.export.areas`).
 
 A VTU file holds this grid with one change: the set names travel as integer field data
 ``name -> [index, dimension]`` (3 for regions, 2 for boundaries; Gmsh's and meshio's convention)
@@ -31,15 +33,16 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .areas import AREA_FIELD, COUNT_FIELD, set_areas
 from .boundaries import OUTWARD_FACES
-from .data import ExportData
+from .data import FACE_EDGE_NODES, ExportData
 
 __all__ = ["tagged_grid", "boundary_faces", "set_names", "file_grid", "midside_values", "FACE_FIELD",
-           "FEPRE_ARRAYS", "RESERVED_FIELD_NAMES", "CREASE_ANGLE", "SET_SUFFIX"]
+           "grid_set_areas", "FEPRE_ARRAYS", "RESERVED_FIELD_NAMES", "CREASE_ANGLE", "SET_SUFFIX"]
 
 FACE_FIELD = "boundary_faces"
 FEPRE_ARRAYS = ("region_id", "boundary_id")
-RESERVED_FIELD_NAMES = (FACE_FIELD, "region_names", "boundary_names")
+RESERVED_FIELD_NAMES = (FACE_FIELD, "region_names", "boundary_names", COUNT_FIELD, AREA_FIELD)
 #: boundary faces meeting at more than this (degrees) make a crease: the feature curves of a mesh
 CREASE_ANGLE = 30.0
 #: appended to a set name in a VTU's field data when a point or cell array has that name
@@ -149,6 +152,9 @@ def tagged_grid(
     grid.field_data[FACE_FIELD] = np.column_stack(
         [data.faces.elements, data.faces.local_faces + 1, data.faces.set_ids]
     ).astype(np.int64)
+    counts, areas = set_areas(data.points, data.face_nodes, data.faces.set_ids, len(data.boundary_names))
+    grid.field_data[COUNT_FIELD] = counts
+    grid.field_data[AREA_FIELD] = areas
     return grid
 
 
@@ -234,3 +240,28 @@ def boundary_faces(grid: Any) -> Any:
     faces.cell_data["element_face"] = table[:, 1]
     faces.field_data["boundary_names"] = np.array(names)
     return faces
+
+
+def grid_set_areas(grid: Any) -> dict[str, tuple[int, float]]:
+    """``{set name: (faces, area)}`` of a tagged grid (from :func:`fepre.export`, a fepre VTU or
+    ``.inp``), the boundary sets only; quadratic faces over their curved shape.
+
+    Examples
+    --------
+    >>> import fepre, tempfile, os
+    >>> from fepre import sdf
+    >>> mesh = fepre.distmesh(sdf.box(1.0), h=0.5)
+    >>> grid = fepre.export(mesh, os.path.join(tempfile.mkdtemp(), "cube.vtu"),
+    ...                     boundaries={"top": sdf.plane((0, 0, 1), (0, 0, 0.5))})
+    >>> {name: (n, round(a, 9)) for name, (n, a) in grid_set_areas(grid).items()}["top"][1]
+    1.0
+    """
+    names = set_names(grid)[1]
+    if FACE_FIELD not in grid.field_data or not names:
+        return {}
+    table = np.asarray(grid.field_data[FACE_FIELD], dtype=np.int64).reshape(-1, 3)
+    cells = np.asarray(grid.cell_connectivity).reshape(grid.n_cells, -1)
+    local = OUTWARD_FACES if cells.shape[1] == 4 else np.hstack([OUTWARD_FACES, FACE_EDGE_NODES])
+    faces = np.take_along_axis(cells[table[:, 0]], local[table[:, 1] - 1], axis=1)
+    counts, areas = set_areas(np.asarray(grid.points), faces, table[:, 2], len(names))
+    return {name: (int(counts[i]), float(areas[i])) for i, name in enumerate(names)}

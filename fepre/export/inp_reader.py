@@ -70,8 +70,9 @@ def read_inp(path: str | os.PathLike, **reader_options: Any) -> Any:
     pyvista.UnstructuredGrid
         ``VTK_TETRA`` or ``VTK_QUADRATIC_TETRA`` cells with cell data ``"region_id"`` (one region
         per ``*ELSET`` other than ``EALL``), point data ``"boundary_id"``, field data
-        ``"region_names"``, ``"boundary_names"`` and ``"boundary_faces"`` (one set per element
-        ``*SURFACE``); :func:`fepre.export.boundary_faces` gives the faces as triangles.
+        ``"region_names"``, ``"boundary_names"``, ``"boundary_faces"`` (one set per element
+        ``*SURFACE``) and each set's ``"boundary_face_counts"`` and ``"boundary_areas"``;
+        :func:`fepre.export.boundary_faces` gives the faces as triangles.
 
     Examples
     --------
