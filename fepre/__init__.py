@@ -45,8 +45,8 @@ _LAZY: dict[str, str] = {
     "SizeField": "fepre.sizing",
     "periodic_nodes": "fepre.periodic",
     "PeriodicNodes": "fepre.periodic",
-    "homogenize": "fepre.homogenize",
-    "Homogenized": "fepre.homogenize",
+    "homogenize": "fepre.homogenization",
+    "Homogenized": "fepre.homogenization",
 }
 _SUBMODULES = {"quality", "sampling", "surface", "features", "distmesh", "export", "bench", "cli", "corpus", "sizing", "chunked"}
 

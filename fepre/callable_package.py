@@ -1,4 +1,5 @@
-"""Packages that are also functions: ``fepre.distmesh(...)``, ``fepre.export(...)``, ``fepre.features(...)``.
+"""Packages that are also functions: ``fepre.distmesh(...)``, ``fepre.export(...)``, ``fepre.features(...)``,
+``fepre.compare(...)``.
 
 A user reaches the function and its helpers by one name. ``inspect.signature``, IDEs and ``help()``
 must still show the function: the package carries its signature, and its docstring starts with the

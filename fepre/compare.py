@@ -23,6 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .arguments import as_bounds, positive_float
+from .callable_package import make_callable
 from .comparison_table import TABLE_ROWS, as_plain as _as_plain, format_metric, versions  # noqa: F401  (also re-exported)
 from .errors import MeshingError
 from .mesh_metrics import mesh_metrics
@@ -301,11 +302,4 @@ def _check_surface(surface: Any, model: Any) -> Any:
     return check_surface(surface, model)
 
 
-class _CallableModule(__import__("types").ModuleType):
-    """``fepre.compare`` is both this module and the function (importing the module sets the attribute)."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Comparison:
-        return compare(*args, **kwargs)
-
-
-__import__("sys").modules[__name__].__class__ = _CallableModule
+make_callable(__name__, compare)  # importing the module sets fepre.compare to it: it calls compare()

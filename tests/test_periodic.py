@@ -216,7 +216,7 @@ def test_docstring_examples_run():
     import doctest
     import importlib
 
-    for name in ("fepre.periodic.nodes", "fepre.homogenize"):
+    for name in ("fepre.periodic.nodes", "fepre.homogenization"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             result = doctest.testmod(importlib.import_module(name))

@@ -58,7 +58,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "fepre.references",
             "fepre.compare",
             "fepre.comparison_table",
-            "fepre.homogenize",
+            "fepre.homogenization",
             "fepre.report",
             "fepre.plotting",
             "fepre.parts",

@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
 
     import fepre
 
-    from ..homogenize import _ccx
+    from ..homogenization import _ccx
 
     period = common.periods(args.period)
     if not (np.isfinite(args.E) and args.E > 0):
