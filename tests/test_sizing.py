@@ -308,3 +308,19 @@ def test_a_zero_width_gap_is_named_not_chased_below_hmin():
     gap = re.search(r"a gap ([\d.]+) wide at \(([-\d.]+), [-\d.]+, ([-\d.]+)\)", message)
     assert gap and float(gap[1]) < 0.2 and abs(float(gap[2])) < 2.0 and float(gap[3]) == pytest.approx(8.0, abs=0.5)
     assert "a wall 4 thick" in message and "would need 1.33" in message and "sharp edges" in message
+
+
+def test_the_inside_of_a_concave_junction_is_not_a_gap():
+    """A V-groove 30 degrees open: rays from one face hit the other near the root, as far as
+    the root is away; its faces meet there, so the field does not refine along it (it went to
+    hmin at the root and 0.7 half-way up). A slot of parallel faces stays a gap."""
+    opening = np.tan(np.radians(15.0))
+    groove = sdf.plane((1.0, 0.0, -opening), point=(0, 0, 4)) & sdf.plane((-1.0, 0.0, -opening), point=(0, 0, 4))
+    part = sdf.box((40, 20, 10), center=(0, 0, 5)) - groove
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ResolutionWarning)  # its ends' edges meet at 30 degrees
+        field = size_field(part, 0.5, 4.0)
+    faces = [[0.05, 0.0, 4.3], [0.45, 0.0, 6.0], [0.85, 0.0, 7.5]]  # by the root, up its faces
+    assert field(faces).min() >= 2.0
+    slot = sdf.box((40, 20, 10), center=(0, 0, 5)) - sdf.box((0.8, 30, 8), center=(0, 0, 8))
+    assert size_field(slot, 0.5, 4.0, features=False)([[0.45, 0.0, 7.0]])[0] == pytest.approx(0.5, rel=0.1)

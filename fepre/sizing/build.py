@@ -42,6 +42,11 @@ __all__ = ["size_field"]
 
 #: a seed is on the part's surface when this times hmin along its normal is outside the part
 SIDE_STEP = 0.01
+#: a gap ray at least this times the distance to the edge where its two faces' planes cross is
+#: across a concave junction, not a gap (the faces open at more than atan(0.5), 27 degrees)
+JUNCTION = 0.5
+#: the two faces reach that edge to within this times the distance to it
+EDGE_TOLERANCE = 0.05
 #: features named in the warning about sizes below hmin, at most
 MAX_NAMED = 8
 #: features are named when they would need sizes below this times hmin
@@ -190,6 +195,51 @@ def _surface_seeds(model: SDF, near: np.ndarray, axes: list[np.ndarray], counts:
     return seeds[real], normal[real]
 
 
+def _across_junction(model: SDF, seeds: np.ndarray, normal: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Gaps that are the inside of a concave junction: the seed's face and the face its ray
+    hits meet at an edge on the part's surface (the line where their tangent planes cross), and
+    the ray is at least ``JUNCTION`` times as long as the distance from the seed to that edge
+    (the faces open at more than atan(JUNCTION), 27 degrees): a ray from the foot of a drafted
+    boss hitting the plate it stands on. A slot's faces are parallel (no edge), a drafted slot's
+    planes cross far away or inside the material, and the wedge beside a tube tangent to a
+    plate curves away from the plane tangent to it (the two faces do not reach the planes' edge):
+    those stay gaps."""
+    junction = np.zeros(len(gap), dtype=bool)
+    finite = np.flatnonzero(np.isfinite(gap))
+    if finite.size == 0:
+        return junction
+    p, n = seeds[finite], normal[finite]
+    hits = p + gap[finite, None] * n
+    _, m = model.value_and_gradient(hits)
+    m = m / np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
+    # the point of the line where the planes (p, n) and (hit, m) cross nearest to the seed: on
+    # the seed's plane, along the direction in it that is across the line
+    line = np.cross(n, m)
+    sine = np.linalg.norm(line, axis=1)
+    across = np.cross(line, n)  # in the seed's plane, perpendicular to the line
+    with np.errstate(divide="ignore", invalid="ignore"):
+        across /= sine[:, None]
+        # p + t * across lies on the hit's plane: m . (p + t * across - hit) = 0
+        t = np.einsum("ij,ij->i", m, hits - p) / np.einsum("ij,ij->i", m, across)
+    edge = p + t[:, None] * across
+    distance = np.abs(t)
+    candidate = (sine > 1e-3) & np.isfinite(distance) & (gap[finite] >= JUNCTION * distance)
+    meet = np.zeros(finite.size, dtype=bool)
+    if candidate.any():
+        # the two faces themselves (their smooth pieces, not their tangent planes) reach the
+        # edge, and the part has a surface there: a tube's bottom tangent to a plate curves away
+        # from the plane tangent to it, a drafted slot's planes cross inside the material
+        c = np.flatnonzero(candidate)
+        at, tolerance = edge[c], EDGE_TOLERANCE * distance[c]
+        _, seed_pieces = model.patch_labels(p[c])
+        _, hit_pieces = model.patch_labels(hits[c])
+        meet[c] = ((np.abs(model.patch_values(seed_pieces, at)) < tolerance)
+                   & (np.abs(model.patch_values(hit_pieces, at)) < tolerance)
+                   & (np.abs(model(at)) < 0.25 * distance[c]))
+    junction[finite] = candidate & meet
+    return junction
+
+
 def _under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.ndarray, reach: float) -> list[tuple]:
     """Places where ``kind`` needs sizes below hmin: one ``(size, point, measure, kind)`` per
     group of such points within ``reach`` of each other (the smallest size of the group)."""
@@ -245,6 +295,7 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     step = hmin / 8.0
     thickness = ray_lengths(model, seeds, -normal, True, elements_across * hmax, step)
     gap = ray_lengths(model, seeds, normal, False, hmax, step)
+    gap[_across_junction(model, seeds, normal, gap)] = np.inf
     curvature = max_curvature(model, seeds, 0.05 * hmin)
     with np.errstate(divide="ignore"):
         chord = np.sqrt(8.0 * chord_tolerance / curvature)
