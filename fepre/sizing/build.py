@@ -11,7 +11,7 @@ within a spacing of the surface, projected onto it). Each seed gets the smallest
   principal curvature of the smooth piece of surface there, :mod:`fepre.sizing.curvature`)
   whose sagitta is ``chord_tolerance``;
 - with ``features``, the distance to the nearest feature curve facing it (two sharp edges
-  closer than the size, e.g. a shallow step, a narrow ledge or a thin rib's top; below hmin too),
+  closer than the size, e.g. a shallow step, a narrow ledge or a thin rib's top; hmin at least),
 
 clamped to ``[hmin, hmax]``: ``hmin`` is the smallest size the field gives. Features that
 would need smaller elements (a wall thinner than ``elements_across * hmin``, a gap narrower than
@@ -199,8 +199,9 @@ def _across_junction(model: SDF, seeds: np.ndarray, normal: np.ndarray, gap: np.
     """Gaps that are the inside of a concave junction: the seed's face and the face its ray
     hits meet at an edge on the part's surface (the line where their tangent planes cross), and
     the ray is at least ``JUNCTION`` times as long as the distance from the seed to that edge
-    (the faces open at more than atan(JUNCTION), 27 degrees): a ray from the foot of a drafted
-    boss hitting the plate it stands on. A slot's faces are parallel (no edge), a drafted slot's
+    (the faces open at more than atan(JUNCTION), 27 degrees; past 60 degrees the rays' facing
+    test already drops them): a ray from one face of a V-groove hitting the other near the root.
+    A slot's faces are parallel (no edge), a drafted slot's
     planes cross far away or inside the material, and the wedge beside a tube tangent to a
     plate curves away from the plane tangent to it (the two faces do not reach the planes' edge):
     those stay gaps."""
