@@ -35,7 +35,9 @@ class ResolutionWarning(UserWarning):
     Raised by :func:`fepre.distmesh` when walls, fins or pins under about ``h`` thick came out
     thinner, perforated or missing (see :func:`fepre.distmesh.lost_material`); the message
     names where, how thick the material is, about how much volume is missing and the ``h``
-    that would keep it.
+    that would keep it. :func:`fepre.size_field` (and so ``distmesh(model, h=(hmin, hmax))``)
+    warns with it too, naming the walls, gaps and close sharp edges that would need elements
+    smaller than ``hmin`` (the field stops at ``hmin``).
     """
 
 

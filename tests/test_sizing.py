@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -248,3 +249,111 @@ def test_a_background_mesh_gives_the_same_field_on_every_call():
     fields = [SizeField.from_mesh(background, spacing=1 / 24) for _ in range(5)]
     assert all(np.array_equal(field.values, fields[0].values) for field in fields)
     assert vtkSMPTools().GetBackend() == "STDThread"  # put back
+
+
+# ------------------------------------------------------------ junctions and hmin (issue 33)
+def _ibeam():
+    flanges = sdf.box((40, 20, 3), center=(0, 0, 11.5)) | sdf.box((40, 20, 3), center=(0, 0, -11.5))
+    return flanges | sdf.box((40, 3, 20))  # the web touches both flanges face to face
+
+
+def _tube_clamp():
+    base = sdf.box((60, 30, 8)).translate((0, 0, 4))
+    tube = sdf.cylinder(radius=12, height=30, axis="y").translate((0, 0, 20))  # tangent to the base's top
+    bore = sdf.cylinder(radius=8, height=40, axis="y").translate((0, 0, 20))
+    bolts = sdf.cylinder(radius=3, height=30).translate((22, 0, 0)) | sdf.cylinder(radius=3, height=30).translate((-22, 0, 0))
+    return (base | tube) - bore - bolts
+
+
+def test_rays_do_not_stop_where_solids_of_a_union_touch():
+    # the union's distance is zero on the faces the web shares with the flanges, inside the material
+    beam = _ibeam()
+    assert float(beam([[0.0, 0.0, 10.0]])[0]) == 0.0
+    down = np.array([[0.0, 0.0, -1.0]])
+    assert ray_lengths(beam, np.array([[0.0, 0.0, 13.0]]), down, True, 30.0, 0.1875)[0] == pytest.approx(26.0, abs=1e-2)
+
+
+def test_touching_solids_are_neither_walls_nor_gaps_and_hmin_is_the_floor():
+    """Issue 33: the I-beam's field fell to 0.075 hmin (0.1125) on the faces its web shares
+    with the flanges; a boss on a plate and ribs on a floor likewise."""
+    with pytest.warns(fepre.ResolutionWarning) as record:
+        field = size_field(_ibeam(), 1.5, 6.0)
+    assert field.hmin == 1.5 and field.hmax <= 6.0
+    message = " ".join(str(w.message) for w in record)
+    # the flanges and web, 3 thick, want 1 (three elements across): hmin, named; no gap anywhere
+    assert "a wall 3 thick" in message and "would need 1" in message and "gap" not in message
+    # the faces through the bulk of the web and flanges get the wall's size, not a gap's
+    assert field([[0.0, 0.0, 10.0]])[0] == pytest.approx(1.5, rel=0.1)
+    plate = sdf.box((4, 4, 0.5), center=(0, 0, 0.25)) | sdf.cylinder(0.6, 1.0).translate((0, 0, 1.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing here needs less than hmin
+        field = size_field(plate - sdf.cylinder(0.3, 4.0), 0.05, 0.4)
+    assert field.hmin >= 0.05  # was 0.00375 along the boss's foot
+    assert field([[0.6, 0.0, 0.5]])[0] >= 0.05
+    ribs = (sdf.box((60, 40, 20), center=(0, 0, 10)) - sdf.box((56, 36, 20), center=(0, 0, 12))
+            | sdf.box((2, 36, 8), center=(-10, 0, 6)) | sdf.box((2, 36, 8), center=(10, 0, 6)))
+    with pytest.warns(fepre.ResolutionWarning, match="a wall 2 thick"):
+        assert size_field(ribs, 1.5, 6.0).hmin == 1.5  # was 0.09 at a rib's foot
+
+
+def test_a_zero_width_gap_is_named_not_chased_below_hmin():
+    """The tube clamp's tube is tangent to its base: a gap of zero width along a line. The field
+    stops at hmin there (it went to 0.1125, and the mesh had 388,542 cells) and the warning names
+    the gap, the close edges at its ends and the tube's wall (4 thick: 3 elements need 1.33)."""
+    with pytest.warns(fepre.ResolutionWarning) as record:
+        field = size_field(_tube_clamp(), 1.5, 6.0)
+    assert field.hmin == 1.5
+    message = " ".join(str(w.message) for w in record)
+    assert len(record) == 1 and "stops at hmin=1.5" in message
+    gap = re.search(r"a gap ([\d.]+) wide at \(([-\d.]+), [-\d.]+, ([-\d.]+)\)", message)
+    assert gap and float(gap[1]) < 0.2 and abs(float(gap[2])) < 2.0 and float(gap[3]) == pytest.approx(8.0, abs=0.5)
+    assert "a wall 4 thick" in message and "would need 1.33" in message and "sharp edges" in message
+
+
+def test_the_inside_of_a_concave_junction_is_not_a_gap():
+    """A V-groove 30 degrees open: rays from one face hit the other near the root, as far as
+    the root is away; its faces meet there, so the field does not refine along it (it went to
+    hmin at the root and 0.7 half-way up). A slot of parallel faces stays a gap."""
+    opening = np.tan(np.radians(15.0))
+    groove = sdf.plane((1.0, 0.0, -opening), point=(0, 0, 4)) & sdf.plane((-1.0, 0.0, -opening), point=(0, 0, 4))
+    part = sdf.box((40, 20, 10), center=(0, 0, 5)) - groove
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ResolutionWarning)  # its ends' edges meet at 30 degrees
+        field = size_field(part, 0.5, 4.0)
+    faces = [[0.05, 0.0, 4.3], [0.45, 0.0, 6.0], [0.85, 0.0, 7.5]]  # by the root, up its faces
+    assert field(faces).min() >= 2.0
+    slot = sdf.box((40, 20, 10), center=(0, 0, 5)) - sdf.box((0.8, 30, 8), center=(0, 0, 8))
+    assert size_field(slot, 0.5, 4.0, features=False)([[0.45, 0.0, 7.0]])[0] == pytest.approx(0.5, rel=0.1)
+
+
+def _boss_on_plate():
+    plate = sdf.box((4, 4, 0.5), center=(0, 0, 0.25))
+    boss = sdf.cylinder(0.6, 1.0).translate((0, 0, 1.0)) - sdf.cylinder(0.3, 4.0)  # stands on the plate
+    return plate | boss, 8.0 + np.pi * (0.36 - 0.09) * 1.0, (0.05, 0.4)
+
+
+def _flange():
+    part = (sdf.cylinder(30, 6).translate((0, 0, 3)) | sdf.cylinder(12, 20).translate((0, 0, 10))) - sdf.cylinder(7, 50)
+    for k in range(6):
+        angle = np.pi * k / 3
+        part = part - sdf.cylinder(3, 20).translate((22 * np.cos(angle), 22 * np.sin(angle), 3))
+    volume = np.pi * (30**2 * 6 + 12**2 * 14 - 7**2 * 20 - 6 * 3**2 * 6)
+    return part, volume, (1.0, 6.0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("make", [_boss_on_plate, _flange], ids=["boss_on_plate", "flange"])
+def test_graded_meshes_of_parts_with_junctions_meet_the_targets(make):
+    """Issue 33: the boss's foot took the field to 0.075 hmin (0.00375); now the field stays
+    at hmin or above, the mesh has a few percent of the uniform mesh's cells at hmin (boss on a
+    plate: 19,014 against about 546,000) and meets the quality targets."""
+    from fepre.sizing.estimate import estimated_cells
+
+    part, volume, (hmin, hmax) = make()
+    assert size_field(part, hmin, hmax).hmin >= hmin
+    mesh = fepre.distmesh(part, (hmin, hmax))
+    worst, largest, ratio = _targets(mesh)
+    assert worst >= 25.0 and largest <= 150.0 and ratio >= 0.25
+    assert mesh.volume == pytest.approx(volume, rel=5e-3)
+    lower, upper = (np.asarray(b, dtype=float) for b in part.bounds)
+    assert mesh.n_cells < 0.2 * estimated_cells(part, None, hmin, lower, upper, False)

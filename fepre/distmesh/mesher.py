@@ -97,7 +97,10 @@ def distmesh(
     h : float or (hmin, hmax)
         Target edge length (where ``size`` is smallest, for graded meshes); a pair meshes with
         the automatic size field :func:`fepre.size_field` ``(model, hmin, hmax)`` (fine at thin
-        walls, gaps, small holes and curvature, up to ``hmax`` elsewhere). Optional when
+        walls, gaps, small holes and curvature, up to ``hmax`` elsewhere). ``hmin`` is the
+        smallest size that field gives: walls thinner than three ``hmin``, gaps narrower than
+        ``hmin`` and sharp edges closer than ``hmin`` get ``hmin``, named in a
+        :class:`fepre.ResolutionWarning` with the size each would need. Optional when
         ``size`` is a size field or a background mesh (then it clamps the sizes from below).
     bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
         Box holding the solid; defaults to ``model.bounds``.

@@ -11,9 +11,14 @@ within a spacing of the surface, projected onto it). Each seed gets the smallest
   principal curvature of the smooth piece of surface there, :mod:`fepre.sizing.curvature`)
   whose sagitta is ``chord_tolerance``;
 - with ``features``, the distance to the nearest feature curve facing it (two sharp edges
-  closer than the size, e.g. a shallow step, a narrow ledge or a thin rib's top; below hmin too),
+  closer than the size, e.g. a shallow step, a narrow ledge or a thin rib's top; hmin at least),
 
-clamped to ``[hmin, hmax]`` (walls and gaps: to ``[WALL_FLOOR * hmin, hmax]``). The field on the grid is the lower envelope of the cones
+clamped to ``[hmin, hmax]``: ``hmin`` is the smallest size the field gives. Features that
+would need smaller elements (a wall thinner than ``elements_across * hmin``, a gap narrower than
+``hmin``, sharp edges closer than ``hmin``) get ``hmin`` and are named, each with where it is,
+how thick or wide and the size it would need, in one :class:`fepre.ResolutionWarning`. Seeds
+count only on the part's real surface: where two solids of a union touch face to face, their
+common face inside the material is a zero of the union's distance but no wall and no gap. The field on the grid is the lower envelope of the cones
 ``size + (gradation - 1) * distance`` over the seeds (:mod:`fepre.sizing.gradation`), capped at
 ``hmax``: away from the surface, sizes grow at the rate ``gradation`` allows.
 """
@@ -33,36 +38,19 @@ from .field import MAX_NODES, SizeField
 from .gradation import graded_sizes
 from .rays import ray_lengths
 
-__all__ = ["size_field", "WALL_FLOOR"]
+__all__ = ["size_field"]
 
-#: walls thinner than ``elements_across * hmin`` get sizes below ``hmin``, down to this times it
-WALL_FLOOR = 0.075
-
-
-def _spread(seeds: np.ndarray, normal: np.ndarray, wall: np.ndarray, spacing: float, thickness: np.ndarray | None = None):
-    """Copies of seeds under hmin (and, given the wall ``thickness``, of its mid-surface) at steps
-    of their size across the tangent patch each stands for (a grid spacing square): the cones of
-    seeds a spacing apart would let the size between them grow by (gradation - 1) * spacing / 2,
-    far above a thin wall's or a narrow gap's size."""
-    helper = np.where(np.abs(normal[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    first = np.cross(normal, helper)
-    first /= np.linalg.norm(first, axis=1)[:, None]
-    second = np.cross(normal, first)
-    points, sizes = [], []
-    for count in np.unique(np.ceil(spacing / wall).astype(np.int64)):
-        group = np.ceil(spacing / wall).astype(np.int64) == count
-        if count <= 1:
-            continue
-        steps = (np.arange(count) + 0.5) / count - 0.5  # across [-spacing/2, spacing/2]
-        a, b = (g.ravel() for g in np.meshgrid(steps, steps, indexing="ij"))
-        offsets = spacing * (a[None, :, None] * first[group][:, None, :] + b[None, :, None] * second[group][:, None, :])
-        bases = [seeds[group]]
-        if thickness is not None:
-            bases.append(seeds[group] - 0.5 * thickness[group, None] * normal[group])
-        for base in bases:
-            points.append((base[:, None, :] + offsets).reshape(-1, 3))
-            sizes.append(np.repeat(wall[group], a.size))
-    return points, sizes
+#: a seed is on the part's surface when this times hmin along its normal is outside the part
+SIDE_STEP = 0.01
+#: a gap ray at least this times the distance to the edge where its two faces' planes cross is
+#: across a concave junction, not a gap (the faces open at more than atan(0.5), 27 degrees)
+JUNCTION = 0.5
+#: the two faces reach that edge to within this times the distance to it
+EDGE_TOLERANCE = 0.05
+#: features named in the warning about sizes below hmin, at most
+MAX_NAMED = 8
+#: features are named when they would need sizes below this times hmin
+NAMED_BELOW = 0.99
 
 
 def _check(hmin: Any, hmax: Any, elements_across: Any, chord_tolerance: Any, gradation: Any):
@@ -97,12 +85,16 @@ def size_field(
     model : fepre.sdf.SDF
         The part (negative inside).
     hmin, hmax : float
-        Smallest and largest edge length (world units), ``0 < hmin < hmax``.
+        Smallest and largest edge length (world units), ``0 < hmin < hmax``. The field is
+        clamped to ``[hmin, hmax]``: no need goes below ``hmin``. Walls thinner than
+        ``elements_across * hmin``, gaps narrower than ``hmin`` and sharp edges closer than
+        ``hmin`` get ``hmin``, and a :class:`fepre.ResolutionWarning` names each (where, how
+        thick or wide, the size it would need); pass a smaller ``hmin`` to resolve them.
     elements_across : float
         Elements through the thickness of every wall (default 3): a wall ``t`` thick gets
-        ``t / elements_across``, below ``hmin`` too for walls thinner than
-        ``elements_across * hmin`` (fewer elements than one per wall would lose or spoil it),
-        down to ``WALL_FLOOR * hmin`` (0.075: a wall 0.3 hmin thick still gets 3 or more; the tip of an acute edge stops refining there).
+        ``t / elements_across``, but never below ``hmin``: a wall thinner than
+        ``elements_across * hmin`` gets ``hmin`` (fewer elements across) and is named in the
+        warning.
     chord_tolerance : float, optional
         Largest distance between a curved surface and the chord of an element's edge (default
         ``hmin / 10``): a radius ``R`` gets ``sqrt(8 * chord_tolerance * R)``.
@@ -114,6 +106,11 @@ def size_field(
         (:func:`fepre.features`).
     bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
         Box holding the part; defaults to ``model.bounds``.
+
+    Warns
+    -----
+    fepre.ResolutionWarning
+        When features would need sizes below ``hmin`` (one warning naming them all).
 
     Returns
     -------
@@ -179,7 +176,12 @@ def _sampled_box(model: SDF, bounds: Any, hmin: float):
 
 
 def _surface_seeds(model: SDF, near: np.ndarray, axes: list[np.ndarray], counts: np.ndarray, hmin: float):
-    """The grid nodes ``near`` the surface projected onto it, and the unit normals there."""
+    """The grid nodes ``near`` the surface projected onto it, and the unit normals there.
+
+    A seed counts only where the part really has a surface: a small step along the normal leaves
+    the part. Where two solids of a union touch face to face (an I-beam's web on its flanges, a
+    boss standing on a plate, a rib on a floor), the union's distance is zero on their common
+    face inside the material; seeds there would measure a gap of zero in front of them."""
     nx, ny = int(counts[0]), int(counts[1])
     nodes = np.stack([axes[0][near % nx], axes[1][(near // nx) % ny], axes[2][near // (nx * ny)]], axis=1)
     seeds = model.project(nodes, iterations=6, tol=1e-4 * hmin, warn=False)
@@ -188,62 +190,147 @@ def _surface_seeds(model: SDF, near: np.ndarray, axes: list[np.ndarray], counts:
     _, gradient = model.value_and_gradient(seeds)
     norm = np.linalg.norm(gradient, axis=1)
     usable = norm > 1e-9
-    return seeds[usable], gradient[usable] / norm[usable, None]
+    seeds, normal = seeds[usable], gradient[usable] / norm[usable, None]
+    real = model(seeds + SIDE_STEP * hmin * normal) > 0
+    return seeds[real], normal[real]
+
+
+def _across_junction(model: SDF, seeds: np.ndarray, normal: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Gaps that are the inside of a concave junction: the seed's face and the face its ray
+    hits meet at an edge on the part's surface (the line where their tangent planes cross), and
+    the ray is at least ``JUNCTION`` times as long as the distance from the seed to that edge
+    (the faces open at more than atan(JUNCTION), 27 degrees; past 60 degrees the rays' facing
+    test already drops them): a ray from one face of a V-groove hitting the other near the root.
+    A slot's faces are parallel (no edge), a drafted slot's
+    planes cross far away or inside the material, and the wedge beside a tube tangent to a
+    plate curves away from the plane tangent to it (the two faces do not reach the planes' edge):
+    those stay gaps."""
+    junction = np.zeros(len(gap), dtype=bool)
+    finite = np.flatnonzero(np.isfinite(gap))
+    if finite.size == 0:
+        return junction
+    p, n = seeds[finite], normal[finite]
+    hits = p + gap[finite, None] * n
+    _, m = model.value_and_gradient(hits)
+    m = m / np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
+    # the point of the line where the planes (p, n) and (hit, m) cross nearest to the seed: on
+    # the seed's plane, along the direction in it that is across the line
+    line = np.cross(n, m)
+    sine = np.linalg.norm(line, axis=1)
+    across = np.cross(line, n)  # in the seed's plane, perpendicular to the line
+    with np.errstate(divide="ignore", invalid="ignore"):
+        across /= sine[:, None]
+        # p + t * across lies on the hit's plane: m . (p + t * across - hit) = 0
+        t = np.einsum("ij,ij->i", m, hits - p) / np.einsum("ij,ij->i", m, across)
+    edge = p + t[:, None] * across
+    distance = np.abs(t)
+    candidate = (sine > 1e-3) & np.isfinite(distance) & (gap[finite] >= JUNCTION * distance)
+    meet = np.zeros(finite.size, dtype=bool)
+    if candidate.any():
+        # the two faces themselves (their smooth pieces, not their tangent planes) reach the
+        # edge, and the part has a surface there: a tube's bottom tangent to a plate curves away
+        # from the plane tangent to it, a drafted slot's planes cross inside the material
+        c = np.flatnonzero(candidate)
+        at, tolerance = edge[c], EDGE_TOLERANCE * distance[c]
+        _, seed_pieces = model.patch_labels(p[c])
+        _, hit_pieces = model.patch_labels(hits[c])
+        meet[c] = ((np.abs(model.patch_values(seed_pieces, at)) < tolerance)
+                   & (np.abs(model.patch_values(hit_pieces, at)) < tolerance)
+                   & (np.abs(model(at)) < 0.25 * distance[c]))
+    junction[finite] = candidate & meet
+    return junction
+
+
+def _under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.ndarray, reach: float) -> list[tuple]:
+    """Places where ``kind`` needs sizes below hmin: one ``(size, point, measure, kind)`` per
+    group of such points within ``reach`` of each other (the smallest size of the group)."""
+    if points.shape[0] == 0:
+        return []
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(reach, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
+    count, label = connected_components(graph, directed=False)
+    places = []
+    for group in range(count):
+        members = np.flatnonzero(label == group)
+        worst = members[np.argmin(wanted[members])]
+        places.append((float(wanted[worst]), points[worst], float(measure[worst]), kind))
+    return places
+
+
+def _warn_under_hmin(places: list[tuple], hmin: float) -> None:
+    """One ResolutionWarning naming every feature that would need sizes below hmin."""
+    if not places:
+        return
+    import warnings
+
+    from ..errors import ResolutionWarning
+
+    places = sorted(places, key=lambda place: place[0])
+    lines = []
+    for size, point, measure, kind in places[:MAX_NAMED]:
+        where = "(" + ", ".join(f"{c:.4g}" for c in point) + ")"
+        if kind == "wall":
+            lines.append(f"a wall {measure:.3g} thick at {where} would need {size:.3g}")
+        elif kind == "gap":
+            lines.append(f"a gap {measure:.3g} wide at {where} would need {size:.3g}")
+        else:
+            lines.append(f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}")
+    if len(places) > MAX_NAMED:
+        lines.append(f"and {len(places) - MAX_NAMED} more")
+    warnings.warn(
+        f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
+        + "; ".join(lines) + " (pass a smaller hmin to resolve them)",
+        ResolutionWarning,
+        stacklevel=4,
+    )
 
 
 def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, features, box, spacing):
-    """Points and the edge length each wants: walls, gaps, curvature, facing feature curves,
-    wall mid-surfaces, and seeds spread along walls and gaps thinner than ``hmin``."""
+    """Points and the edge length each wants (in ``[hmin, hmax]``): walls, gaps, curvature,
+    facing feature curves and wall mid-surfaces; features that would need less than ``hmin``
+    are named in a :class:`fepre.ResolutionWarning`."""
     step = hmin / 8.0
     thickness = ray_lengths(model, seeds, -normal, True, elements_across * hmax, step)
     gap = ray_lengths(model, seeds, normal, False, hmax, step)
+    gap[_across_junction(model, seeds, normal, gap)] = np.inf
     curvature = max_curvature(model, seeds, 0.05 * hmin)
     with np.errstate(divide="ignore"):
         chord = np.sqrt(8.0 * chord_tolerance / curvature)
-    # walls keep elements_across elements below hmin too (down to WALL_FLOOR * hmin: the tip of
-    # an acute edge would otherwise refine without end); other needs stop at hmin
-    wall = np.clip(thickness / elements_across, WALL_FLOOR * hmin, hmax)
-    # two elements across every gap (a hole's diameter): below hmin too, or it closes
-    opening = np.clip(gap / 2.0, WALL_FLOOR * hmin, hmax)
+    wall = np.clip(thickness / elements_across, hmin, hmax)
+    # two elements across every gap (a hole's diameter), down to hmin
+    opening = np.clip(gap / 2.0, hmin, hmax)
     wanted = np.minimum.reduce([wall, opening, np.clip(chord, hmin, hmax)])
     # a wall's size holds through it, not only on its faces: its mid-surface is a seed too
     thin = np.isfinite(thickness) & (wall < hmax)
     points = [seeds, seeds[thin] - 0.5 * thickness[thin, None] * normal[thin]]
     sizes_at = [wanted, wall[thin]]
+    reach = 2.0 * spacing
+    # named when they need less than hmin by more than the rays' accuracy (hmin / 512)
+    thin_wall = thickness < NAMED_BELOW * elements_across * hmin
+    narrow = gap < NAMED_BELOW * hmin
+    places = _under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
+    places += _under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
     if features:
         from .feature_gaps import feature_sizes
 
         feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, box)
         points.append(feature_seeds)
-        # two sharp edges closer than hmin (a narrow ledge) need elements that small between them
-        sizes_at.append(np.clip(feature_wanted, WALL_FLOOR * hmin, hmax))
-    # walls under hmin: seeds as dense as their size along the wall, on a grid that fine
-    below = np.flatnonzero(thin & (wall < hmin))
-    if below.size:
-        extra, extra_sizes = _spread(seeds[below], normal[below], wall[below], spacing, thickness[below])
-        points += extra
-        sizes_at += extra_sizes
-    # and along the faces of gaps under hmin (their middle is outside the part)
-    narrow = np.flatnonzero((opening < hmin) & ~(thin & (wall < hmin)))
-    if narrow.size:
-        extra, extra_sizes = _spread(seeds[narrow], normal[narrow], wanted[narrow], spacing)
-        points += extra
-        sizes_at += extra_sizes
+        sizes_at.append(np.clip(feature_wanted, hmin, hmax))
+        close = feature_wanted < NAMED_BELOW * hmin
+        places += _under_hmin("edges", feature_seeds[close], feature_wanted[close], feature_wanted[close], reach)
+    _warn_under_hmin(places, hmin)
     return np.concatenate(points), np.concatenate(sizes_at)
 
 
 def _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation) -> SizeField:
     """The sizes wanted at ``points`` spread over a grid, growing by at most ``gradation``."""
     nx, ny = int(counts[0]), int(counts[1])
-    # finer than hmin where walls or gaps need it, but not below hmin / 2 (8 times the nodes):
-    # one acute edge's tip would otherwise refine the whole grid
-    fine = max(min(spacing, 2.0 * float(wanted.min())), 0.5 * hmin, float(np.cbrt(np.prod(upper - lower) / MAX_NODES)))
-    if fine < spacing:
-        spacing = fine
-        counts = np.ceil((upper - lower) / spacing - 1e-9).astype(np.int64) + 1
-        nx, ny = int(counts[0]), int(counts[1])
     index = np.clip(np.rint((points - lower) / spacing).astype(np.int64), 0, counts - 1)
     seed_nodes = index[:, 0] + nx * (index[:, 1] + ny * index[:, 2])
     shape = (int(counts[2]), int(counts[1]), int(counts[0]))
     sizes = graded_sizes(shape, np.full(3, spacing), seed_nodes, wanted, gradation - 1.0, hmax)
-    return SizeField(lower, np.full(3, spacing), np.clip(sizes, WALL_FLOOR * hmin, hmax))
+    return SizeField(lower, np.full(3, spacing), np.clip(sizes, hmin, hmax))

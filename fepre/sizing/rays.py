@@ -11,6 +11,10 @@ A ray that meets the surface at a grazing angle (its direction at more than ``FA
 from the normal there) has run along a face, not across a wall or gap: from a point on the rim
 of a hole, the ray along the face's normal slides down the hole's wall. Such rays count as not
 crossing (``inf``).
+
+A crossing is a sign change to strictly outside (``inside``) or strictly inside: where two
+solids of a union touch face to face, the union's distance is exactly zero on their common face
+inside the material, and that face is not a surface a ray leaves or enters the part through.
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ def ray_lengths(model, origins: np.ndarray, directions: np.ndarray, inside: bool
             break
         positions = origins[active] + travelled[active, None] * directions[active]
         values = model(positions)
-        crossed = values >= 0 if inside else values <= 0
+        crossed = values > 0 if inside else values < 0
         if crossed.any():
             done = active[crossed]
             at = _bisect(model, origins[done], directions[done], previous[done], travelled[done], inside, min_step)
@@ -73,7 +77,7 @@ def _bisect(model, origins, directions, low, high, inside: bool, min_step: float
             break
         middle = 0.5 * (low + high)
         values = model(origins + middle[:, None] * directions)
-        crossed = values >= 0 if inside else values <= 0
+        crossed = values > 0 if inside else values < 0
         high = np.where(crossed, middle, high)
         low = np.where(crossed, low, middle)
     return 0.5 * (low + high)
