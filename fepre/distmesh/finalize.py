@@ -325,6 +325,8 @@ def final_mesh(
     geps: float,
     backend: str,
     previous: np.ndarray | None = None,
+    size=None,
+    absolute: bool = False,
 ):
     """Triangulate ``points`` and choose the cells of a valid solid.
 
@@ -337,7 +339,10 @@ def final_mesh(
     cells in any order): it is reused when no point had to move or go and every cell is still
     positive. Returns
     ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
-    solid can be chosen.
+    solid can be chosen: a closed choice that ``_valid_solid`` refused (the last attempt's, or
+    the backend's mended one) is returned only if its boundary passes the validation stage's
+    distance check (:func:`fepre.distmesh.validate.mesh_defects`, in the local size given by
+    ``size`` and ``absolute``); a solid closed over hull cells outside the part is refused.
     """
     state = _PointSet(model, points, fixed, h)
     n_before = len(state.points)
@@ -358,12 +363,14 @@ def final_mesh(
     attempts = [(backend, False), (backend, True)]
     if backend != FALLBACK_BACKEND:  # another triangulation of the same points
         attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
+    valid = False
     mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
     for number, (triangulator, mend_cracks) in enumerate(attempts):
         trial = state.copy()
         tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
         chosen = _choose(model, trial, tets, geps, h)
-        if _valid_solid(model, trial, chosen, h):
+        valid = _valid_solid(model, trial, chosen, h)
+        if valid:
             break
         if number == 1:
             mended = (trial, chosen)
@@ -376,6 +383,16 @@ def final_mesh(
                 break
     else:
         trial, chosen = mended
+    if not valid and len(chosen) and _valid_selection(trial.points, chosen):
+        # closed and manifold but refused by _valid_solid: returned only if the validation
+        # stage would take it (a face a little past _FAR_OUTSIDE h), never over hull cells
+        from .validate import defects_message, far_boundary
+
+        far = far_boundary(trial.points, boundary_faces(chosen), model, h, size, absolute)
+        if far:
+            raise MeshingError(
+                "DistMesh could not choose a valid solid from the final triangulation: the closed "
+                f"choice keeps cells outside the part ({defects_message(far)}); try a smaller h")
     state, tets = trial, chosen
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
