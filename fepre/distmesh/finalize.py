@@ -317,6 +317,28 @@ def _valid_solid(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
     return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= _FAR_OUTSIDE * h)
 
 
+def _drop_far_cells(model, state: _PointSet, tets: np.ndarray, h: float, size, absolute: bool) -> np.ndarray | None:
+    """The closed solid ``tets`` without its cells outside the part: the cells on the zero set
+    whose centroid is farther out than ``_FAR_OUTSIDE h`` (Delaunay hull cells across a concave
+    region) go, the selection is repaired to a closed 2-manifold never adding them back, and the
+    result is kept only if it passes the validation stage's distance check (else None)."""
+    from .validate import far_boundary
+
+    centroid_values = model(state.points[tets].mean(axis=1))
+    locked = ~state.on_surface[tets].all(axis=1)  # the stars of interior nodes stay whole
+    far = (centroid_values > _FAR_OUTSIDE * h) & ~locked
+    if not far.any():
+        return None
+    volumes = signed_volumes(state.points, tets)
+    keep = repair_selection(tets, ~far, locked, np.where(far, np.inf, volumes), volumes, len(state.points))
+    repaired = tets[keep]
+    if len(repaired) == 0 or not _valid_selection(state.points, repaired):
+        return None
+    if far_boundary(state.points, boundary_faces(repaired), model, h, size, absolute):
+        return None
+    return repaired
+
+
 def final_mesh(
     model,
     points: np.ndarray,
@@ -341,7 +363,8 @@ def final_mesh(
     ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
     solid can be chosen: a closed choice that ``_valid_solid`` refused (the last attempt's, or
     the backend's mended one) is returned only if its boundary passes the validation stage's
-    distance check (:func:`fepre.distmesh.validate.mesh_defects`, in the local size given by
+    distance check, or once its cells far outside are dropped and the selection repaired
+    (``_drop_far_cells``) so that it does (:func:`fepre.distmesh.validate.mesh_defects`, in the local size given by
     ``size`` and ``absolute``); a solid closed over hull cells outside the part is refused.
     """
     state = _PointSet(model, points, fixed, h)
@@ -389,6 +412,10 @@ def final_mesh(
         from .validate import defects_message, far_boundary
 
         far = far_boundary(trial.points, boundary_faces(chosen), model, h, size, absolute)
+        if far:
+            repaired = _drop_far_cells(model, trial, chosen, h, size, absolute)
+            if repaired is not None:
+                far, chosen = [], repaired
         if far:
             raise MeshingError(
                 "DistMesh could not choose a valid solid from the final triangulation: the closed "
