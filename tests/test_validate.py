@@ -215,3 +215,39 @@ def test_final_mesh_unchanged_for_a_valid_part():
         warnings.simplefilter("error")
         p, t, _ = finalize.final_mesh(model, points, np.zeros(len(points), bool), 1 / 6, 0.001, "scipy")
     assert mesh_defects(p, t, model, 1 / 6) == []
+
+
+def test_distmesh_returns_the_final_mesh_when_the_quality_stage_folds_it(monkeypatch):
+    """A quality stage that pulls a boundary node through the part (its cells turn inside out,
+    the boundary crosses itself) is set aside: the mesh is the one without the stage."""
+    import fepre
+    from fepre.distmesh import slivers
+
+    model = sdf.sphere(1.0)
+    expected = fepre.distmesh(model, 0.3, slivers=False)
+    real = slivers.improve_arrays
+
+    def folding(points, tets, *args, **kwargs):
+        points, tets, report = real(points, tets, *args, **kwargs)
+        points = points.copy()
+        node = int(np.argmax(points[:, 0]))
+        points[node] = -0.5 * points[node]  # through the centre to the other side
+        return points, tets, report
+
+    monkeypatch.setattr(slivers, "improve_arrays", folding)
+    with pytest.warns(ConvergenceWarning, match=r"made the mesh invalid \(negative cells: .*at \("):
+        mesh = fepre.distmesh(model, 0.3)
+    assert np.asarray(mesh.points).tobytes() == np.asarray(expected.points).tobytes()
+    assert np.array_equal(mesh.cells_dict[10], expected.cells_dict[10])
+
+
+@pytest.mark.filterwarnings("ignore::fepre.errors.FeatureWarning")
+def test_distmesh_refuses_hull_cells_it_cannot_drop(monkeypatch):
+    """The issue's path end to end: every choice of the final mesh is the hull of the nodes and
+    no repair is left: MeshingError naming the check and the place, no mesh."""
+    import fepre
+
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: tets)
+    monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
+    with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*at \("):
+        fepre.distmesh(L_PART, 0.15)
