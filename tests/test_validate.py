@@ -101,20 +101,20 @@ def test_an_open_boundary():
 
 
 def test_a_boundary_face_far_outside():
-    """A cell on top of the block, 3 h above its surface: the faces of that cell, and only
+    """A cell on top of the block, 6 h above its surface: the faces of that cell, and only
     those, are far; the message names the distance and the place."""
     points, tets = block()
     top = np.flatnonzero(np.isclose(points[:, 2], 1.0))
     faces = boundary_faces(tets)
     face = faces[np.isin(faces, top).all(axis=1)][0]
-    apex = points[face].mean(axis=0) + np.array([0, 0, 3 * H])
+    apex = points[face].mean(axis=0) + np.array([0, 0, 6 * H])
     points = np.concatenate([points, [apex]])
     tets = np.concatenate([tets, [[face[0], face[1], face[2], len(points) - 1]]])
     assert signed_volumes(points, tets[-1:])[0] > 0
     found = {d.check: d for d in mesh_defects(points, tets, CUBE, H)}
     far = found["far boundary"]
-    assert far.count == 3 + 1  # the three new faces' centroids (1 h up) and the apex (3 h up)
-    assert "up to 3 h" in far.cause
+    assert far.count == 3 + 1  # the three new faces' centroids (2 h up) and the apex (6 h up)
+    assert "up to 6 h" in far.cause
     assert np.allclose(far.place, apex)
     assert list(found) == ["far boundary"]
 

@@ -32,11 +32,13 @@ from .topology import _FACES, nonmanifold_items
 __all__ = ["Defect", "mesh_defects", "far_boundary", "crossing_faces", "defects_message", "CENTROID_BOUND", "NODE_BOUND", "VOLUME_BOUND"]
 
 #: largest ``|sdf|`` at a boundary face's centroid, in local sizes
-CENTROID_BOUND = 0.5
+CENTROID_BOUND = 1.0
 #: largest ``|sdf|`` at a boundary node, in local sizes
 NODE_BOUND = 0.5
 #: largest relative difference between the mesh's volume and the model's grid estimate
 VOLUME_BOUND = 0.15
+#: orientation tests of the crossing check within this share of the pair's size cubed are zero
+_FLAT = 1e-10
 #: samples of the model for the volume estimate: one per this many cells, within the limits
 #: below (a small mesh's run makes few evaluations; the check must not add many)
 _CELLS_PER_SAMPLE = 8
@@ -188,30 +190,34 @@ def _orient(a, b, c, d):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _edge_crosses(p, q, a, b, c):  # pragma: no cover - compiled
+def _edge_crosses(p, q, a, b, c, tol):  # pragma: no cover - compiled
     sp, sq = _orient(a, b, c, p), _orient(a, b, c, q)
-    if not ((sp > 0 and sq < 0) or (sp < 0 and sq > 0)):
+    if not ((sp > tol and sq < -tol) or (sp < -tol and sq > tol)):
         return False
     t1, t2, t3 = _orient(p, q, a, b), _orient(p, q, b, c), _orient(p, q, c, a)
-    return (t1 > 0 and t2 > 0 and t3 > 0) or (t1 < 0 and t2 < 0 and t3 < 0)
+    return (t1 > tol and t2 > tol and t3 > tol) or (t1 < -tol and t2 < -tol and t3 < -tol)
 
 
 @njit(cache=True, parallel=True)
-def _crossing_pairs(points, faces, first, second, out):  # pragma: no cover - compiled
+def _crossing_pairs(points, faces, first, second, tolerance, out):  # pragma: no cover - compiled
     for k in prange(first.shape[0]):
         f, g = faces[first[k]], faces[second[k]]
+        tol = tolerance[k]
         hit = False
         for side in range(2):
             s, t = (f, g) if side == 0 else (g, f)
             a, b, c = points[t[0]], points[t[1]], points[t[2]]
             for e in range(3):
-                if _edge_crosses(points[s[e]], points[s[(e + 1) % 3]], a, b, c):
+                if _edge_crosses(points[s[e]], points[s[(e + 1) % 3]], a, b, c, tol):
                     hit = True
         out[k] = hit
 
 
 def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(K, 2) pairs of ``faces`` (indices) that share no vertex and cross each other.
+    """(K, 2) pairs of ``faces`` (indices) that share no vertex and cross each other: an edge of
+    one passes through the other, strictly (orientations within ``1e-10`` of the pair's size
+    cubed are taken for zero, so two faces in one plane never cross: a fold that lays a face
+    exactly flat onto another is not found).
 
     Candidates are pairs whose bounding spheres (about the centroid) overlap, found with a
     k-d tree per class of radii (a factor 2 apart), so graded meshes cost no more than uniform.
@@ -247,8 +253,11 @@ def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     pairs = pairs[apart]
     hit = np.zeros(len(pairs), np.bool_)
     if len(pairs):
+        # orientations within rounding of zero (1e-10 of the pair's size cubed) count as zero:
+        # faces in one plane (a flat side's) touch at most, and are not taken for crossing
+        tolerance = _FLAT * (radii[pairs[:, 0]] + radii[pairs[:, 1]]) ** 3
         _crossing_pairs(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(faces, np.int64),
-                        np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), hit)
+                        np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), tolerance, hit)
     return pairs[hit]
 
 
