@@ -251,3 +251,13 @@ def test_distmesh_refuses_hull_cells_it_cannot_drop(monkeypatch):
     monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
     with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*at \("):
         fepre.distmesh(L_PART, 0.15)
+
+
+def test_faces_of_one_flat_side_never_cross():
+    """Two faces in one plane, rounding apart (a thin plate's flat side): not a crossing; the
+    same faces with one tipped through the other are."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 1e-17], [1.2, 0.2, -1e-17], [0.2, 1.2, 1e-17]])
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    assert len(crossing_faces(points, faces)) == 0
+    points[3, 2], points[4, 2] = -0.5, 0.5
+    assert crossing_faces(points, faces).tolist() == [[0, 1]]
