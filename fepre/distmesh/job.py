@@ -50,6 +50,9 @@ class MeshingJob:
     unimproved : tuple or None
         ``(points, tets, fixed_mask)`` before the quality stage, for the validation stage to
         fall back on when the stage made the mesh invalid.
+    boundary : tuple or None
+        ``(tets, boundary faces)`` as the validation stage found them; the output reuses the
+        faces while ``tets`` is still the job's.
     history : dict
         Field data ``distmesh_<key>`` of the output.
     frame_offset : (3,) array
@@ -83,6 +86,7 @@ class MeshingJob:
     loop: LoopResult | None = None
     previous: np.ndarray | None = None
     unimproved: tuple | None = None  # (points, tets, fixed_mask) before the quality stage
+    boundary: tuple | None = None  # (tets, their boundary faces) as the validation stage found them
     stage_log: StageLog | None = None
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)

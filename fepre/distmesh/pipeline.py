@@ -157,8 +157,11 @@ def validate_mesh(job: MeshingJob) -> None:
 
     started = time.perf_counter()
 
+    reuse: dict = {}
+
     def defects():
-        found = mesh_defects(job.points, job.tets, job.model, job.h, job.size, job.absolute, (job.lower, job.upper))
+        found = mesh_defects(job.points, job.tets, job.model, job.h, job.size, job.absolute, (job.lower, job.upper),
+                             found=reuse)
         for constraint in job.constraints:
             found += constraint.defects(job)
         return found
@@ -175,6 +178,7 @@ def validate_mesh(job: MeshingJob) -> None:
     if found:
         raise MeshingError(f"distmesh: the mesh is not a valid solid and was not returned: "
                            f"{defects_message(found, job.frame_offset)}; try a smaller h")
+    job.boundary = (job.tets, reuse["boundary_faces"])  # for the output, if the cells stay the same
     job.seconds["validate"] = time.perf_counter() - started
 
 
@@ -211,7 +215,8 @@ def check_mesh(job: MeshingJob) -> None:
 
 def output_grid(job: MeshingJob):
     """The pyvista.UnstructuredGrid with every constraint's data; warns if the loop stopped at maxiter."""
-    grid = to_grid(job.points, job.tets, job.model, job.history, job.features)
+    faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else None
+    grid = to_grid(job.points, job.tets, job.model, job.history, job.features, boundary=faces)
     for constraint in job.constraints:
         constraint.annotate(job, grid)
     job.stage_log("checks and output", f"{grid.n_points:,} nodes, {grid.n_cells:,} cells, "

@@ -94,37 +94,48 @@ def _local_sizes(x: np.ndarray, h: float, size, absolute: bool, points: np.ndarr
     return np.maximum(h * values / max(smallest, 1e-300), h)
 
 
+@njit(cache=True, parallel=True)
+def _cell_signs(points, tets, mate, volumes, same_side):  # pragma: no cover - compiled
+    """Each cell's volume (times 6) and, per face slot with a later mate, whether the mate's
+    opposite corner is on this cell's side of the face (the cell with that corner replaced is
+    not negative)."""
+    for t in prange(tets.shape[0]):
+        volumes[t] = _orient(points[tets[t, 1]], points[tets[t, 2]], points[tets[t, 3]], points[tets[t, 0]])
+        for i in range(4):
+            slot = 4 * t + i
+            other = mate[slot]
+            same_side[slot] = False
+            if other > slot:
+                corner = points[tets[other // 4, other % 4]]
+                c = [points[tets[t, 0]], points[tets[t, 1]], points[tets[t, 2]], points[tets[t, 3]]]
+                c[i] = corner
+                same_side[slot] = _orient(c[1], c[2], c[3], c[0]) >= 0
+
+
 def _cell_checks(points: np.ndarray, tets: np.ndarray, defects: list[Defect]) -> np.ndarray | None:
     """Negative cells and face uses; returns the boundary faces (None when faces are overused)."""
     from .._cell_kernels import face_uses
 
-    volumes = signed_volumes(points, tets)
+    mate, uses = face_uses(tets, len(points))
+    volumes = np.empty(len(tets))
+    same_side = np.empty(len(mate), np.bool_)
+    _cell_signs(points, tets, mate, volumes, same_side)
+    volumes /= 6.0
     bad = volumes <= 0
     if bad.any():
         worst = int(np.argmin(volumes))
         defects.append(Defect("negative cells", int(bad.sum()), _place(points[tets[worst]].mean(axis=0)),
                               f"{int(bad.sum())} cells of zero or negative volume (smallest {volumes[worst]:.3g})"))
-    mate, uses = face_uses(tets, len(points))
     over = uses > 2
     if over.any():
         slot = int(np.flatnonzero(over)[0])
         defects.append(Defect("face use", int(over.sum() // 3) or 1, _place(points[tets[slot // 4]].mean(axis=0)),
                               f"{int(over.sum())} face slots of faces used by more than two cells"))
         return None
-    slots = np.flatnonzero((mate >= 0) & (mate > np.arange(len(mate))))
-    if len(slots):
-        cell, local = slots // 4, slots % 4
-        other = mate[slots]
-        # the first cell with its corner ``local`` replaced by the other cell's opposite corner:
-        # negative when that corner is on the other side of the shared face
-        replaced = tets[cell].copy()
-        replaced[np.arange(len(slots)), local] = tets[other // 4, other % 4]
-        same_side = signed_volumes(points, replaced) >= 0
-        if same_side.any():
-            first = int(np.flatnonzero(same_side)[0])
-            defects.append(Defect("face use", int(same_side.sum()), _place(points[tets[cell[first]]].mean(axis=0)),
-                                  f"{int(same_side.sum())} interior faces with both cells on the same side "
-                                  "(overlapping cells)"))
+    if same_side.any():
+        slots = np.flatnonzero(same_side)
+        defects.append(Defect("face use", len(slots), _place(points[tets[slots[0] // 4]].mean(axis=0)),
+                              f"{len(slots)} interior faces with both cells on the same side (overlapping cells)"))
     slot = np.flatnonzero(uses == 1)
     return tets[(slot // 4)[:, None], _FACES[slot % 4]]
 
@@ -293,6 +304,7 @@ def mesh_defects(
     size=None,
     absolute: bool = False,
     bounds: tuple | None = None,
+    found: dict | None = None,
 ) -> list[Defect]:
     """What is wrong with the mesh ``(points, tets)`` of ``model`` at size ``h`` (empty: valid).
 
@@ -312,6 +324,9 @@ def mesh_defects(
         ``size`` gives edge lengths.
     bounds : (lower, upper) or None
         The box the model was meshed in, for the volume check (None: no volume check).
+    found : dict or None
+        Receives ``boundary_faces`` (oriented outward) when the faces are used at most twice,
+        for the caller to reuse.
 
     Returns
     -------
@@ -335,6 +350,8 @@ def mesh_defects(
     faces = _cell_checks(points, tets, defects)
     if faces is None:
         return defects
+    if found is not None:
+        found["boundary_faces"] = faces
     _boundary_checks(points, faces, defects)
     _far_checks(points, faces, model, h, size, absolute, defects)
     crossing = crossing_faces(points, faces)
