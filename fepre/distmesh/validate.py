@@ -232,6 +232,23 @@ def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
     Candidates are pairs whose bounding spheres (about the centroid) overlap, found with a
     k-d tree per class of radii (a factor 2 apart), so graded meshes cost no more than uniform.
+
+    Parameters
+    ----------
+    points : (N, 3) float array
+    faces : (F, 3) int array
+        Triangles, e.g. a mesh's boundary faces.
+
+    Returns
+    -------
+    (K, 2) int array
+        Indices into ``faces`` of the crossing pairs, each once.
+
+    Examples
+    --------
+    >>> points = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0]], float)
+    >>> crossing_faces(points, np.array([[0, 1, 2], [3, 4, 5]])).tolist()
+    [[0, 1]]
     """
     from scipy.spatial import cKDTree
 
