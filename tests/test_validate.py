@@ -224,7 +224,7 @@ def test_distmesh_returns_the_final_mesh_when_the_quality_stage_folds_it(monkeyp
     from fepre.distmesh import slivers
 
     model = sdf.sphere(1.0)
-    expected = fepre.distmesh(model, 0.3, slivers=False)
+    expected = fepre.distmesh(model, 0.45, slivers=False)
     real = slivers.improve_arrays
 
     def folding(points, tets, *args, **kwargs):
@@ -236,7 +236,7 @@ def test_distmesh_returns_the_final_mesh_when_the_quality_stage_folds_it(monkeyp
 
     monkeypatch.setattr(slivers, "improve_arrays", folding)
     with pytest.warns(ConvergenceWarning, match=r"made the mesh invalid \(negative cells: .*at \("):
-        mesh = fepre.distmesh(model, 0.3)
+        mesh = fepre.distmesh(model, 0.45)
     assert np.asarray(mesh.points).tobytes() == np.asarray(expected.points).tobytes()
     assert np.array_equal(mesh.cells_dict[10], expected.cells_dict[10])
 
