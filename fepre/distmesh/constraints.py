@@ -57,6 +57,7 @@ class MeshConstraint:
     - final mesh: :meth:`final_mesh` (a constraint that makes it itself);
     - quality stage: :meth:`pinned_nodes`, :meth:`locked_nodes`, :meth:`quality_stage` (a variant of the stage),
       :meth:`after_quality_stage`;
+    - validation: :meth:`defects`;
     - checks and output: :meth:`check` (history entries, warnings, errors), :meth:`annotate`
       (the grid's data).
     """
@@ -110,6 +111,11 @@ class MeshConstraint:
 
     def after_quality_stage(self, job: MeshingJob, pinned: np.ndarray, locked: np.ndarray | None) -> None:
         """Further passes after the quality stage (``slivers=True`` only)."""
+
+    def defects(self, job: MeshingJob) -> list:
+        """Further defects of the mesh this constraint knows of
+        (:class:`~fepre.distmesh.validate.Defect`; the validation stage refuses a mesh with any)."""
+        return []
 
     def check(self, job: MeshingJob) -> None:
         """Check the final mesh; add entries to ``job.history``; warn or raise MeshingError."""

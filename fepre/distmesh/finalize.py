@@ -317,6 +317,28 @@ def _valid_solid(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
     return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= _FAR_OUTSIDE * h)
 
 
+def _drop_far_cells(model, state: _PointSet, tets: np.ndarray, h: float, size, absolute: bool) -> np.ndarray | None:
+    """The closed solid ``tets`` without its cells outside the part: the cells on the zero set
+    whose centroid is farther out than ``_FAR_OUTSIDE h`` (Delaunay hull cells across a concave
+    region) go, the selection is repaired to a closed 2-manifold never adding them back, and the
+    result is kept only if it passes the validation stage's distance check (else None)."""
+    from .validate import far_boundary
+
+    centroid_values = model(state.points[tets].mean(axis=1))
+    locked = ~state.on_surface[tets].all(axis=1)  # the stars of interior nodes stay whole
+    far = (centroid_values > _FAR_OUTSIDE * h) & ~locked
+    if not far.any():
+        return None
+    volumes = signed_volumes(state.points, tets)
+    keep = repair_selection(tets, ~far, locked, np.where(far, np.inf, volumes), volumes, len(state.points))
+    repaired = tets[keep]
+    if len(repaired) == 0 or not _valid_selection(state.points, repaired):
+        return None
+    if far_boundary(state.points, boundary_faces(repaired), model, h, size, absolute):
+        return None
+    return repaired
+
+
 def final_mesh(
     model,
     points: np.ndarray,
@@ -325,6 +347,8 @@ def final_mesh(
     geps: float,
     backend: str,
     previous: np.ndarray | None = None,
+    size=None,
+    absolute: bool = False,
 ):
     """Triangulate ``points`` and choose the cells of a valid solid.
 
@@ -337,7 +361,11 @@ def final_mesh(
     cells in any order): it is reused when no point had to move or go and every cell is still
     positive. Returns
     ``(points, tets, fixed)`` with only the points used. Raises ``MeshingError`` when no valid
-    solid can be chosen.
+    solid can be chosen: a closed choice that ``_valid_solid`` refused (the last attempt's, or
+    the backend's mended one) is returned only if its boundary passes the validation stage's
+    distance check, or once its cells far outside are dropped and the selection repaired
+    (``_drop_far_cells``) so that it does (:func:`fepre.distmesh.validate.mesh_defects`, in the local size given by
+    ``size`` and ``absolute``); a solid closed over hull cells outside the part is refused.
     """
     state = _PointSet(model, points, fixed, h)
     n_before = len(state.points)
@@ -358,12 +386,14 @@ def final_mesh(
     attempts = [(backend, False), (backend, True)]
     if backend != FALLBACK_BACKEND:  # another triangulation of the same points
         attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
+    valid = False
     mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
     for number, (triangulator, mend_cracks) in enumerate(attempts):
         trial = state.copy()
         tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
         chosen = _choose(model, trial, tets, geps, h)
-        if _valid_solid(model, trial, chosen, h):
+        valid = _valid_solid(model, trial, chosen, h)
+        if valid:
             break
         if number == 1:
             mended = (trial, chosen)
@@ -376,6 +406,20 @@ def final_mesh(
                 break
     else:
         trial, chosen = mended
+    if not valid and len(chosen) and _valid_selection(trial.points, chosen):
+        # closed and manifold but refused by _valid_solid: returned only if the validation
+        # stage would take it (a face a little past _FAR_OUTSIDE h), never over hull cells
+        from .validate import defects_message, far_boundary
+
+        far = far_boundary(trial.points, boundary_faces(chosen), model, h, size, absolute)
+        if far:
+            repaired = _drop_far_cells(model, trial, chosen, h, size, absolute)
+            if repaired is not None:
+                far, chosen = [], repaired
+        if far:
+            raise MeshingError(
+                "DistMesh could not choose a valid solid from the final triangulation: the closed "
+                f"choice keeps cells outside the part ({defects_message(far)}); try a smaller h")
     state, tets = trial, chosen
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")

@@ -47,6 +47,12 @@ class MeshingJob:
         The mesh so far; ``fixed_mask`` marks nodes that never moved.
     loop : LoopResult
         The loop's result; ``previous`` its last triangulation, for the final mesh to reuse.
+    unimproved : tuple or None
+        ``(points, tets, fixed_mask)`` before the quality stage, for the validation stage to
+        fall back on when the stage made the mesh invalid.
+    boundary : tuple or None
+        ``(tets, boundary faces)`` as the validation stage found them; the output reuses the
+        faces while ``tets`` is still the job's.
     history : dict
         Field data ``distmesh_<key>`` of the output.
     frame_offset : (3,) array
@@ -79,6 +85,8 @@ class MeshingJob:
     protect: Callable | None = None  # the loop's push hook, composed of the constraints'
     loop: LoopResult | None = None
     previous: np.ndarray | None = None
+    unimproved: tuple | None = None  # (points, tets, fixed_mask) before the quality stage
+    boundary: tuple | None = None  # (tets, their boundary faces) as the validation stage found them
     stage_log: StageLog | None = None
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)

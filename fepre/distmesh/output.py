@@ -27,16 +27,18 @@ def feature_flags(points: np.ndarray, features) -> np.ndarray:
     return flags
 
 
-def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.ndarray], features=None):
+def to_grid(points: np.ndarray, tets: np.ndarray, model, history: dict[str, np.ndarray], features=None,
+            boundary: np.ndarray | None = None):
     """Build the output grid: VTK_TETRA cells, point data ``sdf``, ``boundary`` (1 on the
     boundary surface) and ``feature`` (1 on a feature curve, 2 at a corner of ``features``),
-    the quality cell arrays and the ``distmesh_*`` field data."""
+    the quality cell arrays and the ``distmesh_*`` field data. ``boundary``: the cells' boundary
+    faces when already found (else found here)."""
     import pyvista as pv
 
     grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.ascontiguousarray(tets, dtype=np.int64)}, points)
     grid.point_data["sdf"] = model(points)
-    boundary = np.zeros(len(points), np.uint8)
-    boundary[boundary_faces(tets).ravel()] = 1
+    faces, boundary = boundary, np.zeros(len(points), np.uint8)
+    boundary[(boundary_faces(tets) if faces is None else faces).ravel()] = 1
     grid.point_data["boundary"] = boundary
     grid.point_data["feature"] = feature_flags(points, features)
     for name, values in tet_quality(points, tets).items():

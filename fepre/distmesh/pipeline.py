@@ -1,7 +1,7 @@
 """The mesher as a pipeline: named stages, each a function of one :class:`MeshingJob`.
 
 ``constraint_nodes -> starting_points -> run_loop -> make_final_mesh -> quality_stage ->
-check_mesh -> output_grid``; every stage consults the job's constraints
+validate_mesh -> check_mesh -> output_grid``; every stage consults the job's constraints
 (:class:`~fepre.distmesh.constraints.MeshConstraint`) and never names one.
 """
 
@@ -24,7 +24,7 @@ from .loop import iterate
 from .output import to_grid
 
 __all__ = ["MeshingJob", "STAGES", "run_pipeline", "constraint_nodes", "starting_points", "run_loop",
-           "make_final_mesh", "quality_stage", "check_mesh", "output_grid"]
+           "make_final_mesh", "quality_stage", "validate_mesh", "check_mesh", "output_grid"]
 
 
 def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
@@ -89,7 +89,7 @@ def make_final_mesh(job: MeshingJob) -> None:
     o, loop = job.options, job.loop
     if not any(constraint.final_mesh(job) for constraint in job.constraints):
         job.points, job.tets, job.fixed_mask = final_mesh(
-            job.model, loop.points, loop.fixed_mask, job.h, o.geps, o.delaunay, job.previous)
+            job.model, loop.points, loop.fixed_mask, job.h, o.geps, o.delaunay, job.previous, job.size, job.absolute)
     job.previous = None
     job.seconds["loop"] = time.perf_counter() - job.started
     job.stage_log("final mesh", f"{len(job.points):,} nodes, {len(job.tets):,} cells")
@@ -111,6 +111,7 @@ def quality_stage(job: MeshingJob) -> None:
     if not o.slivers:
         return
     started = time.perf_counter()
+    job.unimproved = (job.points, job.tets, job.fixed_mask)  # what validate_mesh falls back on
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
     pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
     locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
@@ -136,6 +137,49 @@ def quality_stage(job: MeshingJob) -> None:
         job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
                       f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
                       f"{measured['radius_ratio'].min():.3f}")
+
+
+def _default_quality_stage(job: MeshingJob) -> bool:
+    """True when no constraint changes the quality stage (its result can be set aside alone)."""
+    from .constraints import MeshConstraint
+
+    return all(type(c).quality_stage is MeshConstraint.quality_stage
+               and type(c).after_quality_stage is MeshConstraint.after_quality_stage for c in job.constraints)
+
+
+def validate_mesh(job: MeshingJob) -> None:
+    """Never an invalid mesh: the mesh is checked (:func:`~fepre.distmesh.validate.mesh_defects`:
+    positive cells, faces used once or twice from opposite sides, a closed oriented boundary near
+    the zero set that does not cross itself, the model's volume); a mesh the quality stage made
+    invalid is replaced by the final mesh it started from (with a ConvergenceWarning), and a mesh
+    that stays invalid raises MeshingError naming each check failed, how far and where."""
+    from .validate import defects_message, mesh_defects
+
+    started = time.perf_counter()
+
+    reuse: dict = {}
+
+    def defects():
+        found = mesh_defects(job.points, job.tets, job.model, job.h, job.size, job.absolute, (job.lower, job.upper),
+                             found=reuse)
+        for constraint in job.constraints:
+            found += constraint.defects(job)
+        return found
+
+    found = defects()
+    if found and job.unimproved is not None and _default_quality_stage(job):
+        after = defects_message(found, job.frame_offset)
+        job.points, job.tets, job.fixed_mask = job.unimproved
+        found = defects()
+        if not found:
+            warn_user(f"the quality stage (slivers=True) made the mesh invalid ({after}); returning the DistMesh "
+                      "mesh without it", ConvergenceWarning)
+    job.unimproved = None
+    if found:
+        raise MeshingError(f"distmesh: the mesh is not a valid solid and was not returned: "
+                           f"{defects_message(found, job.frame_offset)}; try a smaller h")
+    job.boundary = (job.tets, reuse["boundary_faces"])  # for the output, if the cells stay the same
+    job.seconds["validate"] = time.perf_counter() - started
 
 
 def check_mesh(job: MeshingJob) -> None:
@@ -171,7 +215,8 @@ def check_mesh(job: MeshingJob) -> None:
 
 def output_grid(job: MeshingJob):
     """The pyvista.UnstructuredGrid with every constraint's data; warns if the loop stopped at maxiter."""
-    grid = to_grid(job.points, job.tets, job.model, job.history, job.features)
+    faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else None
+    grid = to_grid(job.points, job.tets, job.model, job.history, job.features, boundary=faces)
     for constraint in job.constraints:
         constraint.annotate(job, grid)
     job.stage_log("checks and output", f"{grid.n_points:,} nodes, {grid.n_cells:,} cells, "
@@ -187,7 +232,8 @@ def output_grid(job: MeshingJob):
 
 
 #: the stages in order; each takes the job and leaves its result in it (the last returns the grid)
-STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_stage, check_mesh, output_grid)
+STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_stage, validate_mesh, check_mesh,
+          output_grid)
 
 
 def run_pipeline(job: MeshingJob):

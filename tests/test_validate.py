@@ -1,0 +1,263 @@
+"""The validation stage (issue 32, "never an invalid mesh"): each check of
+fepre.distmesh.validate finds exactly its defect and names place and cause; the pipeline
+refuses or repairs an invalid mesh; the final mesh no longer returns a solid closed over hull
+cells outside the part."""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+
+import numpy as np
+import pytest
+
+from fepre import sdf
+from fepre.distmesh import finalize
+from fepre.distmesh.job import MeshingJob
+from fepre.distmesh.options import DistMeshOptions
+from fepre.distmesh.pipeline import validate_mesh
+from fepre.distmesh.topology import boundary_faces
+from fepre.distmesh.validate import crossing_faces, mesh_defects
+from fepre.errors import ConvergenceWarning, MeshingError
+from fepre.quality import signed_volumes
+
+
+def block(n: int = 4, size: float = 1.0, offset=(0.0, 0.0, 0.0)):
+    """A cube of side ``size`` from ``offset`` cut into n^3 cubes of 6 positive tetrahedra each."""
+    axis = np.linspace(0.0, size, n + 1)
+    points = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3) + np.asarray(offset)
+    index = np.arange((n + 1) ** 3).reshape(n + 1, n + 1, n + 1)
+    tets = []
+    for i, j, k in itertools.product(range(n), repeat=3):
+        for order in itertools.permutations(range(3)):
+            corner = np.array([i, j, k])
+            path = [index[tuple(corner)]]
+            for axis_ in order:
+                corner = corner.copy()
+                corner[axis_] += 1
+                path.append(index[tuple(corner)])
+            tets.append(path)
+    tets = np.array(tets)
+    negative = signed_volumes(points, tets) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    return points, tets
+
+
+CUBE = sdf.box((1.0, 1.0, 1.0), center=(0.5, 0.5, 0.5))
+H = 0.25
+
+
+def test_a_valid_block_has_no_defect():
+    points, tets = block()
+    assert mesh_defects(points, tets, CUBE, H, bounds=(np.full(3, -0.1), np.full(3, 1.1))) == []
+
+
+def test_a_cell_turned_inside_out():
+    points, tets = block()
+    tets[7] = tets[7][[0, 2, 1, 3]]
+    found = {d.check: d for d in mesh_defects(points, tets, CUBE, H)}
+    assert found["negative cells"].count == 1
+    assert np.allclose(found["negative cells"].place, points[tets[7]].mean(axis=0))
+    assert "negative volume" in str(found["negative cells"])
+
+
+def test_two_overlapping_cells():
+    """A node pulled through the opposite face of its cell: the cells across that face overlap."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1], [0.3, 0.3, 0.3]], float)
+    # two cells on the face (1, 2, 3), the second on the same side as the first
+    tets = np.array([[0, 1, 2, 3], [5, 1, 2, 3]])
+    tets[signed_volumes(points, tets) < 0] = tets[signed_volumes(points, tets) < 0][:, [0, 2, 1, 3]]
+    defects = mesh_defects(points, tets, sdf.sphere(10.0), 1.0)
+    overlap = [d for d in defects if d.check == "face use"]
+    assert len(overlap) == 1 and overlap[0].count == 1
+    assert "same side" in overlap[0].cause and "at (" in str(overlap[0])
+
+
+def test_a_face_used_three_times():
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1], [1, 1, 1]], float)
+    tets = np.array([[0, 1, 2, 3], [0, 1, 2, 4], [0, 1, 2, 5]])
+    tets[signed_volumes(points, tets) < 0] = tets[signed_volumes(points, tets) < 0][:, [0, 2, 1, 3]]
+    defects = mesh_defects(points, tets, sdf.sphere(10.0), 1.0)
+    assert [d.check for d in defects] == ["face use"]
+    assert "more than two cells" in defects[0].cause
+
+
+def test_an_open_boundary():
+    points, tets = block()
+    defects = mesh_defects(points, tets[1:], CUBE, H)  # a cell taken out of the corner: still closed
+    assert not [d for d in defects if d.check == "open boundary"]
+    # two blocks touching along one edge only: the boundary is not a manifold there
+    a, ta = block(1)
+    b, tb = block(1, offset=(1.0, 1.0, 0.0))
+    points = np.concatenate([a, b])
+    tets = np.concatenate([ta, tb + len(a)])
+    # glue the shared edge's nodes: (1, 1, z) in both
+    _, first, inverse = np.unique(points.round(9), axis=0, return_index=True, return_inverse=True)
+    points, tets = points[first], inverse.ravel()[tets]
+    model = sdf.box((2, 2, 1), center=(1, 1, 0.5))
+    found = {d.check: d for d in mesh_defects(points, tets, model, 1.0)}
+    assert "open boundary" in found
+    assert np.allclose(found["open boundary"].place, (1, 1, 0.5))
+
+
+def test_a_boundary_face_far_outside():
+    """A cell on top of the block, 6 h above its surface: the faces of that cell, and only
+    those, are far; the message names the distance and the place."""
+    points, tets = block()
+    top = np.flatnonzero(np.isclose(points[:, 2], 1.0))
+    faces = boundary_faces(tets)
+    face = faces[np.isin(faces, top).all(axis=1)][0]
+    apex = points[face].mean(axis=0) + np.array([0, 0, 6 * H])
+    points = np.concatenate([points, [apex]])
+    tets = np.concatenate([tets, [[face[0], face[1], face[2], len(points) - 1]]])
+    assert signed_volumes(points, tets[-1:])[0] > 0
+    found = {d.check: d for d in mesh_defects(points, tets, CUBE, H)}
+    far = found["far boundary"]
+    assert far.count == 3 + 1  # the three new faces' centroids (2 h up) and the apex (6 h up)
+    assert "up to 6 h" in far.cause
+    assert np.allclose(far.place, apex)
+    assert list(found) == ["far boundary"]
+
+
+def test_a_boundary_crossing_itself():
+    """Two blocks pushed into one another: their boundaries cross, each pair found once."""
+    a, ta = block(1)
+    b, tb = block(1, offset=(0.45, 0.35, 0.25))
+    points = np.concatenate([a, b])
+    tets = np.concatenate([ta, tb + len(a)])
+    model = sdf.box((1.5, 1.5, 1.5), center=(0.75, 0.75, 0.75))
+    found = {d.check: d for d in mesh_defects(points, tets, model, 1.0)}
+    assert "self-intersection" in found
+    pairs = crossing_faces(points, boundary_faces(tets))
+    assert found["self-intersection"].count == len(pairs) > 0
+    faces = boundary_faces(tets)
+    assert all((faces[i] < len(a)).all() != (faces[j] < len(a)).all() for i, j in pairs)  # one face of each block
+    # apart, no pair crosses
+    apart = np.concatenate([a, b + 1.0])
+    assert len(crossing_faces(apart, boundary_faces(tets))) == 0
+
+
+def test_the_volume_check():
+    points, tets = block(4, size=1.0)
+    model = sdf.box((0.7, 1.0, 1.0), center=(0.35, 0.5, 0.5))  # the block is 43% larger
+    found = {d.check: d for d in mesh_defects(points, tets, model, 1.0, bounds=(np.full(3, -0.2), np.full(3, 1.2)))}
+    assert "+43%" in found["volume"].cause
+
+
+def _job(points, tets, model, h):
+    job = MeshingJob(model=model, given_model=model, h=h, size=None, options=DistMeshOptions())
+    job.points, job.tets, job.fixed_mask = points, tets, np.zeros(len(points), bool)
+    job.lower, job.upper = np.full(3, -0.1), np.full(3, 1.1)
+    return job
+
+
+def test_the_stage_sets_a_folded_quality_stage_aside():
+    points, tets = block()
+    folded = tets.copy()
+    folded[3] = folded[3][[0, 2, 1, 3]]
+    job = _job(points, folded, CUBE, H)
+    job.unimproved = (points, tets, np.zeros(len(points), bool))
+    with pytest.warns(ConvergenceWarning, match="quality stage .* made the mesh invalid .*negative cells"):
+        validate_mesh(job)
+    assert job.tets is tets and job.unimproved is None
+
+
+def test_the_stage_refuses_an_invalid_mesh_naming_place_and_cause():
+    points, tets = block()
+    apex = np.array([0.5, 0.5, 1.0 + 2.0])
+    points = np.concatenate([points, [apex]])
+    top = np.flatnonzero(np.isclose(points[:, 2], 1.0))
+    faces = boundary_faces(tets)
+    face = faces[np.isin(faces, top).all(axis=1)][0]
+    tets = np.concatenate([tets, [[face[0], face[1], face[2], len(points) - 1]]])
+    assert signed_volumes(points, tets[-1:])[0] > 0
+    job = _job(points, tets, CUBE, H)
+    with pytest.raises(MeshingError, match=r"far boundary: .*up to 8 h.*at \(0.5, 0.5, 3\)"):
+        validate_mesh(job)
+
+
+L_PART = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5)) - sdf.box((0.6, 0.6, 2), center=(0.7, 0.7, 0.5))
+
+
+def _l_part_nodes():
+    axis = np.linspace(0, 1, 11)
+    grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+    points = grid[L_PART(grid) <= 1e-9]
+    return points + np.random.default_rng(0).normal(0, 1e-3, points.shape)  # no co-spherical ties
+
+
+def test_final_mesh_drops_hull_cells_outside_the_part(monkeypatch):
+    """The old path: a closed choice that _valid_solid refused was returned as it was. Every
+    choice here is the convex hull of an L-shaped part's nodes (hull cells fill the notch, faces
+    up to 2.3 h outside): the old final mesh returned it, +56% volume. Now its cells outside go."""
+    points = _l_part_nodes()
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: tets)
+    p, t, _ = finalize.final_mesh(L_PART, points, np.zeros(len(points), bool), 0.1, 0.001, "scipy")
+    assert [d.check for d in mesh_defects(p, t, L_PART, 0.1, bounds=(np.full(3, -0.1), np.full(3, 1.1)))] == []
+    assert abs(signed_volumes(p, t).sum() - 0.64) < 0.02
+
+
+def test_final_mesh_refuses_a_solid_closed_over_hull_cells(monkeypatch):
+    """The same, with no repair to fall back on: refused, naming the place."""
+    points = _l_part_nodes()
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: tets)
+    monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
+    model = L_PART
+    with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*up to .* h.*\(at \("):
+        finalize.final_mesh(model, points, np.zeros(len(points), bool), 0.1, 0.001, "scipy")
+
+
+def test_final_mesh_unchanged_for_a_valid_part():
+    points, _ = block(6)
+    points = points + np.random.default_rng(0).normal(0, 1e-3, points.shape)
+    model = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        p, t, _ = finalize.final_mesh(model, points, np.zeros(len(points), bool), 1 / 6, 0.001, "scipy")
+    assert mesh_defects(p, t, model, 1 / 6) == []
+
+
+def test_distmesh_returns_the_final_mesh_when_the_quality_stage_folds_it(monkeypatch):
+    """A quality stage that pulls a boundary node through the part (its cells turn inside out,
+    the boundary crosses itself) is set aside: the mesh is the one without the stage."""
+    import fepre
+    from fepre.distmesh import slivers
+
+    model = sdf.sphere(1.0)
+    expected = fepre.distmesh(model, 0.45, slivers=False)
+    real = slivers.improve_arrays
+
+    def folding(points, tets, *args, **kwargs):
+        points, tets, report = real(points, tets, *args, **kwargs)
+        points = points.copy()
+        node = int(np.argmax(points[:, 0]))
+        points[node] = -0.5 * points[node]  # through the centre to the other side
+        return points, tets, report
+
+    monkeypatch.setattr(slivers, "improve_arrays", folding)
+    with pytest.warns(ConvergenceWarning, match=r"made the mesh invalid \(negative cells: .*at \("):
+        mesh = fepre.distmesh(model, 0.45)
+    assert np.asarray(mesh.points).tobytes() == np.asarray(expected.points).tobytes()
+    assert np.array_equal(mesh.cells_dict[10], expected.cells_dict[10])
+
+
+@pytest.mark.filterwarnings("ignore::fepre.errors.FeatureWarning")
+def test_distmesh_refuses_hull_cells_it_cannot_drop(monkeypatch):
+    """The issue's path end to end: every choice of the final mesh is the hull of the nodes and
+    no repair is left: MeshingError naming the check and the place, no mesh."""
+    import fepre
+
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: tets)
+    monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
+    with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*at \("):
+        fepre.distmesh(L_PART, 0.15)
+
+
+def test_faces_of_one_flat_side_never_cross():
+    """Two faces in one plane, rounding apart (a thin plate's flat side): not a crossing; the
+    same faces with one tipped through the other are."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 1e-17], [1.2, 0.2, -1e-17], [0.2, 1.2, 1e-17]])
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    assert len(crossing_faces(points, faces)) == 0
+    points[3, 2], points[4, 2] = -0.5, 0.5
+    assert crossing_faces(points, faces).tolist() == [[0, 1]]
