@@ -16,11 +16,42 @@ extent) is not moved, so its mesh is the one it always had.
 
 from __future__ import annotations
 
-from typing import Any
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import Any, Iterator
 
 import numpy as np
 
-__all__ = ["FAR", "local_offset", "moved_size", "moved_features"]
+#: the offset from the frame fepre works in to the user's (None: the same frame)
+_USER_OFFSET: ContextVar = ContextVar("fepre_user_offset", default=None)
+
+
+@contextmanager
+def user_frame(offset: np.ndarray) -> Iterator[None]:
+    """While inside, fepre works in a frame moved by ``-offset`` from the user's: messages that
+    name a place add it back (:func:`in_user_frame`)."""
+    token = _USER_OFFSET.set(in_user_frame(np.asarray(offset, dtype=np.float64)) if _USER_OFFSET.get() is not None
+                             else np.asarray(offset, dtype=np.float64))
+    try:
+        yield
+    finally:
+        _USER_OFFSET.reset(token)
+
+
+def in_user_frame(points: Any) -> np.ndarray:
+    """``points`` (or an offset) of the working frame in the user's coordinates.
+
+    Examples
+    --------
+    >>> with user_frame([1000.0, 0.0, 0.0]):
+    ...     in_user_frame([0.5, 0.0, 0.0]).tolist()
+    [1000.5, 0.0, 0.0]
+    """
+    offset = _USER_OFFSET.get()
+    points = np.asarray(points, dtype=np.float64)
+    return points if offset is None else points + offset
+
+__all__ = ["FAR", "local_offset", "moved_size", "moved_features", "user_frame", "in_user_frame"]
 
 #: a box whose centre is farther from the origin than this many times its largest extent is
 #: moved to the origin

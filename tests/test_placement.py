@@ -163,3 +163,21 @@ def test_an_error_about_a_far_part_names_the_frame():
         fepre.distmesh(part, 0.5, fixed=[[1e4 + 5.0, 0.0, 0.0]])
     if sys.version_info >= (3, 11):  # exception notes
         assert any("moved by (-10000.0, 0.0, 0.0)" in note for note in raised.value.__notes__)
+
+
+def test_the_size_fields_warning_names_places_where_the_far_part_is():
+    """The size field's under-hmin warning named local coordinates, (-0.2, 9.7, 0.3), for a plate
+    at (1e4, -5e3, 0): both through size_field and through distmesh(h=(hmin, hmax))."""
+    import warnings
+
+    plate = sdf.box((20.0, 20.0, 0.6)).translate((1e4, -5e3, 0.0))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fepre.size_field(plate, 0.3, 4.0, features=False)
+        fepre.distmesh(plate, h=(0.3, 4.0), slivers=False)
+    named = [str(w.message) for w in caught if "size field stops at hmin" in str(w.message)]
+    assert len(named) == 2
+    for message in named:
+        where = message.split(" at (", 1)[1].split(")", 1)[0]
+        x, y, z = (float(v) for v in where.split(", "))
+        assert 1e4 - 10 <= x <= 1e4 + 10 and -5e3 - 10 <= y <= -5e3 + 10 and -0.3 <= z <= 0.3

@@ -235,7 +235,7 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
     import dataclasses
 
     from ..arguments import as_bounds
-    from ..placement import moved_size
+    from ..placement import moved_size, user_frame
 
     local_bounds = None if bounds is None else tuple(np.asarray(b, np.float64) - offset for b in as_bounds(bounds, 3, "bounds"))
     try:
@@ -251,9 +251,10 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
             return given_callback(dataclasses.replace(state, points=state.points + offset))
 
     try:
-        grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=moved_size(size, -offset),
-                        fixed=local_fixed, periodic=periodic, regions=regions, callback=callback,
-                        _frame=offset, **rest)
+        with user_frame(offset):  # warnings raised below name places in the user's coordinates
+            grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=moved_size(size, -offset),
+                         fixed=local_fixed, periodic=periodic, regions=regions, callback=callback,
+                         _frame=offset, **rest)
     except (ValueError, MeshingError) as exc:
         if hasattr(exc, "add_note"):  # Python 3.11
             exc.add_note(f"fepre meshed the part moved by {shown(tuple(0.0 - offset))} (fepre.placement): "

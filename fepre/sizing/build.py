@@ -32,7 +32,7 @@ import numpy as np
 
 from ..arguments import domain_bounds, finite_float, positive_float
 from ..sdf.core import SDF
-from ..placement import local_offset
+from ..placement import in_user_frame, local_offset, user_frame
 from .curvature import max_curvature
 from .field import MAX_NODES, SizeField
 from .gradation import graded_sizes
@@ -141,8 +141,9 @@ def size_field(
     offset = local_offset(*domain_bounds(model, bounds))
     if offset.any():  # sized near the origin and moved back (fepre.placement)
         box = None if bounds is None else tuple(np.asarray(b, dtype=np.float64) - offset for b in domain_bounds(model, bounds))
-        local = size_field(model.translate(-offset), hmin, hmax, elements_across=elements_across,
-                           chord_tolerance=chord_tolerance, gradation=gradation, features=features, bounds=box)
+        with user_frame(offset):  # its warnings name places where the user's part is
+            local = size_field(model.translate(-offset), hmin, hmax, elements_across=elements_across,
+                               chord_tolerance=chord_tolerance, gradation=gradation, features=features, bounds=box)
         field = local.translated(offset)
         field.seconds = time.perf_counter() - start
         return field
@@ -265,14 +266,12 @@ def _warn_under_hmin(places: list[tuple], hmin: float) -> None:
     """One ResolutionWarning naming every feature that would need sizes below hmin."""
     if not places:
         return
-    import warnings
-
-    from ..errors import ResolutionWarning
+    from ..errors import ResolutionWarning, warn_user
 
     places = sorted(places, key=lambda place: place[0])
     lines = []
     for size, point, measure, kind in places[:MAX_NAMED]:
-        where = "(" + ", ".join(f"{c:.4g}" for c in point) + ")"
+        where = "(" + ", ".join(f"{c:.6g}" for c in in_user_frame(point)) + ")"
         if kind == "wall":
             lines.append(f"a wall {measure:.3g} thick at {where} would need {size:.3g}")
         elif kind == "gap":
@@ -281,11 +280,10 @@ def _warn_under_hmin(places: list[tuple], hmin: float) -> None:
             lines.append(f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}")
     if len(places) > MAX_NAMED:
         lines.append(f"and {len(places) - MAX_NAMED} more")
-    warnings.warn(
+    warn_user(
         f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
         + "; ".join(lines) + " (pass a smaller hmin to resolve them)",
         ResolutionWarning,
-        stacklevel=4,
     )
 
 
