@@ -80,6 +80,17 @@ def test_a_face_used_three_times():
     defects = mesh_defects(points, tets, sdf.sphere(10.0), 1.0)
     assert [d.check for d in defects] == ["face use"]
     assert "more than two cells" in defects[0].cause
+    assert defects[0].count == 1
+
+
+def test_a_face_used_six_times_counts_once():
+    # the count was face slots // 3: 2 for one face used six times
+    apexes = [[0, 0, 1], [0, 0, -1], [1, 1, 1], [1, 1, -1], [0.2, 0.2, 2], [0.2, 0.2, -2]]
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], *apexes], float)
+    tets = np.array([[0, 1, 2, 3 + k] for k in range(6)])
+    tets[signed_volumes(points, tets) < 0] = tets[signed_volumes(points, tets) < 0][:, [0, 2, 1, 3]]
+    defects = mesh_defects(points, tets, sdf.sphere(10.0), 1.0)
+    assert [d.check for d in defects] == ["face use"] and defects[0].count == 1
 
 
 def test_an_open_boundary():

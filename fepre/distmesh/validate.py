@@ -129,7 +129,8 @@ def _cell_checks(points: np.ndarray, tets: np.ndarray, defects: list[Defect]) ->
     over = uses > 2
     if over.any():
         slot = int(np.flatnonzero(over)[0])
-        defects.append(Defect("face use", int(over.sum() // 3) or 1, _place(points[tets[slot // 4]].mean(axis=0)),
+        # a face used k times fills k slots
+        defects.append(Defect("face use", int(round(float((1.0 / uses[over]).sum()))), _place(points[tets[slot // 4]].mean(axis=0)),
                               f"{int(over.sum())} face slots of faces used by more than two cells"))
         return None
     if same_side.any():

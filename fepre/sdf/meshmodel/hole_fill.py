@@ -216,18 +216,19 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
     if not loops:
         return FilledHoles(vertices, faces, 0, 0, 0.0, 0.0, open_edges)
     new_points, new_faces, free, faired = [], [], [], []
-    first = len(vertices)
+    first, placed = len(vertices), 0  # next new vertex, patch triangles so far
     for rim in loops:  # one patch per hole; each is built with array operations
         normal = _planar_normal(vertices[rim])
         if normal is None:
             points, triangles = _ring_patch(vertices, rim, first)
             free.append(np.arange(first, first + len(points)))
-            faired.append((rim, len(np.concatenate(new_faces)) if new_faces else 0, len(triangles)))
+            faired.append((rim, placed, len(triangles)))
         else:
             points, triangles = _flat_patch(vertices, rim, normal, first)
         new_points.append(points)
         new_faces.append(triangles)
         first += len(points)
+        placed += len(triangles)
     vertices = np.concatenate([vertices] + new_points)
     patches = np.concatenate(new_faces)
     faces = np.concatenate([faces, patches])
