@@ -112,13 +112,17 @@ def quality_stage(job: MeshingJob) -> None:
         return
     started = time.perf_counter()
     job.unimproved = (job.points, job.tets, job.fixed_mask)  # what validate_mesh falls back on
+    if _default_quality_stage(job) and not any(c.locked_nodes(job) is not None for c in job.constraints):
+        _fill_surface_gaps(job)
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
     pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
     locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
     try:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             job.points, job.tets, _ = improve_arrays(
-                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked)
+                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
+                collapse=~job.fixed_mask)
+            _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
         warn_user(
@@ -137,6 +141,29 @@ def quality_stage(job: MeshingJob) -> None:
         job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
                       f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
                       f"{measured['radius_ratio'].min():.3f}")
+
+
+def _fill_surface_gaps(job: MeshingJob) -> None:
+    """Long boundary edges split at their midpoints on the zero set (new free nodes appended):
+    the gaps a faceted surface leaves in the boundary nodes, which no vertex move repairs."""
+    from .surface_refine import split_long_boundary_edges
+
+    h = job.h
+    relative = None if job.size is None else ((lambda x: job.size(x) / h) if job.absolute else job.size)
+    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, h, relative)
+    if split:
+        job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
+    job.split_edges = split
+
+
+def _drop_unused_nodes(job: MeshingJob) -> None:
+    """Nodes in no cell (the quality stage's edge collapses leave them) removed, the rest renumbered."""
+    used = np.zeros(len(job.points), dtype=bool)
+    used[job.tets.ravel()] = True
+    if used.all():
+        return
+    number = np.cumsum(used) - 1
+    job.points, job.tets, job.fixed_mask = job.points[used], number[job.tets], job.fixed_mask[used]
 
 
 def _default_quality_stage(job: MeshingJob) -> bool:
@@ -205,6 +232,7 @@ def check_mesh(job: MeshingJob) -> None:
         slivers_seconds=np.array([job.seconds["slivers"]]),
         features_seconds=np.array([job.seconds["features"]]),
         feature_nodes=np.array([job.feature_nodes]),
+        split_edges=np.array([job.split_edges]),
         lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
         added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - job.started]),
