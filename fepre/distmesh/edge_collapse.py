@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface_guard import SurfaceGuard
+from .surface_guard import FACE_ANGLE, FACE_DEPTH, SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, face_keys, face_neighbours, faces_on_boundary
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
 
 __all__ = ["collapse_round", "SHORT_EDGE"]
 
@@ -60,8 +60,8 @@ def _try_collapse(points, tets, quality, u, v, faces, targets: ShapeTargets, gua
     star_v = np.flatnonzero((tets == v).any(axis=1))
     both = (tets[star_v] == u).any(axis=1)
     removed, changed = star_v[both], star_v[~both]
-    if changed.size == 0:
-        return None
+    if changed.size == 0:  # every cell of v holds u: v goes with its cells
+        return _remove_star(points, tets, removed, v, faces, guard)
     new = tets[changed].copy()
     new[new == v] = u
     if (signed_volume(points[new]) <= 0).any():
@@ -95,6 +95,48 @@ def _try_collapse(points, tets, quality, u, v, faces, targets: ShapeTargets, gua
     return removed, changed, new, new_quality
 
 
+def _faces_on_surface(points, new_faces, old_faces, guard: SurfaceGuard) -> bool:
+    """The new boundary faces lie on the surface: centroid no farther from it than ``FACE_DEPTH
+    h`` and normal within ``FACE_ANGLE`` of the model's, or no worse than the worst face they
+    replace on either count."""
+    def measures(faces):
+        values, gradient = guard.model.value_and_gradient(points[faces].mean(axis=1))
+        tri = points[faces]
+        normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        cosine = np.einsum("ij,ij->i", normals, gradient) / np.maximum(
+            np.linalg.norm(normals, axis=1) * np.linalg.norm(gradient, axis=1), 1e-300)
+        return np.abs(values), cosine
+
+    depth_limit, cosine_limit = FACE_DEPTH * guard.h, np.cos(np.radians(FACE_ANGLE))
+    if old_faces.shape[0]:
+        depth, cosine = measures(old_faces)
+        depth_limit, cosine_limit = max(depth_limit, depth.max()), min(cosine_limit, cosine.min())
+    depth, cosine = measures(new_faces)
+    return bool((depth <= depth_limit).all() and (cosine >= cosine_limit).all())
+
+
+def _remove_star(points, tets, removed, v, faces, guard: SurfaceGuard):
+    """Removing the cells of ``v`` when each holds ``u`` too: allowed when the faces it exposes
+    (those opposite ``v``) lie on the surface and the rest stays a solid with a closed manifold
+    boundary."""
+    cells = tets[removed]
+    local = np.argmax(cells == v, axis=1)
+    exposed = cells[np.arange(cells.shape[0])[:, None], FACE_OF_TET[local]][:, ::-1]  # outward once the cells go
+    gone = faces[(faces == v).any(axis=1)]
+    if not _faces_on_surface(points, exposed, gone, guard):
+        return None
+    n = points.shape[0]
+    alive = np.ones(tets.shape[0], dtype=bool)
+    alive[removed] = False
+    try:
+        after = faces_on_boundary(tets[alive], face_neighbours(tets[alive], n))
+    except ValueError:
+        return None
+    if open_boundary_reason(after, n) or after.shape[0] != faces.shape[0] - gone.shape[0] + exposed.shape[0]:
+        return None
+    return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0)
+
+
 def collapse_round(
     points: np.ndarray,
     tets: np.ndarray,
@@ -119,8 +161,8 @@ def collapse_round(
     on_boundary, movable : (N,) bool, the boundary vertices and those that may move; both are
         updated in place for the removed vertices
     removable : (N,) bool, the vertices that may be removed (not the user's fixed points nor the
-        feature nodes; a node pinned on a crease may go, since ``u`` keeps the crease's faces);
-        updated in place
+        feature corners); a vertex that may not move (on a crease or a feature curve) is only
+        removed into another such vertex, which keeps the crease; updated in place
     targets : ShapeTargets
     guard : SurfaceGuard
     locked : (N,) bool, optional
@@ -164,6 +206,8 @@ def collapse_round(
     for u, v in _short_edges(points, tets, quality, threshold, on_boundary):
         for keep, gone in ((u, v), (v, u)):
             if not removable[gone] or (locked is not None and locked[gone]) or not on_boundary[keep]:
+                continue
+            if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
                 continue
             result = _try_collapse(points, tets, quality, keep, gone, faces, targets, guard)
             if result is None:

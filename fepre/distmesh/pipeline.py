@@ -121,7 +121,7 @@ def quality_stage(job: MeshingJob) -> None:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             job.points, job.tets, _ = improve_arrays(
                 job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
-                collapse=~job.fixed_mask)
+                collapse=_removable_nodes(job))
             _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
@@ -154,6 +154,20 @@ def _fill_surface_gaps(job: MeshingJob) -> None:
     if split:
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
     job.split_edges = split
+
+
+def _removable_nodes(job: MeshingJob) -> np.ndarray:
+    """The nodes an edge collapse may remove: every node but the user's fixed points and the
+    feature corners (a feature curve's node only into another node on a crease)."""
+    from .output import feature_flags
+
+    removable = ~job.fixed_mask | (feature_flags(job.points, job.features) == 1)
+    if job.user_fixed is not None and len(job.user_fixed):
+        from scipy.spatial import cKDTree
+
+        distance, index = cKDTree(job.points).query(np.asarray(job.user_fixed, dtype=np.float64))
+        removable[index[distance <= 1e-9 * job.h]] = False
+    return removable
 
 
 def _drop_unused_nodes(job: MeshingJob) -> None:
