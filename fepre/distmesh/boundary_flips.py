@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .boundary_slivers import CREASE_ANGLE, _unit_normals
-from .flips import MIN_GAIN, RING_OF_EDGE, _apply, _ring_tables
+from .flips import MIN_GAIN, RING_OF_EDGE, _apply, _region, _ring_tables
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets
 from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted
@@ -37,6 +37,9 @@ __all__ = ["boundary_edge_round", "MAX_OPEN_RING"]
 
 #: Largest open ring (cells around a boundary edge) that boundary edge removal tries.
 MAX_OPEN_RING = 5
+#: The new faces may lie this many times as far from the surface as the old ones (when beyond
+#: ``FACE_DEPTH h``): a cap's long chord and the flipped one sag alike on a curved surface.
+DEPTH_SLACK = 1.25
 
 
 def _outward(points: np.ndarray, faces: np.ndarray, inside: np.ndarray) -> np.ndarray:
@@ -172,9 +175,15 @@ def boundary_edge_round(
     wanted = wanted[in_sorted(wanted, boundary_edges)]
     if wanted.size == 0:
         return unchanged
-    existing = np.unique(edge_keys(tets[:, EDGE_OF_TET].reshape(-1, 2), n_points))
+    region, sub, _ = _region(n_points, tets, bad)  # the rings of the bad cells' edges lie here
+    # the edges at the ring ends' vertices: a flip must not make an edge that exists
+    ends = np.zeros(n_points, dtype=bool)
+    ends[sub.ravel()] = True
+    near = tets[ends[tets].any(axis=1)]
+    existing = np.unique(edge_keys(near[:, EDGE_OF_TET].reshape(-1, 2), n_points))
     candidates, surface_changes = [], []
-    for n, cells, ring, a, b in _open_rings(tets, wanted, n_points):
+    for n, cells, ring, a, b in _open_rings(sub, wanted, n_points):
+        cells = region[cells]
         allowed = _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points)
         if not allowed.any():
             continue
@@ -223,10 +232,10 @@ def _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard
     check = np.flatnonzero(allowed)
     if check.size:
         outward = (normals[0] + normals[1])[check]
-        new_faces = [_along(points, np.stack([a, w, x], 1)[check], outward),
-                     _along(points, np.stack([b, w, x], 1)[check], outward)]
-        old = np.concatenate([f[check] for f in old_faces])
-        fine = guard.faces_allowed(points[old], points[np.concatenate(new_faces)]).reshape(2, -1).all(axis=0)
+        new_faces = np.stack([_along(points, np.stack([a, w, x], 1)[check], outward),
+                              _along(points, np.stack([b, w, x], 1)[check], outward)], axis=1)
+        old = np.stack([f[check] for f in old_faces], axis=1)
+        fine = guard.replacements_allowed(points[old], points[new_faces], DEPTH_SLACK)
         allowed[check[~fine]] = False
     return allowed
 

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface_guard import FACE_ANGLE, FACE_DEPTH, SurfaceGuard
+from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, face_keys, face_neighbours, faces_on_boundary, open_boundary_reason
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted
 
 __all__ = ["collapse_round", "SHORT_EDGE"]
 
@@ -55,13 +55,23 @@ def _surface_neighbours(faces: np.ndarray, vertex: int) -> set:
     return set(faces[(faces == vertex).any(axis=1)].ravel().tolist()) - {vertex}
 
 
-def _try_collapse(points, tets, quality, u, v, faces, targets: ShapeTargets, guard: SurfaceGuard):
-    """The cells after collapsing ``v`` into ``u`` and their scores, or None when not allowed."""
+def _boundary_faces_of(tets: np.ndarray, cells: np.ndarray, keys: np.ndarray, n: int) -> np.ndarray:
+    """The boundary faces (outward) of ``cells``, given the sorted ``keys`` of the boundary faces."""
+    faces = tets[cells][:, FACE_OF_TET].reshape(-1, 3)
+    return faces[in_sorted(face_keys(faces, n), keys)]
+
+
+def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guard: SurfaceGuard):
+    """The cells after collapsing ``v`` into ``u``, their scores and the boundary faces before and
+    after around them, or None when not allowed."""
+    n = points.shape[0]
     star_v = np.flatnonzero((tets == v).any(axis=1))
+    star_u = np.flatnonzero((tets == u).any(axis=1))
+    faces = _boundary_faces_of(tets, np.union1d(star_u, star_v), keys, n)
     both = (tets[star_v] == u).any(axis=1)
     removed, changed = star_v[both], star_v[~both]
     if changed.size == 0:  # every cell of v holds u: v goes with its cells
-        return _remove_star(points, tets, removed, v, faces, guard)
+        return _remove_star(points, tets, removed, v, faces, keys, guard)
     new = tets[changed].copy()
     new[new == v] = u
     if (signed_volume(points[new]) <= 0).any():
@@ -75,66 +85,48 @@ def _try_collapse(points, tets, quality, u, v, faces, targets: ShapeTargets, gua
         return None
     if _surface_neighbours(faces, u) & _surface_neighbours(faces, v) != set(on_uv.ravel().tolist()) - {u, v}:
         return None
-    star_u = np.flatnonzero((tets == u).any(axis=1))
     keep_u = np.setdiff1d(star_u, removed)
     around = np.concatenate([tets[keep_u], new])
-    n = points.shape[0]
     if np.unique(np.sort(around, axis=1), axis=0).shape[0] != around.shape[0]:
         return None
-    keys = face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n)
-    _, uses = np.unique(keys, return_counts=True)
+    _, uses = np.unique(face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
     if uses.max() > 2:
         return None
     # the boundary faces that move with v stay on the surface
     moved = faces[(faces == v).any(axis=1) & ~(faces == u).any(axis=1)]
-    if moved.shape[0]:
-        after = moved.copy()
-        after[after == v] = u
-        if not guard.faces_allowed(points[moved], points[after]).all():
-            return None
-    return removed, changed, new, new_quality
+    after = moved.copy()
+    after[after == v] = u
+    if moved.shape[0] and not guard.faces_allowed(points[moved], points[after]).all():
+        return None
+    gone = faces[(faces == v).any(axis=1)]
+    return removed, changed, new, new_quality, gone, after
 
 
-def _faces_on_surface(points, new_faces, old_faces, guard: SurfaceGuard) -> bool:
-    """The new boundary faces lie on the surface: centroid no farther from it than ``FACE_DEPTH
-    h`` and normal within ``FACE_ANGLE`` of the model's, or no worse than the worst face they
-    replace on either count."""
-    def measures(faces):
-        values, gradient = guard.model.value_and_gradient(points[faces].mean(axis=1))
-        tri = points[faces]
-        normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        cosine = np.einsum("ij,ij->i", normals, gradient) / np.maximum(
-            np.linalg.norm(normals, axis=1) * np.linalg.norm(gradient, axis=1), 1e-300)
-        return np.abs(values), cosine
-
-    depth_limit, cosine_limit = FACE_DEPTH * guard.h, np.cos(np.radians(FACE_ANGLE))
-    if old_faces.shape[0]:
-        depth, cosine = measures(old_faces)
-        depth_limit, cosine_limit = max(depth_limit, depth.max()), min(cosine_limit, cosine.min())
-    depth, cosine = measures(new_faces)
-    return bool((depth <= depth_limit).all() and (cosine >= cosine_limit).all())
-
-
-def _remove_star(points, tets, removed, v, faces, guard: SurfaceGuard):
+def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
     """Removing the cells of ``v`` when each holds ``u`` too: allowed when the faces it exposes
-    (those opposite ``v``) lie on the surface and the rest stays a solid with a closed manifold
-    boundary."""
+    (those opposite ``v``) are inner faces now, lie on the surface, and every edge of theirs
+    ends up on exactly two boundary faces."""
+    n = points.shape[0]
     cells = tets[removed]
     local = np.argmax(cells == v, axis=1)
     exposed = cells[np.arange(cells.shape[0])[:, None], FACE_OF_TET[local]][:, ::-1]  # outward once the cells go
+    exposed_keys = face_keys(exposed, n)
+    if in_sorted(exposed_keys, keys).any() or np.unique(exposed_keys).size != exposed_keys.size:
+        return None
     gone = faces[(faces == v).any(axis=1)]
-    if not _faces_on_surface(points, exposed, gone, guard):
+    if not guard.replacements_allowed(points[gone][None], points[exposed][None])[0]:
         return None
-    n = points.shape[0]
-    alive = np.ones(tets.shape[0], dtype=bool)
-    alive[removed] = False
-    try:
-        after = faces_on_boundary(tets[alive], face_neighbours(tets[alive], n))
-    except ValueError:
+    near = np.flatnonzero(np.isin(tets, cells).any(axis=1))
+    near = np.setdiff1d(near, removed)
+    new_keys = np.union1d(np.setdiff1d(keys, face_keys(gone, n)), exposed_keys)
+    surface = _boundary_faces_of(tets, near, new_keys, n)
+    edges = np.sort(surface[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    codes, uses = np.unique(edges[:, 0] * n + edges[:, 1], return_counts=True)
+    wanted = np.sort(exposed[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    wanted = wanted[:, 0] * n + wanted[:, 1]
+    if not in_sorted(wanted, codes).all() or (uses[np.searchsorted(codes, wanted)] != 2).any():
         return None
-    if open_boundary_reason(after, n) or after.shape[0] != faces.shape[0] - gone.shape[0] + exposed.shape[0]:
-        return None
-    return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0)
+    return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0), gone, exposed
 
 
 def collapse_round(
@@ -145,6 +137,8 @@ def collapse_round(
     on_boundary: np.ndarray,
     movable: np.ndarray,
     removable: np.ndarray,
+    boundary_face_keys: np.ndarray,
+    boundary_edges: np.ndarray,
     *,
     targets: ShapeTargets,
     guard: SurfaceGuard,
@@ -172,7 +166,7 @@ def collapse_round(
     -------
     tets, quality : the remaining cells and their scores
     collapses : the number of vertices removed (they stay in ``points``, in no cell)
-    faces : (F, 3) the boundary faces of the new cells
+    boundary_face_keys, boundary_edges : the updated keys
     touched : (N,) bool, the vertices that kept a collapsed vertex's cells
 
     Examples
@@ -185,6 +179,7 @@ def collapse_round(
     >>> from fepre import sdf
     >>> from fepre.distmesh.surface_guard import SurfaceGuard
     >>> from fepre.distmesh.tet_shape import ShapeTargets, signed_volume
+    >>> from fepre.distmesh.tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary
     >>> corners = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1], [-1, -1, -1], [1, 1, -1],
     ...                     [1, -1, 1], [-1, 1, 1]]) / np.sqrt(3)
     >>> near = corners[0] + [0.08, -0.06, 0.0]
@@ -194,14 +189,16 @@ def collapse_round(
     >>> on = np.ones(10, dtype=bool); on[0] = False; free = on.copy(); removable = on.copy()
     >>> targets, ball = ShapeTargets(), sdf.sphere(1.0)
     >>> q = targets.score(points[tets])
-    >>> new, q2, done, faces, _ = collapse_round(points, tets, q, 33.0, on, free, removable, targets=targets,
-    ...                                          guard=SurfaceGuard(ball, 4.0, points, on))
-    >>> done, len(faces), round(float(q.min()), 1), round(float(q2.min()), 1)
-    (1, 12, 3.5, 45.0)
+    >>> faces = faces_on_boundary(tets, face_neighbours(tets, 10))
+    >>> keys = np.sort(face_keys(faces, 10))
+    >>> edges = np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), 10))
+    >>> new, q2, done, keys, edges, _ = collapse_round(points, tets, q, 33.0, on, free, removable, keys, edges,
+    ...                                                targets=targets, guard=SurfaceGuard(ball, 4.0, points, on))
+    >>> done, len(keys), len(edges), round(float(q.min()), 1), round(float(q2.min()), 1)
+    (1, 12, 18, 3.5, 45.0)
     """
     n = points.shape[0]
     touched = np.zeros(n, dtype=bool)
-    faces = faces_on_boundary(tets, face_neighbours(tets, n))
     done = 0
     for u, v in _short_edges(points, tets, quality, threshold, on_boundary):
         for keep, gone in ((u, v), (v, u)):
@@ -209,19 +206,26 @@ def collapse_round(
                 continue
             if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
                 continue
-            result = _try_collapse(points, tets, quality, keep, gone, faces, targets, guard)
+            result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard)
             if result is None:
                 continue
-            removed, changed, new, new_quality = result
+            removed, changed, new, new_quality, old_faces, new_faces = result
             tets = tets.copy()
             quality = quality.copy()
             tets[changed], quality[changed] = new, new_quality
             alive = np.ones(tets.shape[0], dtype=bool)
             alive[removed] = False
             tets, quality = tets[alive], quality[alive]
-            faces = faces_on_boundary(tets, face_neighbours(tets, n))
+            boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, face_keys(old_faces, n)),
+                                            face_keys(new_faces, n))
+            # every old face held v: its edges at v go, the new faces' edges come
+            old_edges = old_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+            old_edges = old_edges[(old_edges == gone).any(axis=1)]
+            boundary_edges = np.union1d(np.setdiff1d(boundary_edges, edge_keys(old_edges, n)),
+                                        edge_keys(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
             on_boundary[gone] = movable[gone] = removable[gone] = False
             touched[new.ravel()] = True
+            touched[keep] = True
             done += 1
             break
-    return tets, quality, done, faces, touched
+    return tets, quality, done, boundary_face_keys, boundary_edges, touched

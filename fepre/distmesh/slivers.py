@@ -429,14 +429,11 @@ class _SliverStage:
             self.boundary_face_keys, self.boundary_edges, targets=self.targets, guard=self.guard, locked=self.locked)
         if self.removable is None:
             return flips, touched
-        self.tets, self.quality, collapses, faces, collapsed = self.timed(
+        self.tets, self.quality, collapses, self.boundary_face_keys, self.boundary_edges, collapsed = self.timed(
             "flip", collapse_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
-            self.movable, self.removable, targets=self.targets, guard=self.guard, locked=self.locked)
-        if collapses:
-            n = self.points.shape[0]
-            self.boundary_face_keys = np.unique(face_keys(faces, n))
-            self.boundary_edges = _boundary_edge_keys(faces, n)
-            self.counts["collapses"] += collapses
+            self.movable, self.removable, self.boundary_face_keys, self.boundary_edges, targets=self.targets,
+            guard=self.guard, locked=self.locked)
+        self.counts["collapses"] += collapses
         return flips + collapses, touched | collapsed
 
     def target_rounds(self, maxiter: int, deadline: float | None, start: float) -> int:

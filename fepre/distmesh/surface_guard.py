@@ -162,3 +162,28 @@ class SurfaceGuard:
             cosine_limit = np.minimum(cosine[:k], cosine_limit)
             depth, cosine = depth[k:], cosine[k:]
         return (depth <= depth_limit) & (cosine >= cosine_limit)
+
+    def replacements_allowed(self, old: np.ndarray, new: np.ndarray, slack: float = 1.0) -> np.ndarray:
+        """Mask (K,) of the changes of the surface where the boundary faces ``new[k]`` (K, P, 3, 3,
+        outward) replace the faces ``old[k]`` (K, J, 3, 3) as a whole (a topological change):
+        every new centroid within ``FACE_DEPTH * h`` of the zero set, or within ``slack`` times
+        the farthest old one, and every new normal within ``FACE_ANGLE`` of the model's, or no
+        further than the worst old one."""
+        def measures(corners):
+            flat = corners.reshape(-1, 3, 3)
+            values, gradient = self.model.value_and_gradient(flat.mean(axis=1))
+            normals = np.cross(flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0])
+            cosine = np.einsum("ij,ij->i", _unit(normals), _unit(gradient))
+            return np.abs(values).reshape(corners.shape[:2]), cosine.reshape(corners.shape[:2])
+
+        count = new.shape[0]
+        depth_limit = np.full(count, FACE_DEPTH * self.h)
+        cosine_limit = np.full(count, np.cos(np.radians(FACE_ANGLE)))
+        if count == 0:
+            return np.zeros(0, dtype=bool)
+        if old.shape[1]:
+            depth, cosine = measures(old)
+            depth_limit = np.maximum(depth_limit, slack * depth.max(axis=1))
+            cosine_limit = np.minimum(cosine_limit, cosine.min(axis=1))
+        depth, cosine = measures(new)
+        return (depth <= depth_limit[:, None]).all(axis=1) & (cosine >= cosine_limit[:, None]).all(axis=1)
