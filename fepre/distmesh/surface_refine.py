@@ -36,6 +36,8 @@ MAX_PASSES = 4
 
 
 def _boundary_edges(tets: np.ndarray, n_points: int) -> np.ndarray:
+    """The edges of the faces that only one of ``tets`` holds (with every cell at an edge's
+    ends among ``tets``, its boundary edges among them are the mesh's)."""
     faces = faces_on_boundary(tets, face_neighbours(tets, n_points))
     pairs = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     return np.unique(np.sort(pairs, axis=1), axis=0)
@@ -55,26 +57,37 @@ def _disjoint(cells: np.ndarray, owner: np.ndarray, allowed: np.ndarray, n_cells
 
 def _long_edges(points, tets, h, size) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The edges longer than ``LONG_EDGE`` local sizes, longest first: (E, 2), midpoints, lengths."""
-    n = points.shape[0]
-    edges = np.unique(np.sort(tets[:, EDGE_OF_TET].reshape(-1, 2), axis=1), axis=0)
-    length = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
-    long = np.flatnonzero(length > LONG_EDGE * h * (1.0 if size is None else 0.5))  # cheap pre-filter
-    middle = 0.5 * (points[edges[long, 0]] + points[edges[long, 1]])
+    pairs = tets[:, EDGE_OF_TET].reshape(-1, 2)
+    vectors = points[pairs[:, 0]] - points[pairs[:, 1]]
+    squared = np.einsum("ij,ij->i", vectors, vectors)
+    # a cheap pre-filter on every edge of every cell (relative sizes are taken to be >= 1/2)
+    floor = LONG_EDGE * h * (1.0 if size is None else 0.5)
+    candidates = np.unique(np.sort(pairs[squared > floor * floor], axis=1), axis=0)
+    length = np.linalg.norm(points[candidates[:, 0]] - points[candidates[:, 1]], axis=1)
+    middle = 0.5 * (points[candidates[:, 0]] + points[candidates[:, 1]])
     local = h if size is None else h * np.asarray(size(middle), dtype=float)
-    keep = length[long] > LONG_EDGE * local
-    long, middle = long[keep], middle[keep]
-    order = np.argsort(-length[long], kind="stable")
-    return edges[long[order]], middle[order], length[long[order]]
+    keep = np.flatnonzero(length > LONG_EDGE * local)
+    keep = keep[np.argsort(-length[keep], kind="stable")]
+    return candidates[keep], middle[keep], length[keep]
 
 
-def _split_pass(points, tets, model, h, size) -> tuple[np.ndarray, np.ndarray, int]:
+def _split_pass(points, tets, model, h, size, first_new: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """One pass of splits; only the cells with a vertex numbered ``first_new`` or above are
+    searched for long edges (the halves of the last pass's splits)."""
     n = points.shape[0]
-    edges, middle, length = _long_edges(points, tets, h, size)
+    searched = tets if first_new == 0 else tets[(tets >= first_new).any(axis=1)]
+    edges, middle, length = _long_edges(points, searched, h, size)
     if edges.shape[0] == 0:
         return points, tets, 0
+    # everything below looks at the cells at the long edges' ends only: every cell around such
+    # an edge and every face on it is one of them
+    ends = np.zeros(n, dtype=bool)
+    ends[edges.ravel()] = True
+    around = np.flatnonzero(ends[tets].any(axis=1))
+    sub = tets[around]
     # a boundary edge's midpoint goes onto the zero set; an inner edge's stays (if inside)
     keys = edge_keys(edges, n)
-    on_surface = np.isin(keys, edge_keys(_boundary_edges(tets, n), n))
+    on_surface = np.isin(keys, edge_keys(_boundary_edges(sub, n), n))
     new = middle.copy()
     if on_surface.any():
         new[on_surface] = model.project(middle[on_surface], iterations=20, tol=1e-6 * h, warn=False)
@@ -85,7 +98,7 @@ def _split_pass(points, tets, model, h, size) -> tuple[np.ndarray, np.ndarray, i
     if edges.shape[0] == 0:
         return points, tets, 0
     # the cells around each edge
-    all_keys = edge_keys(tets[:, EDGE_OF_TET].reshape(-1, 2), n)
+    all_keys = edge_keys(sub[:, EDGE_OF_TET].reshape(-1, 2), n)
     order = np.argsort(all_keys, kind="stable")
     sorted_keys = all_keys[order]
     keys = edge_keys(edges, n)
@@ -93,7 +106,7 @@ def _split_pass(points, tets, model, h, size) -> tuple[np.ndarray, np.ndarray, i
     count = np.searchsorted(sorted_keys, keys, side="right") - start
     slots = order[np.repeat(start, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
     owner = np.repeat(np.arange(edges.shape[0]), count)
-    cells = slots // 6
+    cells = around[slots // 6]
     local_edge = EDGE_OF_TET[slots % 6]
     # each cell (.., u, .., v, ..) becomes one copy with u -> m and one with v -> m
     index = n + owner
@@ -165,9 +178,11 @@ def split_long_boundary_edges(
     >>> bool(np.allclose(np.linalg.norm(new_points[5:], axis=1), 1.0))
     True
     """
-    total = 0
+    total, first_new = 0, 0
     for _ in range(MAX_PASSES):
-        points, tets, splits = _split_pass(points, tets, model, h, size)
+        count = points.shape[0]
+        points, tets, splits = _split_pass(points, tets, model, h, size, first_new)
+        first_new = count
         total += splits
         if splits == 0:
             break
