@@ -36,7 +36,7 @@ def _coarse_ball(h: float):
 def test_splits_leave_no_long_edge_and_put_new_nodes_on_the_surface():
     ball, points, tets = _coarse_ball(0.5)
     h = 0.25  # the mesh is twice as coarse as this h asks: most edges are long
-    new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, h)
+    new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, h, scale=1.0)
     assert splits == len(new_points) - len(points) > 20
     assert np.array_equal(new_points[: len(points)], points)
     assert (signed_volume(new_points[new_tets]) > 0).all()
@@ -61,6 +61,8 @@ def test_a_mesh_without_long_edges_is_left_alone():
     ball, points, tets = _coarse_ball(0.3)
     new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, 0.3)
     assert splits == 0 and new_points is points and new_tets is tets
+    # a mesh uniformly coarser than h is not split either: its own scale is the measure
+    assert split_long_boundary_edges(points, tets, ball, 0.15)[2] == 0
 
 
 def eared_head(resolution: int = 16):

@@ -27,8 +27,10 @@ from .tet_topology import EDGE_OF_TET, edge_keys, face_neighbours, faces_on_boun
 
 __all__ = ["split_long_boundary_edges", "LONG_EDGE"]
 
-#: Boundary edges longer than this many local sizes are split.
+#: Edges longer than this many local sizes (times the mesh's own scale, when above 1) are split.
 LONG_EDGE = 1.8
+#: Edges sampled for the mesh's scale (the median of length over local size).
+SCALE_SAMPLES = 20_000
 #: A midpoint may move at most this fraction of the edge's length onto the zero set.
 MAX_PROJECTION = 0.3
 #: Passes of splits at most (an edge of 3 h needs one; of 6 h, two).
@@ -55,28 +57,38 @@ def _disjoint(cells: np.ndarray, owner: np.ndarray, allowed: np.ndarray, n_cells
     return chosen
 
 
-def _long_edges(points, tets, h, size) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The edges longer than ``LONG_EDGE`` local sizes, longest first: (E, 2), midpoints, lengths."""
+def _mesh_scale(points, pairs, h, size) -> float:
+    """The median of edge length over local size on up to ``SCALE_SAMPLES`` edges (DistMesh's
+    edges are its sizes times one global factor, about 1.05 when uniform)."""
+    sample = pairs[:: max(1, pairs.shape[0] // SCALE_SAMPLES)]
+    length = np.linalg.norm(points[sample[:, 0]] - points[sample[:, 1]], axis=1)
+    local = h if size is None else h * np.asarray(size(0.5 * (points[sample[:, 0]] + points[sample[:, 1]])), dtype=float)
+    return float(np.median(length / local))
+
+
+def _long_edges(points, tets, h, size, scale) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The edges longer than ``LONG_EDGE`` times ``scale`` local sizes, longest first: (E, 2),
+    midpoints, lengths."""
     pairs = tets[:, EDGE_OF_TET].reshape(-1, 2)
     vectors = points[pairs[:, 0]] - points[pairs[:, 1]]
     squared = np.einsum("ij,ij->i", vectors, vectors)
     # a cheap pre-filter on every edge of every cell (relative sizes are taken to be >= 1/2)
-    floor = LONG_EDGE * h * (1.0 if size is None else 0.5)
+    floor = LONG_EDGE * scale * h * (1.0 if size is None else 0.5)
     candidates = np.unique(np.sort(pairs[squared > floor * floor], axis=1), axis=0)
     length = np.linalg.norm(points[candidates[:, 0]] - points[candidates[:, 1]], axis=1)
     middle = 0.5 * (points[candidates[:, 0]] + points[candidates[:, 1]])
     local = h if size is None else h * np.asarray(size(middle), dtype=float)
-    keep = np.flatnonzero(length > LONG_EDGE * local)
+    keep = np.flatnonzero(length > LONG_EDGE * scale * local)
     keep = keep[np.argsort(-length[keep], kind="stable")]
     return candidates[keep], middle[keep], length[keep]
 
 
-def _split_pass(points, tets, model, h, size, first_new: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+def _split_pass(points, tets, model, h, size, scale: float, first_new: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """One pass of splits; only the cells with a vertex numbered ``first_new`` or above are
     searched for long edges (the halves of the last pass's splits)."""
     n = points.shape[0]
     searched = tets if first_new == 0 else tets[(tets >= first_new).any(axis=1)]
-    edges, middle, length = _long_edges(points, searched, h, size)
+    edges, middle, length = _long_edges(points, searched, h, size, scale)
     if edges.shape[0] == 0:
         return points, tets, 0
     # everything below looks at the cells at the long edges' ends only: every cell around such
@@ -141,8 +153,10 @@ def split_long_boundary_edges(
     model,
     h: float,
     size: Callable | None = None,
+    scale: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Split the boundary edges longer than ``LONG_EDGE`` local sizes at their projected midpoints.
+    """Split the edges longer than ``LONG_EDGE`` local sizes (times ``scale``) at their midpoints,
+    projected onto the zero set for boundary edges.
 
     Parameters
     ----------
@@ -154,6 +168,10 @@ def split_long_boundary_edges(
         The edge length (the smallest one with ``size``).
     size : callable, optional
         ``size((K, 3)) -> (K,)``, the local edge length over ``h``; uniform when None.
+    scale : float, optional
+        The mesh's edge length over the local size; measured when None (the median over up to
+        ``SCALE_SAMPLES`` edges, at least 1): a graded DistMesh mesh's edges are its sizes times
+        one factor, and only edges long for the mesh itself are gaps.
 
     Returns
     -------
@@ -172,16 +190,18 @@ def split_long_boundary_edges(
     >>> r = 1 / np.sqrt(3)
     >>> points = np.array([[0.0, 0.0, 0.0], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
     >>> tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
-    >>> new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, h=0.5)
+    >>> new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, h=0.5, scale=1.0)
     >>> splits, len(new_points) - len(points), len(new_tets)
     (16, 16, 36)
     >>> bool(np.allclose(np.linalg.norm(new_points[5:], axis=1), 1.0))
     True
     """
     total, first_new = 0, 0
+    if scale is None:
+        scale = max(1.0, _mesh_scale(points, tets[:, EDGE_OF_TET].reshape(-1, 2), h, size))
     for _ in range(MAX_PASSES):
         count = points.shape[0]
-        points, tets, splits = _split_pass(points, tets, model, h, size, first_new)
+        points, tets, splits = _split_pass(points, tets, model, h, size, scale, first_new)
         first_new = count
         total += splits
         if splits == 0:
