@@ -121,7 +121,7 @@ def quality_stage(job: MeshingJob) -> None:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             job.points, job.tets, _ = improve_arrays(
                 job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
-                collapse=_removable_nodes(job))
+                collapse=_removable_nodes(job), local_size=_local_size(job))
             _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
@@ -141,6 +141,15 @@ def quality_stage(job: MeshingJob) -> None:
         job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
                       f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
                       f"{measured['radius_ratio'].min():.3f}")
+
+
+def _local_size(job: MeshingJob):
+    """The graded mesh's edge length at points, in units of length (None when uniform)."""
+    if job.size is None:
+        return None
+    if job.absolute:
+        return job.size
+    return lambda x: job.h * np.asarray(job.size(x), dtype=float)
 
 
 def _fill_surface_gaps(job: MeshingJob) -> None:

@@ -164,6 +164,7 @@ def improve_arrays(
     labels: np.ndarray | None = None,
     node_regions: tuple | None = None,
     collapse: np.ndarray | None = None,
+    local_size: Callable | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -242,6 +243,10 @@ def improve_arrays(
     volumes, faces = _check_solid(points, tets, model, h, fixed_mask)
 
     stage = _SliverStage(points, tets, model, h, fixed_mask, faces, targets, locked, labels, seed, node_regions)
+    if local_size is not None:
+        if not callable(local_size):
+            raise TypeError(f"local_size must be a callable (K, 3) -> (K,) or None; got {type(local_size).__name__}")
+        stage.guard.local_size = local_size
     if collapse is not None:
         stage.removable = np.asarray(collapse, dtype=bool).copy()
         if stage.removable.shape != (points.shape[0],):
