@@ -105,7 +105,9 @@ def remove_boundary_slivers(
     allowed = ~in_sorted(new_edge, boundary_edges)
     if locked is not None:  # faces between locked vertices stay (a periodic cell's faces)
         allowed &= ~locked[cells].all(axis=1)
-    allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
+    centroids = points[cells].mean(axis=1)
+    scale = h if guard is None else guard.length(centroids)
+    allowed &= np.abs(model(centroids)) <= FLAT_DEPTH * scale
     # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
     rows = np.arange(cells.shape[0])[:, None]
     normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
@@ -172,8 +174,10 @@ def expose_shallow_vertices(
     allowed = in_sorted(face_keys(face, n), boundary_face_keys) & movable[vertex]
     if locked is not None:  # a face between locked vertices stays (a periodic cell's faces)
         allowed &= ~locked[face].all(axis=1)
-    allowed &= model(points[vertex]) > -SHALLOW * h
-    allowed &= np.abs(model(points[cells].mean(axis=1))) <= FLAT_DEPTH * h
+    centroids = points[cells].mean(axis=1)
+    scale = h if guard is None else guard.length(centroids)
+    allowed &= model(points[vertex]) > -SHALLOW * scale
+    allowed &= np.abs(model(centroids)) <= FLAT_DEPTH * scale
     # the exposed faces continue the removed one: no face of them crosses a crease
     for k in range(3):
         exposed = face.copy()

@@ -170,12 +170,13 @@ def _label_values(labels: np.ndarray | None, old: np.ndarray, k: int) -> tuple:
     return (np.repeat(labels[old[:, 0]][:, None], k, axis=1),)
 
 
-def _apply(tets: np.ndarray, candidates: list, cell_values: list[np.ndarray]):
+def _apply(tets: np.ndarray, candidates: list, cell_values: list[np.ndarray], chosen_masks: list | None = None):
     """Apply the best candidates that replace disjoint sets of cells.
 
     ``candidates`` holds ``(old (K, n), new (K, k, 4), score (K,), values)`` groups, ``values`` a
     tuple of (K, k) arrays, one per entry of ``cell_values`` (M,): the new cells' values. A
-    candidate is applied when it has the best score on every cell it replaces.
+    candidate is applied when it has the best score on every cell it replaces. ``chosen_masks``,
+    when given, receives each group's (K,) mask of the candidates applied.
 
     Returns
     -------
@@ -198,6 +199,8 @@ def _apply(tets: np.ndarray, candidates: list, cell_values: list[np.ndarray]):
     applied = 0
     for (old, new, _, values), rank in zip(candidates, ranks):
         chosen = (best[old] == rank[:, None]).all(axis=1)
+        if chosen_masks is not None:
+            chosen_masks.append(chosen)
         if not chosen.any():
             continue
         remove[old[chosen]] = True

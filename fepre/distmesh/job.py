@@ -60,6 +60,8 @@ class MeshingJob:
         origin is meshed near it); warnings that name a place add it.
     seconds : dict
         Stage times: ``features``, ``loop`` (everything up to the final mesh), ``slivers``.
+    split_edges : int
+        Long boundary edges split before the quality stage (new nodes on the surface).
     """
 
     model: SDF
@@ -90,6 +92,7 @@ class MeshingJob:
     stage_log: StageLog | None = None
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
+    split_edges: int = 0  # long boundary edges the quality stage split
     frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)
 

@@ -112,13 +112,17 @@ def quality_stage(job: MeshingJob) -> None:
         return
     started = time.perf_counter()
     job.unimproved = (job.points, job.tets, job.fixed_mask)  # what validate_mesh falls back on
+    if _default_quality_stage(job) and not any(c.locked_nodes(job) is not None for c in job.constraints):
+        _fill_surface_gaps(job)
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
     pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
     locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
     try:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             job.points, job.tets, _ = improve_arrays(
-                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked)
+                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
+                collapse=_removable_nodes(job), local_size=_local_size(job))
+            _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
         warn_user(
@@ -137,6 +141,52 @@ def quality_stage(job: MeshingJob) -> None:
         job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
                       f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
                       f"{measured['radius_ratio'].min():.3f}")
+
+
+def _local_size(job: MeshingJob):
+    """The graded mesh's edge length at points, in units of length (None when uniform)."""
+    if job.size is None:
+        return None
+    if job.absolute:
+        return job.size
+    return lambda x: job.h * np.asarray(job.size(x), dtype=float)
+
+
+def _fill_surface_gaps(job: MeshingJob) -> None:
+    """Long boundary edges split at their midpoints on the zero set (new free nodes appended):
+    the gaps a faceted surface leaves in the boundary nodes, which no vertex move repairs."""
+    from .surface_refine import split_long_boundary_edges
+
+    h = job.h
+    relative = None if job.size is None else ((lambda x: job.size(x) / h) if job.absolute else job.size)
+    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, h, relative)
+    if split:
+        job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
+    job.split_edges = split
+
+
+def _removable_nodes(job: MeshingJob) -> np.ndarray:
+    """The nodes an edge collapse may remove: every node but the user's fixed points and the
+    feature corners (a feature curve's node only into another node on a crease)."""
+    from .output import feature_flags
+
+    removable = ~job.fixed_mask | (feature_flags(job.points, job.features) == 1)
+    if job.user_fixed is not None and len(job.user_fixed):
+        from scipy.spatial import cKDTree
+
+        distance, index = cKDTree(job.points).query(np.asarray(job.user_fixed, dtype=np.float64))
+        removable[index[distance <= 1e-9 * job.h]] = False
+    return removable
+
+
+def _drop_unused_nodes(job: MeshingJob) -> None:
+    """Nodes in no cell (the quality stage's edge collapses leave them) removed, the rest renumbered."""
+    used = np.zeros(len(job.points), dtype=bool)
+    used[job.tets.ravel()] = True
+    if used.all():
+        return
+    number = np.cumsum(used) - 1
+    job.points, job.tets, job.fixed_mask = job.points[used], number[job.tets], job.fixed_mask[used]
 
 
 def _default_quality_stage(job: MeshingJob) -> bool:
@@ -205,6 +255,7 @@ def check_mesh(job: MeshingJob) -> None:
         slivers_seconds=np.array([job.seconds["slivers"]]),
         features_seconds=np.array([job.seconds["features"]]),
         feature_nodes=np.array([job.feature_nodes]),
+        split_edges=np.array([job.split_edges]),
         lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
         added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - job.started]),

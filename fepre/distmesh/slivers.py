@@ -50,7 +50,9 @@ import numpy as np
 from .._cell_kernels import corner_volumes
 from ..arguments import finite_float, positive_float, positive_int, shown
 from ..errors import ConvergenceWarning, MeshingError, warn_user
+from .boundary_flips import boundary_edge_round
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
+from .edge_collapse import collapse_round
 from .flips import flip_round, shape_flip_round
 from .smoothing import relax_round, smooth_round
 from .surface_guard import SurfaceGuard
@@ -161,6 +163,8 @@ def improve_arrays(
     locked: np.ndarray | None = None,
     labels: np.ndarray | None = None,
     node_regions: tuple | None = None,
+    collapse: np.ndarray | None = None,
+    local_size: Callable | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -239,6 +243,14 @@ def improve_arrays(
     volumes, faces = _check_solid(points, tets, model, h, fixed_mask)
 
     stage = _SliverStage(points, tets, model, h, fixed_mask, faces, targets, locked, labels, seed, node_regions)
+    if local_size is not None:
+        if not callable(local_size):
+            raise TypeError(f"local_size must be a callable (K, 3) -> (K,) or None; got {type(local_size).__name__}")
+        stage.guard.local_size = local_size
+    if collapse is not None:
+        stage.removable = np.asarray(collapse, dtype=bool).copy()
+        if stage.removable.shape != (points.shape[0],):
+            raise ValueError(f"collapse must be a bool array of shape ({points.shape[0]},); got {stage.removable.shape}")
     volume_before = float(volumes.sum())
     before = _extremes(stage.points, stage.tets)
     stage.first_flips_and_relaxation()
@@ -323,7 +335,8 @@ class _SliverStage:
         self.tagged = {} if labels is None else {"labels": labels}
         self.quality = targets.score(points[tets])
         self.timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
-        self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0}
+        self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0, "collapses": 0}
+        self.removable = None  # the vertices edge collapses may remove (improve_arrays(collapse=...))
 
     def timed(self, kind: str, function, *args, **kwargs):
         t0 = time.perf_counter()
@@ -397,6 +410,8 @@ class _SliverStage:
             remove_boundary_slivers, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
             self.boundary_face_keys, self.boundary_edges, self.model, self.h,
         )
+        surface_flips, flip_touched = self.boundary_flips()
+        touched = touched | flip_touched
         (self.points, self.tets, self.quality, exposed, self.on_boundary, self.boundary_face_keys,
          self.boundary_edges) = self.removal(
             expose_shallow_vertices, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
@@ -406,7 +421,25 @@ class _SliverStage:
         self.counts["flips"] += flipped
         self.counts["moves"] += moved
         self.counts["removed"] += removed + exposed
-        return flipped + moved + removed + exposed, touched | moved_vertices
+        self.counts["flips"] += surface_flips
+        return flipped + moved + removed + exposed + surface_flips, touched | moved_vertices
+
+    def boundary_flips(self) -> tuple[int, np.ndarray]:
+        """Boundary edge removals and collapses of short boundary edges around the bad cells
+        (not between labelled regions: both change which cells a region holds)."""
+        if self.labels is not None:
+            return 0, np.zeros(self.points.shape[0], dtype=bool)
+        self.tets, self.quality, flips, self.boundary_face_keys, self.boundary_edges, touched = self.timed(
+            "flip", boundary_edge_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
+            self.boundary_face_keys, self.boundary_edges, targets=self.targets, guard=self.guard, locked=self.locked)
+        if self.removable is None:
+            return flips, touched
+        self.tets, self.quality, collapses, self.boundary_face_keys, self.boundary_edges, collapsed = self.timed(
+            "flip", collapse_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
+            self.movable, self.removable, self.boundary_face_keys, self.boundary_edges, targets=self.targets,
+            guard=self.guard, locked=self.locked)
+        self.counts["collapses"] += collapses
+        return flips + collapses, touched | collapsed
 
     def target_rounds(self, maxiter: int, deadline: float | None, start: float) -> int:
         """Rounds until no cell is under the threshold, or the target holds and the worst angle

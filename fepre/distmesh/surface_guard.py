@@ -95,9 +95,19 @@ class SurfaceGuard:
         self.labels = np.full(n, -1, dtype=np.int64)
         self.normals = np.zeros((n, 3))
         self.add(np.flatnonzero(boundary), points)
+        #: ``local_size((K, 3)) -> (K,)``, the mesh's edge length in a graded mesh (None: ``h``
+        #: everywhere); the depth tolerances scale with it
+        self.local_size = None
         #: (owner (N,), region_of) of a mesh of several regions: a vertex with an owner (>= 0)
         #: must stay in that region (``region_of(points) -> (K,)``); see :meth:`in_own_region`
         self.regions = None
+
+    def length(self, points: np.ndarray) -> np.ndarray:
+        """The edge length that scales the depth tolerances at ``points`` (K, 3): ``h``, or the
+        local size of a graded mesh (never below ``h``)."""
+        if self.local_size is None:
+            return np.full(points.shape[0], self.h)
+        return np.maximum(self.h, np.asarray(self.local_size(points), dtype=float))
 
     def in_own_region(self, vertices: np.ndarray, new: np.ndarray) -> np.ndarray:
         """Mask (K,): ``new`` positions that keep each vertex in its own material region (all
@@ -139,7 +149,7 @@ class SurfaceGuard:
         check = np.flatnonzero(allowed)
         if check.size:
             middle = 0.5 * (old[check] + new[check])
-            allowed[check] = np.abs(self.model(middle)) <= PATH_DEPTH * self.h
+            allowed[check] = np.abs(self.model(middle)) <= PATH_DEPTH * self.length(middle)
         return allowed
 
     def faces_allowed(self, old: np.ndarray | None, new: np.ndarray) -> np.ndarray:
@@ -154,7 +164,7 @@ class SurfaceGuard:
         normals = _unit(np.cross(both[:, 1] - both[:, 0], both[:, 2] - both[:, 0]))
         cosine = np.einsum("ij,ij->i", normals, _unit(gradient))
         depth = np.abs(values)
-        depth_limit = np.full(new.shape[0], FACE_DEPTH * self.h)
+        depth_limit = FACE_DEPTH * self.length(new.mean(axis=1))
         cosine_limit = np.full(new.shape[0], np.cos(np.radians(FACE_ANGLE)))
         if old is not None:
             k = old.shape[0]
@@ -162,3 +172,28 @@ class SurfaceGuard:
             cosine_limit = np.minimum(cosine[:k], cosine_limit)
             depth, cosine = depth[k:], cosine[k:]
         return (depth <= depth_limit) & (cosine >= cosine_limit)
+
+    def replacements_allowed(self, old: np.ndarray, new: np.ndarray, slack: float = 1.0) -> np.ndarray:
+        """Mask (K,) of the changes of the surface where the boundary faces ``new[k]`` (K, P, 3, 3,
+        outward) replace the faces ``old[k]`` (K, J, 3, 3) as a whole (a topological change):
+        every new centroid within ``FACE_DEPTH * h`` of the zero set, or within ``slack`` times
+        the farthest old one, and every new normal within ``FACE_ANGLE`` of the model's, or no
+        further than the worst old one."""
+        def measures(corners):
+            flat = corners.reshape(-1, 3, 3)
+            values, gradient = self.model.value_and_gradient(flat.mean(axis=1))
+            normals = np.cross(flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0])
+            cosine = np.einsum("ij,ij->i", _unit(normals), _unit(gradient))
+            return np.abs(values).reshape(corners.shape[:2]), cosine.reshape(corners.shape[:2])
+
+        count = new.shape[0]
+        if count == 0:
+            return np.zeros(0, dtype=bool)
+        depth_limit = FACE_DEPTH * self.length(new.reshape(-1, 3, 3).mean(axis=1)).reshape(new.shape[:2]).min(axis=1)
+        cosine_limit = np.full(count, np.cos(np.radians(FACE_ANGLE)))
+        if old.shape[1]:
+            depth, cosine = measures(old)
+            depth_limit = np.maximum(depth_limit, slack * depth.max(axis=1))
+            cosine_limit = np.minimum(cosine_limit, cosine.min(axis=1))
+        depth, cosine = measures(new)
+        return (depth <= depth_limit[:, None]).all(axis=1) & (cosine >= cosine_limit[:, None]).all(axis=1)

@@ -1,0 +1,231 @@
+"""Edge collapse: a vertex crowding its neighbour on the surface removed.
+
+Two boundary vertices far closer than h (0.2 h on a faceted model, where two pieces of the
+surface meet at a crease that the mesh does not keep, or where the loop left a pair) make every
+cell on their short edge flat, and no flip or move repairs it: the vertices are where the
+surface needs vertices, one too many. :func:`collapse_round` removes one of them: the vertex
+``v`` of a short boundary edge ``uv`` of a bad cell joins ``u``; the cells holding both go, the
+others take ``u`` for ``v``. A collapse is kept only when
+
+* ``v`` may be removed (not a fixed point or feature node, not locked) and every changed cell
+  stays positively oriented;
+* it raises the worst score of the cells it changes or removes;
+* the mesh stays a solid around ``u``: no face of ``u``'s new cells is used more than twice,
+  no two of them are the same cell, the boundary surface keeps the link condition (``u`` and
+  ``v`` share exactly the two surface neighbours of the faces on ``uv``) and every boundary face
+  that changes stays on the surface
+  (:meth:`~fepre.distmesh.surface_guard.SurfaceGuard.faces_allowed`).
+
+The collapses of a round are tried one after the other, so each sees the mesh the previous one
+left; a round holds as many as there are bad cells with a short boundary edge (a handful).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .surface_guard import SurfaceGuard
+from .tet_shape import ShapeTargets, signed_volume
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted
+
+__all__ = ["collapse_round", "SHORT_EDGE"]
+
+#: A boundary edge shorter than this fraction of its bad cell's longest edge may be collapsed.
+SHORT_EDGE = 0.4
+#: A collapse must raise the worst score of the cells it touches by at least this (degrees).
+MIN_GAIN = 1e-3
+
+
+def _short_edges(points, tets, quality, threshold, on_boundary) -> np.ndarray:
+    """The short boundary-vertex edges (K, 2) of the bad cells, shortest relative edge first."""
+    bad = np.flatnonzero(quality < threshold)
+    bad = bad[on_boundary[tets[bad]].sum(axis=1) >= 2]
+    if bad.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = tets[bad][:, EDGE_OF_TET]  # (B, 6, 2)
+    length = np.linalg.norm(points[pairs[..., 0]] - points[pairs[..., 1]], axis=2)
+    relative = length / length.max(axis=1, keepdims=True)
+    short = (relative < SHORT_EDGE) & on_boundary[pairs].all(axis=2)
+    edges, relative = np.sort(pairs[short], axis=1), relative[short]
+    edges, first = np.unique(edges, axis=0, return_index=True)
+    return edges[np.argsort(relative[first], kind="stable")]
+
+
+def _surface_neighbours(faces: np.ndarray, vertex: int) -> set:
+    return set(faces[(faces == vertex).any(axis=1)].ravel().tolist()) - {vertex}
+
+
+def _boundary_faces_of(tets: np.ndarray, cells: np.ndarray, keys: np.ndarray, n: int) -> np.ndarray:
+    """The boundary faces (outward) of ``cells``, given the sorted ``keys`` of the boundary faces."""
+    faces = tets[cells][:, FACE_OF_TET].reshape(-1, 3)
+    return faces[in_sorted(face_keys(faces, n), keys)]
+
+
+def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guard: SurfaceGuard):
+    """The cells after collapsing ``v`` into ``u``, their scores and the boundary faces before and
+    after around them, or None when not allowed."""
+    n = points.shape[0]
+    star_v = np.flatnonzero((tets == v).any(axis=1))
+    star_u = np.flatnonzero((tets == u).any(axis=1))
+    faces = _boundary_faces_of(tets, np.union1d(star_u, star_v), keys, n)
+    both = (tets[star_v] == u).any(axis=1)
+    removed, changed = star_v[both], star_v[~both]
+    if changed.size == 0:  # every cell of v holds u: v goes with its cells
+        return _remove_star(points, tets, removed, v, faces, keys, guard)
+    new = tets[changed].copy()
+    new[new == v] = u
+    if (signed_volume(points[new]) <= 0).any():
+        return None
+    new_quality = targets.score(points[new])
+    if new_quality.min() <= quality[star_v].min() + MIN_GAIN:
+        return None
+    # the link condition on the surface: u and v share exactly the apexes of the two faces on uv
+    on_uv = faces[((faces == u) | (faces == v)).sum(axis=1) == 2]
+    if on_uv.shape[0] != 2:
+        return None
+    if _surface_neighbours(faces, u) & _surface_neighbours(faces, v) != set(on_uv.ravel().tolist()) - {u, v}:
+        return None
+    keep_u = np.setdiff1d(star_u, removed)
+    around = np.concatenate([tets[keep_u], new])
+    if np.unique(np.sort(around, axis=1), axis=0).shape[0] != around.shape[0]:
+        return None
+    _, uses = np.unique(face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
+    if uses.max() > 2:
+        return None
+    # the boundary faces that move with v stay on the surface
+    moved = faces[(faces == v).any(axis=1) & ~(faces == u).any(axis=1)]
+    after = moved.copy()
+    after[after == v] = u
+    if moved.shape[0] and not guard.faces_allowed(points[moved], points[after]).all():
+        return None
+    gone = faces[(faces == v).any(axis=1)]
+    return removed, changed, new, new_quality, gone, after
+
+
+def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
+    """Removing the cells of ``v`` when each holds ``u`` too: allowed when the faces it exposes
+    (those opposite ``v``) are inner faces now, lie on the surface, and every edge of theirs
+    ends up on exactly two boundary faces."""
+    n = points.shape[0]
+    cells = tets[removed]
+    local = np.argmax(cells == v, axis=1)
+    exposed = cells[np.arange(cells.shape[0])[:, None], FACE_OF_TET[local]][:, ::-1]  # outward once the cells go
+    exposed_keys = face_keys(exposed, n)
+    if in_sorted(exposed_keys, keys).any() or np.unique(exposed_keys).size != exposed_keys.size:
+        return None
+    gone = faces[(faces == v).any(axis=1)]
+    if not guard.replacements_allowed(points[gone][None], points[exposed][None])[0]:
+        return None
+    near = np.flatnonzero(np.isin(tets, cells).any(axis=1))
+    near = np.setdiff1d(near, removed)
+    new_keys = np.union1d(np.setdiff1d(keys, face_keys(gone, n)), exposed_keys)
+    surface = _boundary_faces_of(tets, near, new_keys, n)
+    edges = np.sort(surface[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    codes, uses = np.unique(edges[:, 0] * n + edges[:, 1], return_counts=True)
+    wanted = np.sort(exposed[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    wanted = wanted[:, 0] * n + wanted[:, 1]
+    if not in_sorted(wanted, codes).all() or (uses[np.searchsorted(codes, wanted)] != 2).any():
+        return None
+    return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0), gone, exposed
+
+
+def collapse_round(
+    points: np.ndarray,
+    tets: np.ndarray,
+    quality: np.ndarray,
+    threshold: float,
+    on_boundary: np.ndarray,
+    movable: np.ndarray,
+    removable: np.ndarray,
+    boundary_face_keys: np.ndarray,
+    boundary_edges: np.ndarray,
+    *,
+    targets: ShapeTargets,
+    guard: SurfaceGuard,
+    locked: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
+    """One round of edge collapses on the short boundary edges of the bad cells.
+
+    Parameters
+    ----------
+    points : (N, 3) float array; no vertex moves
+    tets : (M, 4) int array, positively oriented, forming a solid with a closed boundary
+    quality : (M,) the cells' scores (``targets.score``, degrees)
+    threshold : cells scoring below this are improved
+    on_boundary, movable : (N,) bool, the boundary vertices and those that may move; both are
+        updated in place for the removed vertices
+    removable : (N,) bool, the vertices that may be removed (not the user's fixed points nor the
+        feature corners); a vertex that may not move (on a crease or a feature curve) is only
+        removed into another such vertex, which keeps the crease; updated in place
+    targets : ShapeTargets
+    guard : SurfaceGuard
+    locked : (N,) bool, optional
+        Vertices that are never removed.
+
+    Returns
+    -------
+    tets, quality : the remaining cells and their scores
+    collapses : the number of vertices removed (they stay in ``points``, in no cell)
+    boundary_face_keys, boundary_edges : the updated keys
+    touched : (N,) bool, the vertices that kept a collapsed vertex's cells
+
+    Examples
+    --------
+    Eight cube corners and the centre of the unit sphere, with a ninth surface vertex crowding
+    corner 1 (h = 4 for these coarse faces: the guard lets faces sit 0.4 under the sphere):
+
+    >>> import numpy as np
+    >>> from scipy.spatial import Delaunay
+    >>> from fepre import sdf
+    >>> from fepre.distmesh.surface_guard import SurfaceGuard
+    >>> from fepre.distmesh.tet_shape import ShapeTargets, signed_volume
+    >>> from fepre.distmesh.tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary
+    >>> corners = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1], [-1, -1, -1], [1, 1, -1],
+    ...                     [1, -1, 1], [-1, 1, 1]]) / np.sqrt(3)
+    >>> near = corners[0] + [0.08, -0.06, 0.0]
+    >>> points = np.vstack([[0.0, 0.0, 0.0], corners, near / np.linalg.norm(near)])
+    >>> tets = Delaunay(points).simplices
+    >>> flipped = signed_volume(points[tets]) < 0; tets[flipped] = tets[flipped][:, [1, 0, 2, 3]]
+    >>> on = np.ones(10, dtype=bool); on[0] = False; free = on.copy(); removable = on.copy()
+    >>> targets, ball = ShapeTargets(), sdf.sphere(1.0)
+    >>> q = targets.score(points[tets])
+    >>> faces = faces_on_boundary(tets, face_neighbours(tets, 10))
+    >>> keys = np.sort(face_keys(faces, 10))
+    >>> edges = np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), 10))
+    >>> new, q2, done, keys, edges, _ = collapse_round(points, tets, q, 33.0, on, free, removable, keys, edges,
+    ...                                                targets=targets, guard=SurfaceGuard(ball, 4.0, points, on))
+    >>> done, len(keys), len(edges), round(float(q.min()), 1), round(float(q2.min()), 1)
+    (1, 12, 18, 3.5, 45.0)
+    """
+    n = points.shape[0]
+    touched = np.zeros(n, dtype=bool)
+    done = 0
+    for u, v in _short_edges(points, tets, quality, threshold, on_boundary):
+        for keep, gone in ((u, v), (v, u)):
+            if not removable[gone] or (locked is not None and locked[gone]) or not on_boundary[keep]:
+                continue
+            if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
+                continue
+            result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard)
+            if result is None:
+                continue
+            removed, changed, new, new_quality, old_faces, new_faces = result
+            tets = tets.copy()
+            quality = quality.copy()
+            tets[changed], quality[changed] = new, new_quality
+            alive = np.ones(tets.shape[0], dtype=bool)
+            alive[removed] = False
+            tets, quality = tets[alive], quality[alive]
+            boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, face_keys(old_faces, n)),
+                                            face_keys(new_faces, n))
+            # every old face held v: its edges at v go, the new faces' edges come
+            old_edges = old_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+            old_edges = old_edges[(old_edges == gone).any(axis=1)]
+            boundary_edges = np.union1d(np.setdiff1d(boundary_edges, edge_keys(old_edges, n)),
+                                        edge_keys(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
+            on_boundary[gone] = movable[gone] = removable[gone] = False
+            touched[new.ravel()] = True
+            touched[keep] = True
+            done += 1
+            break
+    return tets, quality, done, boundary_face_keys, boundary_edges, touched

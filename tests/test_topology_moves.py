@@ -1,0 +1,90 @@
+"""The quality stage's topological moves: long edges split, boundary edges removed over open
+rings, short boundary edges collapsed; and a faceted organic model of our own that needed them."""
+
+from __future__ import annotations
+
+import doctest
+import importlib
+import warnings
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.distmesh.surface_refine import LONG_EDGE, split_long_boundary_edges
+from fepre.distmesh.tet_shape import signed_volume
+from fepre.distmesh.tet_topology import face_neighbours, faces_on_boundary, open_boundary_reason
+from fepre.mesh_metrics import tetra_cells
+
+
+@pytest.mark.parametrize("name", ["fepre.distmesh.surface_refine", "fepre.distmesh.boundary_flips",
+                                  "fepre.distmesh.edge_collapse"])
+def test_docstring_examples_run(name):
+    result = doctest.testmod(importlib.import_module(name))
+    assert result.failed == 0 and result.attempted > 0
+
+
+def _coarse_ball(h: float):
+    ball = sdf.sphere(1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        grid = fepre.distmesh(ball, h=h, slivers=False)
+    return ball, np.asarray(grid.points, dtype=float).copy(), tetra_cells(grid).astype(np.int64)
+
+
+def test_splits_leave_no_long_edge_and_put_new_nodes_on_the_surface():
+    ball, points, tets = _coarse_ball(0.5)
+    h = 0.25  # the mesh is twice as coarse as this h asks: most edges are long
+    new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, h, scale=1.0)
+    assert splits == len(new_points) - len(points) > 20
+    assert np.array_equal(new_points[: len(points)], points)
+    assert (signed_volume(new_points[new_tets]) > 0).all()
+    faces = faces_on_boundary(new_tets, face_neighbours(new_tets, len(new_points)))
+    assert open_boundary_reason(faces, len(new_points)) == ""
+    on_surface = np.unique(faces[faces >= len(points)])
+    assert np.abs(np.linalg.norm(new_points[on_surface], axis=1) - 1.0).max() < 1e-6
+    # the volume only grows towards the ball's (new surface nodes lie outside the old chords)
+    before, after = (float(signed_volume(p[t]).sum()) for p, t in ((points, tets), (new_points, new_tets)))
+    assert before < after < 4 / 3 * np.pi
+    # fewer long boundary edges (a split whose ring meets another's waits for a later pass, and
+    # the passes are limited: on a mesh this coarse, about half of them go)
+    def long_edges(p, t):
+        f = faces_on_boundary(t, face_neighbours(t, len(p)))
+        edges = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        return int((np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1) > LONG_EDGE * h).sum())
+
+    assert long_edges(new_points, new_tets) < 0.7 * long_edges(points, tets)
+
+
+def test_a_mesh_without_long_edges_is_left_alone():
+    ball, points, tets = _coarse_ball(0.3)
+    new_points, new_tets, splits = split_long_boundary_edges(points, tets, ball, 0.3)
+    assert splits == 0 and new_points is points and new_tets is tets
+    # a mesh uniformly coarser than h is not split either: its own scale is the measure
+    assert split_long_boundary_edges(points, tets, ball, 0.15)[2] == 0
+
+
+def eared_head(resolution: int = 16):
+    """A head with two thin ears, tessellated coarsely (a faceted organic model, 1.6k triangles)."""
+    head = sdf.sphere(1.0)
+    ear = sdf.ellipsoid((0.55, 0.12, 0.35))
+    part = sdf.union(head, ear.translate((0.7, 0, 0.95)), ear.translate((-0.7, 0, 0.95)), k=0.15)
+    return fepre.isosurface(part, spacing=2.6 / resolution)
+
+
+def test_a_faceted_organic_model_meets_the_quality_targets():
+    # before the topological moves: worst dihedral 12.6 deg, largest 150.8, radius ratio 0.11
+    surface = eared_head()
+    model = sdf.mesh(surface)
+    diagonal = float(np.linalg.norm(np.subtract(model.bounds[1], model.bounds[0])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        grid = fepre.distmesh(model, h=diagonal / 25)
+    assert grid.cell_data["min_dihedral_angle"].min() >= 25.0
+    assert grid.cell_data["max_dihedral_angle"].max() <= 150.0
+    assert grid.cell_data["radius_ratio"].min() >= 0.25
+    assert abs(grid.volume / model.volume - 1) < 0.03
+    boundary = grid.point_data["boundary"] == 1
+    assert np.abs(model(np.asarray(grid.points)[boundary])).max() < 1e-3 * diagonal / 25
+    assert grid.n_points == len(np.unique(tetra_cells(grid)))  # no node left out of the cells
