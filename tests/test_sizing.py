@@ -318,12 +318,30 @@ def test_the_inside_of_a_concave_junction_is_not_a_gap():
     groove = sdf.plane((1.0, 0.0, -opening), point=(0, 0, 4)) & sdf.plane((-1.0, 0.0, -opening), point=(0, 0, 4))
     part = sdf.box((40, 20, 10), center=(0, 0, 5)) - groove
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", fepre.ResolutionWarning)  # its ends' edges meet at 30 degrees
+        warnings.simplefilter("error", fepre.ResolutionWarning)  # its ends' edges meet at a corner: not named
         field = size_field(part, 0.5, 4.0)
     faces = [[0.05, 0.0, 4.3], [0.45, 0.0, 6.0], [0.85, 0.0, 7.5]]  # by the root, up its faces
     assert field(faces).min() >= 2.0
     slot = sdf.box((40, 20, 10), center=(0, 0, 5)) - sdf.box((0.8, 30, 8), center=(0, 0, 8))
     assert size_field(slot, 0.5, 4.0, features=False)([[0.45, 0.0, 7.0]])[0] == pytest.approx(0.5, rel=0.1)
+
+
+def test_edges_that_converge_at_a_corner_are_not_close_features():
+    """Issue 33: two sharp edges leaving one corner at an acute angle are close near it only
+    because they meet there. A V-groove's ends (30 degrees) were named as "sharp edges 0.0643
+    apart" at h=(0.5, 4), a gusset's 45-degree tips as 0.286 apart at h=(1.5, 6), and a drafted
+    boss as walls 0.095 thick (the cone's gradient, now its normal). None needs less than hmin."""
+    from fepre.cad_parts import drafted_boss, rib_bracket, v_groove_block
+    from fepre.sizing.feature_gaps import feature_sizes
+
+    for part, h, floor in ((v_groove_block(), (0.5, 4.0), 0.5), (rib_bracket(), (1.5, 6.0), 1.5), (drafted_boss(), (1.5, 6.0), 1.5)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", fepre.ResolutionWarning)
+            assert size_field(part.model, *h).hmin >= floor, part.name
+    # edges that face each other without meeting still count: a ledge 0.3 wide beside the groove
+    ledge = v_groove_block().model | sdf.box((40, 0.3, 0.3), center=(0, -10.15, 10.15))
+    points, sizes = feature_sizes(ledge, 0.5, 4.0, ((-21, -11, -1), (21, 11, 11)))
+    assert sizes.min() == pytest.approx(0.3, abs=0.05)
 
 
 def _boss_on_plate():
