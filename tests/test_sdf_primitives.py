@@ -571,3 +571,26 @@ def test_docstring_examples_run():
     for name in names:
         result = doctest.testmod(importlib.import_module(f"fepre.sdf.{name}"))
         assert result.attempted > 0 and result.failed == 0, name
+
+
+def test_cone_gradient_next_to_its_side_and_base_is_their_normal():
+    """Issue 33: points within 1e-15 of a cone's side (seeds projected onto a drafted boss) got
+    the direction of a round-off offset as gradient, (0.24, -0.97) in (r, z) for the side's
+    (0.98, 0.20): a ray along it measured a wall 0.095 thick in a boss 10 across."""
+    cone = sdf.cone(10.0, 50.0, center=(0.0, 0.0, 6.0))
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(0, 2 * np.pi, 400)
+    z = rng.uniform(6.5, 40.0, 400)
+    radius = 10.0 * (1.0 - (z - 6.0) / 50.0) * (1.0 + rng.choice([-1, 0, 1], 400) * 1e-16)
+    side = np.stack([radius * np.cos(angle), radius * np.sin(angle), z], axis=1)
+    values, gradient = cone.value_and_gradient(side)
+    assert np.abs(values).max() < 1e-13
+    slant = np.hypot(10.0, 50.0)
+    normal = np.stack([50.0 / slant * np.cos(angle), 50.0 / slant * np.sin(angle), np.full(400, 10.0 / slant)], axis=1)
+    assert np.einsum("ij,ij->i", gradient, normal).min() > 1.0 - 1e-12
+    base = np.stack([rng.uniform(-5, 5, 50), rng.uniform(-5, 5, 50), 6.0 + rng.choice([-1e-15, 0.0, 1e-15], 50)], axis=1)
+    _, gradient = cone.value_and_gradient(base)
+    assert np.allclose(gradient, [0.0, 0.0, -1.0], atol=1e-12)
+    # away from the surface and at the rim the offset's direction stays the gradient
+    _, gradient = cone.value_and_gradient(np.array([[13.0, 0.0, 3.0]]))  # nearest to the rim (10, 0, 6)
+    assert np.allclose(gradient[0], [np.sqrt(0.5), 0.0, -np.sqrt(0.5)])

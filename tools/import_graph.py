@@ -62,6 +62,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "fepre.report",
             "fepre.plotting",
             "fepre.parts",
+            "fepre.cad_parts",
             "fepre.modelfile",
             "fepre.cli",
             "fepre.demo",

@@ -11,6 +11,10 @@ genus of the boundary (the part's are given), elements through the part's thinne
 thickness over the median edge length of the cells in it) and the times: fepre's field, fepre's
 whole mesh and gmsh.
 
+``--set cad`` runs issue 33's ordinary CAD parts (:mod:`fepre.cad_parts`) against its targets
+instead: field minimum, cells and time per cell against the uniform mesh at hmin, quality, volume,
+the same part far from the origin and gmsh (:mod:`fepre.bench._sizing_cad`).
+
 Thin-feature parts have walls 0.3-3 hmin thick, a tube and a shell, a rib, small holes (radius
 0.5-2 hmin) and slots 0.2-2 hmin wide; the economy parts are a gyroid-infilled block under a
 solid skin and an L-bracket with small holes.
@@ -132,9 +136,22 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--hmin", type=float, default=0.5, help="smallest size (default 0.5; the parts are tens of units)")
     parser.add_argument("--no-gmsh", action="store_true", help="fepre only")
     parser.add_argument("--parts", nargs="+", help="only the parts whose names start with these words")
+    parser.add_argument("--set", choices=("thin", "cad"), default="thin",
+                        help="thin: the thin-feature parts (default); cad: ordinary CAD parts (fepre.cad_parts) "
+                             "against issue 33's targets, each at its own (hmin, hmax)")
+    parser.add_argument("--uniform-limit", type=float, default=60_000,
+                        help="--set cad: mesh the uniform mesh at hmin when its estimated cells are at most this "
+                             "(default 60000), else print the estimate")
+    parser.add_argument("--no-far", action="store_true", help="--set cad: skip the copy translated far from the origin")
     args = parser.parse_args(argv)
     if not args.hmin > 0:
         parser.error(f"--hmin must be > 0; got {args.hmin}")
+    if not args.uniform_limit >= 0:
+        parser.error(f"--uniform-limit must be >= 0; got {args.uniform_limit}")
+    if args.set == "cad":
+        from ._sizing_cad import run
+
+        return run(args.parts, uniform_limit=args.uniform_limit, far=not args.no_far, gmsh=not args.no_gmsh)
     chosen = [p for p in parts(args.hmin) if not args.parts or any(p.name.startswith(w) for w in args.parts)]
     print(f"fepre bench sizing: {len(chosen)} parts, fepre.distmesh(model, h=(hmin, hmax)) at default options; "
           + ("gmsh on the hmin/4 reference surface, MeshSizeFromCurvature=20 between hmin and hmax, Delaunay + optimiser + Netgen"

@@ -19,7 +19,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hmax", type=float, required=True, help="largest edge length (--h is the smallest: the field never goes below it; walls, gaps "
                         "and edges that would need smaller are named in a warning)")
     parser.add_argument("--elements-across", type=float, default=3.0, help="elements through every wall (default 3)")
-    parser.add_argument("--chord-tolerance", type=float, help="largest chord error on curved faces (default h/10)")
+    parser.add_argument("--chord-tolerance", type=float, help="largest chord error on curved faces (default: the smaller of h/10 and 0.003 times the radius)")
     parser.add_argument("--gradation", type=float, default=1.3, help="largest ratio of neighbouring sizes (default 1.3)")
     parser.add_argument("--no-features", action="store_true", help="do not refine where sharp edges face each other closely")
 

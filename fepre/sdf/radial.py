@@ -231,6 +231,13 @@ class Cone(SDF):
         nr, nh = self._slant_normal
         gr = np.where(on_surface, np.where(use_slant, nr, 0.0), vr * scale)
         gh = np.where(on_surface, np.where(use_slant, nh, -1.0), vh * scale)
+        # nearest to the inside of the slanted edge or of the base, the gradient is that edge's
+        # normal: the offset's direction is round-off for a point within 1e-15 of the surface
+        # (a seed projected onto the side got (0.24, -0.97) for (0.98, 0.20), issue 33)
+        t = (r * self.radius - (z - cz - self.height) * self.height) / (self.radius**2 + self.height**2)
+        flat = np.where(use_slant, (t > 0.0) & (t < 1.0), r < self.radius)
+        gr = np.where(flat, np.where(use_slant, nr, 0.0), gr)
+        gh = np.where(flat, np.where(use_slant, nh, -1.0), gh)
         values, gr, gh, ux, uy = np.broadcast_arrays(sign * distance, gr, gh, ux, uy)
         dtype = np.result_type(x, y, z, 1.0)
         return values.astype(dtype), ((gr * ux).astype(dtype), (gr * uy).astype(dtype), gh.astype(dtype))

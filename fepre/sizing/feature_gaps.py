@@ -17,6 +17,9 @@ __all__ = ["feature_sizes"]
 ACROSS = 0.5
 #: neighbours looked at per curve node
 NEIGHBOURS = 12
+#: two nodes within this many times their distance of the same corner converge at it (curves
+#: meeting at 7 degrees or more: nodes at equal distance s are 2 s sin(angle / 2) apart)
+CORNER = 8.0
 
 
 def _tangents(points: np.ndarray, closed: bool) -> np.ndarray:
@@ -56,6 +59,9 @@ def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, 
     tangents = np.concatenate([_tangents(c.points, c.closed) for c in found.curves])
     curve = np.repeat(np.arange(len(found.curves)), [len(c.points) for c in found.curves])
     nearest = np.full(len(points), np.inf)
+    corner_distance, corner = np.full(len(points), np.inf), np.full(len(points), -1)
+    if len(found.corners):
+        corner_distance, corner = cKDTree(found.corners).query(points)
     for index in range(len(found.curves)):  # a tree of the other curves' nodes for each curve
         mine = np.flatnonzero(curve == index)
         others = np.flatnonzero(curve != index)
@@ -70,7 +76,9 @@ def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, 
         across = (np.abs(np.einsum("nkj,nj->nk", unit, tangents[mine])) < ACROSS) & (
             np.abs(np.einsum("nkj,nkj->nk", unit, tangents[target])) < ACROSS
         )
-        counted = found_mask & across & (length > 0)
+        converging = ((corner[mine][:, None] == corner[target]) & (corner[target] >= 0)
+                      & (np.maximum(corner_distance[mine][:, None], corner_distance[target]) <= CORNER * length))
+        counted = found_mask & across & (length > 0) & ~converging
         nearest[mine] = np.where(counted, length, np.inf).min(axis=1)
     keep = np.isfinite(nearest)
     return points[keep], nearest[keep]
