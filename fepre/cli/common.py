@@ -74,7 +74,28 @@ def companions(output: Path, fmt) -> list[Path]:
 def model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL",
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
-                             "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
+                             "a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model, "
+                             "or an image (.vti, .nii, .nii.gz, .tif) with --level")
+
+
+def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None:
+    """The options of an image given as MODEL (``--level`` unless the command has its own)."""
+    if level:
+        parser.add_argument("--level", type=float,
+                            help="for an image MODEL: the grey value of the part's boundary")
+    parser.add_argument("--inside", choices=("above", "below"), default="above",
+                        help="for an image MODEL: the part is where the image is above the level (default) or below it")
+    parser.add_argument("--smoothing", type=float, default=0.0,
+                        help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans)")
+
+
+def image_options(args: argparse.Namespace) -> dict:
+    """The options of ``sdf.image`` from the command line (the flags the command has)."""
+    options = {"level": getattr(args, "level", None)}
+    for name in ("inside", "smoothing"):
+        if getattr(args, name, None) is not None:
+            options[name] = getattr(args, name)
+    return options
 
 
 def load_part(args: argparse.Namespace):
@@ -83,15 +104,40 @@ def load_part(args: argparse.Namespace):
     from ..modelfile import load_model
     from ..sdf import MeshModel
 
-    part = load_model(args.model)
-    if isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
+    part = load_model(args.model, image=image_options(args))
+    image = image_of(part.model)
+    if image is not None:
+        if not getattr(args, "quiet", False):
+            voxels = " x ".join(map(str, image.image.values.shape))
+            spacing = " ".join(f"{v:g}" for v in image.spacing)
+            say(f"{part.path}: {voxels} voxels of {spacing}, level {image.level:g} ({image.inside}): "
+                f"{len(image.faces)} triangles" + ("; cut by the image's box" if image is not part.model else ""))
+    elif isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
         repaired = part.model.repaired.summary()
         say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
              + (f"; repaired: {repaired}" if repaired else "; closed and consistently oriented"))
     return part
 
 
+def image_of(model):
+    """The :class:`fepre.sdf.ImageModel` of an image model (itself, or the one its box cuts), else None."""
+    from ..sdf import ImageModel
+
+    if isinstance(model, ImageModel):
+        return model
+    children = model.children
+    return children[0] if len(children) == 2 and isinstance(children[0], ImageModel) else None
+
+
+def surface_level(args: argparse.Namespace, model) -> float:
+    """The level ``fepre surface`` extracts: ``--level``, except for an image (whose --level is its grey value)."""
+    return 0.0 if args.level is None or (model is not None and image_of(model) is not None) else float(args.level)
+
+
 def default_spacing(part) -> float:
+    image = image_of(part.model)
+    if image is not None:  # the grid the image's level set was taken on
+        return float(image.spacing.min()) / image.refine
     lo, hi = part.domain_bounds()
     return max(b - a for a, b in zip(lo, hi)) / 100.0
 

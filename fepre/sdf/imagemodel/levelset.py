@@ -85,8 +85,8 @@ def level_surface(field: np.ndarray, spacing: np.ndarray, origin: np.ndarray) ->
     contour.Update()
     surface = pv.wrap(contour.GetOutput())
     vertices = np.asarray(surface.points, dtype=np.float64)
-    faces = np.asarray(surface.faces).reshape(-1, 4)[:, 1:].astype(np.int64)
-    # flying edges orients triangles towards increasing values: outward for a field negative inside
+    # flying edges orients triangles towards decreasing values: turned, outward for a field negative inside
+    faces = np.asarray(surface.faces).reshape(-1, 4)[:, [1, 3, 2]].astype(np.int64)
     return vertices, faces, touches
 
 
