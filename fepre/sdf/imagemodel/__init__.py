@@ -10,7 +10,8 @@ Examples
 (True, -0.5)
 """
 
+from .labelmodel import LabelModel, LabelRegions, labels
 from .model import ImageModel, image
 from .read import IMAGE_SUFFIXES, Image, ImageInputError, read_image
 
-__all__ = ["image", "ImageModel", "ImageInputError", "Image", "read_image", "IMAGE_SUFFIXES"]
+__all__ = ["image", "labels", "ImageModel", "LabelRegions", "LabelModel", "ImageInputError", "Image", "read_image", "IMAGE_SUFFIXES"]
