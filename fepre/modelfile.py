@@ -108,8 +108,15 @@ def _load_image(path: Path, image: dict | None) -> ModelFile:
     """An image file as a model: ``sdf.image`` at ``image["level"]`` (or, with
     ``image["labels"]``, ``sdf.labels`` and its regions)."""
     from .sdf import image as image_model
+    from .sdf import labels
 
     options = dict(image or {})
+    if options.pop("labels", False):
+        try:
+            regions = labels(path, **options)
+        except ValueError as exc:
+            raise ModelFileError(str(exc)) from None
+        return ModelFile(path=path, model=regions.part, regions=dict(regions))
     level = options.pop("level", None)
     if level is None:
         raise ModelFileError(
@@ -140,7 +147,8 @@ def load_model(path: str | os.PathLike, image: dict | None = None) -> ModelFile:
         whose model is :func:`fepre.sdf.image` of it with the options ``image``.
     image : dict, optional
         For an image file: ``level`` (required) and the keywords of :func:`fepre.sdf.image`
-        (``inside``, ``smoothing``).
+        (``inside``, ``smoothing``); or ``labels=True`` and the keywords of
+        :func:`fepre.sdf.labels` (``names``, ``smoothing``): a label image, its regions.
 
     Returns
     -------

@@ -1,4 +1,6 @@
-"""`fepre mesh` and `fepre surface` on image files: --level, --inside, and the errors."""
+"""`fepre mesh` and `fepre surface` on image files: --level, --inside, --labels, and the errors.
+(The meshes take 4-10 s on a loaded machine: slow; test_image_models and test_image_labels mesh
+the same models in the default run.)"""
 
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ def test_surface_of_an_image(scan, capsys):
     assert surface.volume == pytest.approx(TORUS_VOLUME, rel=0.01)
 
 
+@pytest.mark.slow
 def test_mesh_of_an_image(scan, capsys):
     out = scan.with_name("scan.inp")
     assert main(["mesh", str(scan), "--level", "500", "--h", "0.15", "-o", str(out), "--quiet"]) == 0
@@ -71,3 +74,37 @@ def test_image_without_scalars(tmp_path, capsys):
     pv.ImageData(dimensions=(5, 5, 5)).save(path)
     assert main(["surface", str(path), "--level", "1", "-o", str(tmp_path / "x.stl")]) == 1
     assert f"{path} has no scalar array" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_mesh_of_a_label_image(tmp_path, capsys):
+    from fepre.sdf.imagemodel.phantoms import label_image
+
+    grid = label_image([sdf.sphere(0.5), sdf.sphere(0.25)], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    grid.save(tmp_path / "labels.vti")
+    out = tmp_path / "labels.inp"
+    assert main(["mesh", str(tmp_path / "labels.vti"), "--labels", "--label", "1=shell", "--label", "2=core",
+                 "--h", "0.15", "-o", str(out), "--material", "shell", "3000", "0.35", "--material", "core", "70000", "0.3",
+                 "--quiet"]) == 0
+    text = out.read_text()
+    assert "ELSET=shell" in text and "ELSET=core" in text and text.count("*SOLID SECTION") == 2
+    mesh = pv.read(out)
+    assert mesh.volume == pytest.approx(4 / 3 * math.pi * 0.5**3, rel=0.05)
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--labels", "--level", "1"], "--level is for a grey image; a label image (--labels) has none"),
+        (["--label", "1=x"], "--label names a region of a label image: add --labels"),
+        (["--labels", "--label", "1:x"], "--label must be VALUE=NAME with an integer VALUE"),
+        (["--labels"], "holds 1 label besides the background 0"),
+    ],
+)
+def test_label_errors(scan, tmp_path, capsys, arguments, message):
+    one = tmp_path / "one.vti"
+    grid = pv.ImageData(dimensions=(6, 6, 6))
+    grid["labels"] = (np.arange(216) % 2).astype(np.int16)
+    grid.save(one)
+    assert main(["mesh", str(one), "--h", "0.1", "-o", str(tmp_path / "x.inp"), *arguments]) == 1
+    assert message in capsys.readouterr().err
