@@ -167,3 +167,23 @@ def test_bad_grids(tmp_path):
     (tmp_path / "junk.vti").write_text("not xml")
     with pytest.raises(ImageInputError, match="junk.vti could not be read"):
         sdf.image(tmp_path / "junk.vti", level=1)
+
+
+def test_nifti_and_tiff_stacks(tmp_path, ball_image, ball):
+    values = np.asarray(ball_image["density"]).reshape(ball_image.dimensions, order="F")
+    nibabel = pytest.importorskip("nibabel")
+    affine = np.diag([SPACING, SPACING, SPACING, 1.0])
+    affine[:3, 3] = ball_image.origin
+    nibabel.save(nibabel.Nifti1Image(values, affine), tmp_path / "ball.nii.gz")
+    read = sdf.image(tmp_path / "ball.nii.gz", level=0.5)
+    assert np.allclose(read.vertices, ball.vertices, atol=1e-6)  # the affine is stored in float32
+    # an axis flipped by the affine is read back the right way round
+    flipped = affine.copy()
+    flipped[0, 0] = -SPACING
+    flipped[0, 3] = ball_image.origin[0] + SPACING * (values.shape[0] - 1)
+    nibabel.save(nibabel.Nifti1Image(values[::-1].copy(), flipped), tmp_path / "flipped.nii")
+    assert np.allclose(sdf.image(tmp_path / "flipped.nii", level=0.5).vertices, ball.vertices, atol=1e-6)
+    tifffile = pytest.importorskip("tifffile")
+    tifffile.imwrite(tmp_path / "ball.tif", np.transpose(values, (2, 1, 0)))  # slices along z
+    stack = sdf.image(tmp_path / "ball.tif", level=0.5)  # voxels of 1, from the origin
+    assert np.allclose(stack.vertices * SPACING + np.asarray(ball_image.origin), ball.vertices, atol=1e-6)
