@@ -144,7 +144,7 @@ def _speed(size: int, cells: int) -> None:
     from ..sdf.imagemodel.phantoms import label_image
 
     block = sdf.box((1.6, 1.2, 1.2))
-    models = [block, sdf.sphere(0.4, center=(-0.35, 0, 0)), sdf.cylinder(radius=0.25, height=1.2, center=(0.45, 0, 0))]
+    models = [block, sdf.sphere(0.4, center=(-0.35, 0, 0)), sdf.cylinder(radius=0.25, height=1.0, center=(0.45, 0, 0))]
     voxel = 2.0 / size
     start = time.perf_counter()
     grid = label_image(models, (-1, -1, -1), (1, 1, 1), voxel)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ...arguments import check_names, nonnegative_float, shown
 from ..meshmodel.model import MeshModel
-from ..meshmodel.repair import repair
+from ..meshmodel.repair import Repair, _is_closed, repair
 from .multilabel import label_surface
 from .read import Image, ImageInputError, read_image
 
@@ -22,8 +22,7 @@ class LabelModel(MeshModel):
     triangles of the shared interface surface, negative inside."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any) -> None:
-        repaired = repair(vertices, faces)
-        super().__init__(repaired, name, sign="winding", features=0.0)
+        super().__init__(_closed_or_repaired(vertices, faces), name, sign="winding", features=0.0)
         self.image = source
         self.label = label
 
@@ -32,6 +31,20 @@ class LabelModel(MeshModel):
 
     def _label(self) -> str:
         return "labels"
+
+
+def _closed_or_repaired(vertices: np.ndarray, faces: np.ndarray) -> Repair:
+    """The surface as it is when every edge has two triangles traversing it in opposite
+    directions (as the label surface is but where a label touches itself along an edge);
+    otherwise the mesh model's repair. (The repair of a closed surface of several pieces, a
+    block with cavities, checks every triangle's winding number: 3 of 8.6 s at 160^3.)"""
+    used, faces = np.unique(faces, return_inverse=True)
+    faces = faces.reshape(-1, 3).astype(np.int64)
+    if not _is_closed(faces):
+        return repair(vertices[used], faces)
+    return Repair(vertices=np.ascontiguousarray(vertices[used], dtype=np.float64), faces=faces, merged=0, degenerate=0,
+                  duplicates=0, flipped=0, holes=0, hole_area=0.0, internal=0, open_edges=0, closed=True,
+                  filled=np.zeros(len(faces), dtype=bool))
 
 
 class LabelRegions(dict):
