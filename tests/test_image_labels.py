@@ -140,3 +140,16 @@ def test_bad_label_images(values, kwargs, message):
     with pytest.raises((ImageInputError, ValueError)) as caught:
         sdf.labels(values, **kwargs)
     assert message in str(caught.value)
+
+
+def test_background_kept_as_a_region():
+    grid = label_image([sdf.sphere(0.4)], (-0.5,) * 3, (0.5,) * 3, SPACING)  # one label and the background
+    regions = sdf.labels(grid, keep_background=True, names={1: "ball"})
+    assert list(regions) == ["ball", "background"] and regions.labels == {"ball": 1, "background": 0}
+    assert np.allclose(regions.part.bounds, ((-0.5,) * 3, (0.5,) * 3))  # the voxels' box
+    points = np.random.default_rng(3).uniform(-0.5, 0.5, (20000, 3))
+    ball, background = regions["ball"](points), regions["background"](points)
+    assert ((ball < 0) != (background < 0)).all()  # one region holds each point
+    assert float((ball < 0).mean()) == pytest.approx(4 / 3 * np.pi * 0.4**3, rel=0.03)
+    on = regions["ball"].vertices
+    assert np.abs(regions["background"](on)).max() < 1e-12

@@ -67,9 +67,10 @@ class LabelRegions(dict):
     image: Image
 
 
-def _names(values: np.ndarray, names: Any, image: Image) -> dict:
+def _names(values: np.ndarray, names: Any, image: Image, background: int) -> dict:
+    default = {int(v): "background" if int(v) == background else f"label_{int(v)}" for v in values}
     if names is None:
-        return {int(v): f"label_{int(v)}" for v in values}
+        return default
     if not isinstance(names, dict):
         raise TypeError(f"names must be a dict of label value -> region name (e.g. {{1: 'bone'}}); got {type(names).__name__}")
     found = {int(v) for v in values}
@@ -79,7 +80,7 @@ def _names(values: np.ndarray, names: Any, image: Image) -> dict:
             f"{image.name}: names gives labels {shown(unknown)} that the image does not hold (it holds "
             f"{shown(sorted(found))})"
         )
-    return {int(v): str(names.get(int(v), f"label_{int(v)}")) for v in values}
+    return {int(v): str(names.get(int(v), default[int(v)])) for v in values}
 
 
 def labels(
@@ -155,7 +156,7 @@ def labels(
             f"(values {shown(present.tolist())}); regions need at least two: give a segmentation of two or more "
             f"materials, or mesh a single one with fepre.sdf.image(..., level=0.5)"
         )
-    named = _names(kept, names, data)
+    named = _names(kept, names, data, background)
     check_names(list(named.values()), "names")
     order = np.concatenate([[background], kept[kept != background]])  # index 0 is the background
     indices = np.searchsorted(np.sort(order), values).astype(np.int16)

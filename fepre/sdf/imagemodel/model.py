@@ -55,7 +55,7 @@ class ImageModel(MeshModel):
         return "image"
 
 
-def _checked_level(image: Image, level: Any, inside: str, smoothing: float) -> float:
+def _checked_level(image: Image, level: Any) -> float:
     if level is None:
         raise ValueError(f"{image.name}: level is required (the grey value of the boundary, between the image's "
                          f"values {shown(float(image.values.min()))} and {shown(float(image.values.max()))})")
@@ -144,7 +144,7 @@ def image(
     if refine is not None and (isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 1 <= refine <= 4):
         raise ValueError(f"refine must be an integer from 1 to 4 (samples per voxel along each axis); got {shown(refine)}")
     data = read_image(source, spacing=spacing, origin=origin, array=array)
-    level = _checked_level(data, level, inside, smoothing)
+    level = _checked_level(data, level)
     refine = auto_refine(data.values.shape) if refine is None else int(refine)
     field, fine_spacing = prepared_values(data, level, inside, smoothing, refine)
     if not (field < 0).any() or not (field > 0).any():

@@ -239,6 +239,9 @@ def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: s
             f"image must be a pyvista.ImageData, an image file (.vti, .nii, .nii.gz, .tif) or a 3D numpy array; "
             f"got {type(source).__name__}"
         )
-    spacing = np.broadcast_to(np.asarray(1.0 if spacing is None else spacing, float), (3,)) if np.ndim(spacing) == 0 else np.asarray(spacing, float)
-    origin = np.zeros(3) if origin is None else (np.full(3, float(origin)) if np.ndim(origin) == 0 else np.asarray(origin, float))
+    try:
+        spacing = np.broadcast_to(np.asarray(1.0 if spacing is None else spacing, float), (3,)) if np.ndim(spacing) == 0 else np.asarray(spacing, float)
+        origin = np.zeros(3) if origin is None else (np.full(3, float(origin)) if np.ndim(origin) == 0 else np.asarray(origin, float))
+    except (TypeError, ValueError):
+        raise ImageInputError(f"spacing and origin must be numbers or three numbers each; got {shown(spacing)} and {shown(origin)}") from None
     return _checked(values, spacing, origin, "image array")
