@@ -1,7 +1,8 @@
 """``fepre demo``: the demo parts meshed end to end, with one HTML report.
 
 Parts: the cube with a hole of Kelly's DistMesh.jl study, a sphere, a torus, an L-bracket with a filleted inner edge
-(smooth union) and a bolt hole, and a gyroid-infilled block. For each part the demo writes the
+(smooth union) and a bolt hole, a gyroid-infilled block, a CAD block read from an STL and a bone
+read from a simulated CT scan (a noisy grey image, ``sdf.image`` with smoothing). For each part the demo writes the
 surface (STL), the tetrahedral mesh (VTU) and a CalculiX/Abaqus solver file (INP, with named
 boundary sets), compares the mesh with reference meshers, and finally writes ``report.html``.
 
@@ -59,9 +60,10 @@ class DemoPart:
     boundaries: dict[str, Any] = field(default_factory=dict)
     references: tuple[str, ...] = ()
     description: str = ""
-    #: Writes the part's input file to the path it is given (``<name>_input.stl`` in the output
-    #: folder) and returns the model read from it (an imported part).
+    #: Writes the part's input file to the path it is given (``<name>_input<input_suffix>`` in the
+    #: output folder) and returns the model read from it (an imported part).
     build: Callable[[Path], Any] | None = None
+    input_suffix: str = ".stl"
 
 
 def demo_parts(quick: bool = False) -> list[DemoPart]:
@@ -90,7 +92,17 @@ def demo_parts(quick: bool = False) -> list[DemoPart]:
     parts.append(DemoPart("imported_block", None, 3.0 if quick else 2.0, 0.5 * scale, None, {}, (),
                           "a CAD block written as STL (OpenCASCADE via gmsh), read with sdf.mesh, "
                           "gyroid core (period 16) under a skin 3 thick", build=_imported_block))
+    parts.append(DemoPart("scanned_bone", None, 0.2 if quick else 0.12, 0.05 * scale, None, {}, (),
+                          "a bone-like part (shaft and knuckles, smooth union) scanned as a noisy CT image "
+                          "(voxels 0.05, noise 5% of the contrast), read with sdf.image(level=500, smoothing=0.5)",
+                          build=_scanned_bone, input_suffix=".vti"))
     return parts
+
+
+def _scanned_bone(path: Path):
+    from .parts import bone, write_scan
+
+    return sdf.image(write_scan(bone(), path, 0.05), level=500.0, smoothing=0.5)
 
 
 def _imported_block(path: Path):
@@ -265,7 +277,7 @@ def _run_part(part: DemoPart, outdir: Path, label: str, references: bool, say: C
 
     inputs = []
     if part.build is not None:
-        inputs.append(outdir / f"{part.name}_input.stl")
+        inputs.append(outdir / f"{part.name}_input{part.input_suffix}")
         say(f"{label}: writing and reading {inputs[0].name} ...")
         part.model = part.build(inputs[0])
     say(f"{label}: surface (spacing {part.spacing:g}) ...")

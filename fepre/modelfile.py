@@ -104,15 +104,51 @@ def _error_line(exc: BaseException, path: Path) -> str:
     return f" (line {line})" if line is not None else ""
 
 
-def load_model(path: str | os.PathLike) -> ModelFile:
+def _load_image(path: Path, image: dict | None) -> ModelFile:
+    """An image file as a model: ``sdf.image`` at ``image["level"]`` (or, with
+    ``image["labels"]``, ``sdf.labels`` and its regions)."""
+    from .sdf import image as image_model
+    from .sdf import labels
+
+    options = dict(image or {})
+    if options.pop("labels", False):
+        try:
+            regions = labels(path, **options)
+        except ValueError as exc:
+            raise ModelFileError(str(exc)) from None
+        return ModelFile(path=path, model=regions.part, regions=dict(regions))
+    level = options.pop("level", None)
+    if level is None:
+        raise ModelFileError(
+            f"{path} is an image: pass --level, the grey value of the part's boundary (or --labels for a label image)"
+        )
+    try:
+        return ModelFile(path=path, model=image_model(path, level, **options))
+    except ValueError as exc:
+        raise ModelFileError(str(exc)) from None
+
+
+def _is_image(path: Path) -> bool:
+    from .sdf.imagemodel import IMAGE_SUFFIXES
+
+    name = path.name.lower()
+    return any(name.endswith(suffix) for suffix in IMAGE_SUFFIXES)
+
+
+def load_model(path: str | os.PathLike, image: dict | None = None) -> ModelFile:
     """Run a model file and return what it defines.
 
     Parameters
     ----------
     path : str or path-like
-        A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; or a
+        A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; a
         surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK), whose model is
-        :func:`fepre.sdf.mesh` of it.
+        :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``),
+        whose model is :func:`fepre.sdf.image` of it with the options ``image``.
+    image : dict, optional
+        For an image file: ``level`` (required) and the keywords of :func:`fepre.sdf.image`
+        (``inside``, ``smoothing``); or ``labels=True`` and the keywords of
+        :func:`fepre.sdf.labels` (``names``, ``smoothing``): a label image, its regions.
 
     Returns
     -------
@@ -137,6 +173,8 @@ def load_model(path: str | os.PathLike) -> ModelFile:
         raise ModelFileError(f"model file {path} does not exist")
     if path.is_dir():
         raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
+    if _is_image(path):
+        return _load_image(path, image)
     if path.suffix.lower() in MESH_SUFFIXES:
         from .sdf import mesh
 
@@ -146,8 +184,8 @@ def load_model(path: str | os.PathLike) -> ModelFile:
             raise ModelFileError(str(exc)) from None
     if path.suffix != ".py":
         raise ModelFileError(
-            f"model file {path} must be a Python file ending in .py or a surface mesh "
-            f"({', '.join(MESH_SUFFIXES)}); got {path.suffix or 'no suffix'!r}"
+            f"model file {path} must be a Python file ending in .py, a surface mesh "
+            f"({', '.join(MESH_SUFFIXES)}) or an image (.vti, .nii, .nii.gz, .tif); got {path.suffix or 'no suffix'!r}"
         )
     resolved = path.resolve()
     folder = str(resolved.parent)

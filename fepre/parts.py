@@ -180,3 +180,24 @@ def imported_infill(path: Any) -> Any:
     """The part in the STL file ``path`` with a gyroid core (period 16, sheet 3) under a solid
     skin 3 thick: the nTop-style use of an existing part, for printing and for analysis."""
     return sdf.infill(sdf.mesh(path), sdf.gyroid(period=16.0, thickness=3.0), wall=3.0)
+
+
+def bone() -> Any:
+    """A bone-like part: a shaft (capsule of radius 0.3 from x = -1.2 to 1.2) with a knuckle of
+    radius 0.55 at each end, blended by a smooth union of radius 0.25 (smooth everywhere)."""
+    shaft = sdf.capsule((-1.2, 0.0, 0.0), (1.2, 0.0, 0.0), radius=0.3)
+    ends = [sdf.sphere(0.55, center=(x, 0.0, 0.0)) for x in (-1.3, 1.3)]
+    return sdf.union(shaft, *ends, k=0.25)
+
+
+def write_scan(model: Any, path: Any, voxel: float, *, noise: float = 50.0, seed: int = 0) -> Any:
+    """A simulated CT scan of ``model`` to the ``.vti`` file ``path``: each voxel's partial volume
+    times 1000 plus Gaussian noise of ``noise`` (seeded), over the model's box and 3 voxels more."""
+    from .sdf.imagemodel.phantoms import partial_volume
+
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in model.bounds)
+    grid = partial_volume(model, lower - 3 * voxel, upper + 3 * voxel, voxel, scale=1000.0)
+    values = np.asarray(grid["density"], dtype=np.float64)
+    grid["density"] = (values + np.random.default_rng(seed).normal(0.0, noise, values.shape)).astype(np.float32)
+    grid.save(str(path))
+    return path

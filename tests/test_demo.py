@@ -32,7 +32,7 @@ def demo(tmp_path_factory):
 
 def test_demo_parts_are_the_five_of_the_issue_and_an_imported_one():
     names = [part.name for part in demo_parts(quick=True)]
-    assert names == ["cube_with_hole", "sphere", "torus", "l_bracket", "gyroid_block", "imported_block"]
+    assert names == ["cube_with_hole", "sphere", "torus", "l_bracket", "gyroid_block", "imported_block", "scanned_bone"]
 
 
 @pytest.mark.slow

@@ -74,7 +74,60 @@ def companions(output: Path, fmt) -> list[Path]:
 def model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL",
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
-                             "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
+                             "a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model, "
+                             "or an image (.vti, .nii, .nii.gz, .tif) with --level")
+
+
+def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None:
+    """The options of an image given as MODEL (``--level`` unless the command has its own)."""
+    if level:
+        parser.add_argument("--level", type=float,
+                            help="for an image MODEL: the grey value of the part's boundary")
+    parser.add_argument("--inside", choices=("above", "below"), default="above",
+                        help="for an image MODEL: the part is where the image is above the level (default) or below it")
+    parser.add_argument("--smoothing", type=float,
+                        help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans; "
+                             "default 0, for --labels 0.5)")
+
+
+def label_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--labels`` and ``--label VALUE=NAME``: an image MODEL as a label image, one region per label."""
+    parser.add_argument("--labels", action="store_true",
+                        help="MODEL is a label image: one region (element set) per label, meshed conformally; "
+                             "label 0 is the background")
+    parser.add_argument("--label", action="append", metavar="VALUE=NAME",
+                        help="with --labels: the region name of a label (repeat; default label_<VALUE>)")
+
+
+def image_options(args: argparse.Namespace) -> dict:
+    """The options of ``sdf.image`` from the command line (the flags the command has)."""
+    options = {"level": getattr(args, "level", None)}
+    for name in ("inside", "smoothing"):
+        if getattr(args, name, None) is not None:
+            options[name] = getattr(args, name)
+    if getattr(args, "label", None) and not getattr(args, "labels", False):
+        raise ValueError("--label names a region of a label image: add --labels")
+    if getattr(args, "labels", False):
+        if options.pop("level") is not None:
+            raise ValueError("--level is for a grey image; a label image (--labels) has none")
+        options.pop("inside", None)
+        options["labels"] = True
+        options["names"] = label_names(args.label or [])
+    return options
+
+
+def label_names(values: list[str]) -> dict:
+    """``--label 1=bone --label 2=implant`` as {1: "bone", 2: "implant"}."""
+    names = {}
+    for value in values:
+        label, _, name = value.partition("=")
+        try:
+            names[int(label)] = name
+        except ValueError:
+            raise ValueError(f"--label must be VALUE=NAME with an integer VALUE (e.g. --label 1=bone); got {value!r}") from None
+        if not name:
+            raise ValueError(f"--label must be VALUE=NAME (e.g. --label 1=bone); got {value!r}")
+    return names
 
 
 def load_part(args: argparse.Namespace):
@@ -82,16 +135,48 @@ def load_part(args: argparse.Namespace):
     repaired."""
     from ..modelfile import load_model
     from ..sdf import MeshModel
+    from ..sdf.imagemodel import LabelModel
 
-    part = load_model(args.model)
-    if isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
+    part = load_model(args.model, image=image_options(args))
+    image = image_of(part.model)
+    if image is not None:
+        if not getattr(args, "quiet", False):
+            voxels = " x ".join(map(str, image.image.values.shape))
+            spacing = " ".join(f"{v:g}" for v in image.spacing)
+            say(f"{part.path}: {voxels} voxels of {spacing}, level {image.level:g} ({image.inside}): "
+                f"{len(image.faces)} triangles" + ("; cut by the image's box" if image is not part.model else ""))
+    elif part.regions and isinstance(next(iter(part.regions.values())), LabelModel):
+        if not getattr(args, "quiet", False):
+            first = next(iter(part.regions.values()))
+            voxels = " x ".join(map(str, first.image.values.shape))
+            listed = ", ".join(f"{name} ({model.label})" for name, model in part.regions.items() if hasattr(model, "label"))
+            say(f"{part.path}: label image of {voxels} voxels; regions {listed}")
+    elif isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
         repaired = part.model.repaired.summary()
         say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
              + (f"; repaired: {repaired}" if repaired else "; closed and consistently oriented"))
     return part
 
 
+def image_of(model):
+    """The :class:`fepre.sdf.ImageModel` of an image model (itself, or the one its box cuts), else None."""
+    from ..sdf import ImageModel
+
+    if isinstance(model, ImageModel):
+        return model
+    children = model.children
+    return children[0] if len(children) == 2 and isinstance(children[0], ImageModel) else None
+
+
+def surface_level(args: argparse.Namespace, model) -> float:
+    """The level ``fepre surface`` extracts: ``--level``, except for an image (whose --level is its grey value)."""
+    return 0.0 if args.level is None or (model is not None and image_of(model) is not None) else float(args.level)
+
+
 def default_spacing(part) -> float:
+    image = image_of(part.model)
+    if image is not None:  # the grid the image's level set was taken on
+        return float(image.spacing.min()) / image.refine
     lo, hi = part.domain_bounds()
     return max(b - a for a, b in zip(lo, hi)) / 100.0
 

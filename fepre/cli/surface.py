@@ -23,8 +23,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                                  "dual_contouring"),
                         help="extraction method (dual_contouring keeps sharp edges and corners)")
     parser.add_argument("--spacing", type=float, help="grid spacing (default: largest extent / 100)")
-    parser.add_argument("--level", type=float, default=0.0,
-                        help="the level set to extract (default 0: the part's surface; > 0 an offset outward)")
+    parser.add_argument("--level", type=float,
+                        help="the level set to extract (default 0: the part's surface; > 0 an offset outward); "
+                             "for an image MODEL the grey value of the part's boundary")
+    common.image_arguments(parser, level=False)
     parser.add_argument("--bounds", type=float, nargs=6, metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
                         help="box to sample (default: the model file's bounds, else the model's own)")
     parser.add_argument("--chunks", type=int, nargs="+", metavar="N",
@@ -56,7 +58,7 @@ def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) ->
         bounds = part.bounds if args.bounds is None else common.bounds_argument(args.bounds)
         spacing = args.spacing
         if spacing is None:
-            spacing = max(b - a for a, b in zip(*bounds)) / 100.0 if bounds is not None else common.default_spacing(part)
+            spacing = max(b - a for a, b in zip(*bounds)) / 100.0 if args.bounds is not None or part.bounds is not None else common.default_spacing(part)
         source, model = part.model, part.model
         options = {"spacing": spacing, "bounds": bounds, "band": args.band}
         spacing_text = f"{spacing:g}"
@@ -64,7 +66,7 @@ def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) ->
     start = time.perf_counter()
     if output.suffix.lower() in (".stl", ".ply"):
         written = write_isosurface(
-            source, output, method=args.method, level=args.level, chunks=chunks, log=say, **options
+            source, output, method=args.method, level=common.surface_level(args, model), chunks=chunks, log=say, **options
         )
         say(f"fepre surface: {written.n_triangles:,} triangles from {written.chunks} chunks in {written.seconds:.1f} s")
         if not args.quiet:
@@ -74,7 +76,7 @@ def _run_chunked_surface(args: argparse.Namespace, output: Path, chunks, say) ->
         print(f"wrote {output}")
         return 0
     surface = isosurface_chunked(
-        source, method=args.method, level=args.level, chunks=chunks, spacing=options.get("spacing"),
+        source, method=args.method, level=common.surface_level(args, model), chunks=chunks, spacing=options.get("spacing"),
         shape=None, bounds=options.get("bounds"), band=options.get("band"), model=None, normals=False,
         progress=not args.quiet,
     )
@@ -127,14 +129,15 @@ def run(args: argparse.Namespace) -> int:
     bounds = bounds if bounds is not None else part.bounds
     if args.spacing is not None:
         spacing = args.spacing
-    elif bounds is not None:
+    elif bounds is not None and (args.bounds is not None or part.bounds is not None):
         spacing = max(b - a for a, b in zip(*bounds)) / 100.0
     else:
         spacing = common.default_spacing(part)
     say = (lambda message: None) if args.quiet else common.say
     say(f"fepre surface: {args.method} at spacing {spacing:g} ...")
     start = time.perf_counter()
-    surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=bounds, level=args.level)
+    surface = isosurface(part.model, method=args.method, spacing=spacing, bounds=bounds,
+                         level=common.surface_level(args, part.model))
     if surface.n_cells == 0:
         raise ValueError(
             f"the surface of {part.path} is empty at spacing {spacing:g} (the model is nowhere negative "

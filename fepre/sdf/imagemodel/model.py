@@ -1,0 +1,163 @@
+"""A grey-value image as an SDF model: the signed distance to a level set of its interpolant."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ...arguments import finite_float, nonnegative_float, shown
+from ..meshmodel.model import MeshModel
+from ..meshmodel.repair import repair
+from .levelset import auto_refine, level_surface, prepared_values
+from .read import Image, ImageInputError, read_image
+
+__all__ = ["ImageModel", "image", "INSIDE"]
+
+INSIDE = ("above", "below")
+
+
+class ImageModel(MeshModel):
+    """The solid where an image's interpolant is above (or below) a level.
+
+    Values are the exact distance to the triangles of the level set (see
+    :mod:`fepre.sdf.imagemodel.levelset`), negative inside; built by :func:`fepre.sdf.image`.
+    """
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, source: Image, *, level: float, inside: str,
+                 smoothing: float, refine: int, features: float) -> None:
+        repaired = repair(vertices, faces)
+        if len(repaired.faces) == 0:
+            raise ImageInputError(f"{source.name}: no solid at level {shown(level)}")
+        super().__init__(repaired, source.name, sign="winding", features=features)
+        self.image = source
+        self.level = level
+        self.inside = inside
+        self.smoothing = smoothing
+        self.refine = refine
+
+    @property
+    def spacing(self) -> np.ndarray:
+        """The image's voxel spacing (3,)."""
+        return self.image.spacing
+
+    def _parameters(self) -> dict[str, Any]:
+        parameters: dict[str, Any] = {"source": self.name, "level": self.level}
+        if self.inside != "above":
+            parameters["inside"] = self.inside
+        if self.smoothing:
+            parameters["smoothing"] = self.smoothing
+        parameters["refine"] = self.refine
+        parameters["triangles"] = len(self.faces)
+        return parameters
+
+    def _label(self) -> str:
+        return "image"
+
+
+def _checked_level(image: Image, level: Any) -> float:
+    if level is None:
+        raise ValueError(f"{image.name}: level is required (the grey value of the boundary, between the image's "
+                         f"values {shown(float(image.values.min()))} and {shown(float(image.values.max()))})")
+    level = finite_float(level, "level")
+    low, high = float(image.values.min()), float(image.values.max())
+    if not low < level < high:
+        raise ImageInputError(
+            f"{image.name}: level {shown(level)} is outside the image's values ({shown(low)} to {shown(high)}); "
+            f"give a level strictly between them"
+        )
+    return level
+
+
+def image(
+    source: Any,
+    level: float | None = None,
+    *,
+    inside: str = "above",
+    smoothing: float = 0.0,
+    refine: int | None = None,
+    features: float = 0.0,
+    spacing: Any = None,
+    origin: Any = None,
+    array: str | None = None,
+):
+    """A grey-value image (CT scan, density field) as a model: the solid where the image's
+    smooth interpolant is above ``level`` (or below it).
+
+    The value is the exact signed distance to the level set of the interpolant, as triangles
+    (cubic B-spline interpolant refined ``refine`` times, contoured by flying edges): negative
+    inside, 1-Lipschitz, with gradients and exact projection; the level set is within a small
+    fraction of a voxel of the interpolant's (a partial-volume sphere 17 voxels across: 0.09
+    voxel). A solid that reaches the image's border is cut by the box the voxels fill (half a
+    spacing beyond the first and last samples); the result is then that intersection.
+
+    Parameters
+    ----------
+    source : pyvista.ImageData, str, path-like or array_like
+        A grid (point data at the samples; cell data at the cell centres), an image file
+        (``.vti`` or any grid PyVista reads; ``.nii``/``.nii.gz`` with nibabel, ``.tif`` stacks
+        with tifffile) or a 3D array indexed ``[i, j, k]`` along x, y, z.
+    level : float
+        The boundary's grey value, strictly between the image's smallest and largest values.
+    inside : {"above", "below"}
+        Which side is the solid: values above the level (bright material in a CT) or below it.
+    smoothing : float
+        Width (standard deviation) of a Gaussian blur in voxels of the finest axis, for noisy
+        scans; 0 (default) keeps the samples.
+    refine : int, optional
+        Samples of the interpolant per voxel along each axis (1-4). Default 2 when the refined
+        grid has at most 40M samples, else 1.
+    features : float
+        Crease angle in degrees for :func:`fepre.features` (see :func:`fepre.sdf.mesh`); 0
+        (default): the surface of an image is smooth at the voxel scale.
+    spacing, origin : float or (3,) floats, optional
+        For an array: the voxel spacing (default 1) and the position of voxel (0, 0, 0).
+    array : str, optional
+        The grid's array to read (default its active scalars or its only array).
+
+    Returns
+    -------
+    ImageModel or SDF
+        An :class:`ImageModel` (a :class:`fepre.sdf.MeshModel` with ``image``, ``level``,
+        ``spacing``), or its intersection with the voxels' box when the solid reaches the border.
+
+    Raises
+    ------
+    fepre.sdf.imagemodel.ImageInputError
+        Unreadable file, no scalar array, not 3D, non-finite values, a level outside the values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> x, y, z = np.mgrid[-1:1:41j, -1:1:41j, -1:1:41j]
+    >>> ball = sdf.image(1.0 - np.sqrt(x**2 + y**2 + z**2), level=0.3, spacing=0.05, origin=-1.0)
+    >>> round(float(ball([0.0, 0.0, 0.0])), 2)      # the level set is the sphere of radius 0.7
+    -0.7
+    """
+    if inside not in INSIDE:
+        raise ValueError(f"inside must be 'above' or 'below' (which side of the level is the solid); got {shown(inside)}")
+    smoothing = nonnegative_float(smoothing, "smoothing")
+    features = finite_float(features, "features")
+    if not 0.0 <= features < 180.0:
+        raise ValueError(f"features must be an angle in degrees in [0, 180); got {shown(features)}")
+    if refine is not None and (isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 1 <= refine <= 4):
+        raise ValueError(f"refine must be an integer from 1 to 4 (samples per voxel along each axis); got {shown(refine)}")
+    data = read_image(source, spacing=spacing, origin=origin, array=array)
+    level = _checked_level(data, level)
+    refine = auto_refine(data.values.shape) if refine is None else int(refine)
+    field, fine_spacing = prepared_values(data, level, inside, smoothing, refine)
+    if not (field < 0).any() or not (field > 0).any():
+        raise ImageInputError(
+            f"{data.name}: after smoothing by {shown(smoothing)} voxels no sample is on both sides of level "
+            f"{shown(level)}; give less smoothing or another level"
+        )
+    vertices, faces, touches = level_surface(field, fine_spacing, data.origin)
+    model = ImageModel(vertices, faces, data, level=level, inside=inside, smoothing=smoothing, refine=refine,
+                       features=features)
+    if not touches:
+        return model
+    from ..solids import box
+
+    lower, upper = data.voxel_box()
+    return model & box(tuple(upper - lower), center=tuple(0.5 * (lower + upper)))

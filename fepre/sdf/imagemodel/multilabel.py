@@ -1,0 +1,159 @@
+"""The interfaces of a label image as one triangle surface shared by all its regions.
+
+Each label's indicator is smoothed by a Gaussian (``sigma`` voxels); a node's smoothed label is
+the label of largest smoothed indicator. Every grid edge whose two nodes have different smoothed
+labels ``a`` and ``b`` is crossed where ``f_a - f_b`` changes sign (linear along the edge), and
+each grid cell with crossed edges gets one vertex, the mean of its crossings (surface nets, with
+the crossings of the smooth indicators instead of the edges' midpoints). A crossed edge makes a
+quad of the four cells around it, two triangles facing from ``a`` to ``b``. Every region's surface
+is the triangles with its label on one side, so two regions share their interface's triangles
+exactly, and the part's surface is the triangles with the background on one side.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["LabelSurface", "label_surface"]
+
+
+class LabelSurface:
+    """Vertices (V, 3), triangles (F, 3) facing from ``inner`` to ``outer`` (F,) label indices."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, inner: np.ndarray, outer: np.ndarray) -> None:
+        self.vertices, self.faces, self.inner, self.outer = vertices, faces, inner, outer
+
+    def region(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """Triangles of region ``index`` facing out of it, and the label on their other side."""
+        out, into = self.inner == index, self.outer == index
+        faces = np.concatenate([self.faces[out], self.faces[into][:, ::-1]])
+        return faces, np.concatenate([self.outer[out], self.inner[into]])
+
+    def part(self, background: int) -> tuple[np.ndarray, np.ndarray]:
+        """Triangles between the background and any other label, facing out of the part, and
+        the label inside each."""
+        out, into = self.outer == background, self.inner == background
+        faces = np.concatenate([self.faces[out], self.faces[into][:, ::-1]])
+        return faces, np.concatenate([self.inner[out], self.outer[into]])
+
+
+def _smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
+    """Smoothed indicators (count, ...) as float32 and the smoothed labels."""
+    from scipy import ndimage
+
+    fields = np.empty((count,) + indices.shape, dtype=np.float32)
+    for k in range(count):
+        indicator = (indices == k).astype(np.float32)
+        fields[k] = ndimage.gaussian_filter(indicator, sigma=sigma, mode="nearest") if sigma.max() > 0 else indicator
+    return fields, np.argmax(fields, axis=0).astype(np.int16)
+
+
+def _crossings(fields, labels, axis: int):
+    """Crossed edges along ``axis``: their first node (M, 3), labels a (first node) and b, and
+    the crossing's fraction along the edge."""
+    count = labels.shape[axis] - 1
+    first = np.take(labels, np.arange(count), axis=axis)
+    second = np.take(labels, np.arange(1, count + 1), axis=axis)
+    nodes = np.argwhere(first != second)
+    a = first[tuple(nodes.T)].astype(np.int64)
+    b = second[tuple(nodes.T)].astype(np.int64)
+    ahead = nodes.copy()
+    ahead[:, axis] += 1
+    here = fields[(a,) + tuple(nodes.T)] - fields[(b,) + tuple(nodes.T)]
+    there = fields[(a,) + tuple(ahead.T)] - fields[(b,) + tuple(ahead.T)]
+    denominator = here - there
+    fraction = np.where(denominator > 0, here / np.where(denominator > 0, denominator, 1), 0.5)
+    return nodes, a, b, np.clip(fraction, 0.0, 1.0)
+
+
+#: the cells around an edge along each axis, as offsets (of the two other axes) in the order
+#: that makes the quad face along +axis
+_AROUND = {0: ((1, 2), ((-1, -1), (0, -1), (0, 0), (-1, 0))),
+           1: ((2, 0), ((-1, -1), (0, -1), (0, 0), (-1, 0))),
+           2: ((0, 1), ((-1, -1), (0, -1), (0, 0), (-1, 0)))}
+
+
+def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: np.ndarray, sigma: float,
+                  background: int, iterations: int = 0) -> LabelSurface:
+    """The shared interface surface of label indices ``0..count-1`` on a grid (see the module).
+
+    The grid is padded by one node of ``background`` on every side (kept so after smoothing), so
+    every region's surface is closed; regions at the border close within a voxel beyond it.
+    """
+    indices = np.pad(indices, 1, constant_values=background)
+    fields, labels = _smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
+    for axis in range(3):  # the pad stays background, so every crossed edge has four cells around it
+        for end in (0, -1):
+            index = [slice(None)] * 3
+            index[axis] = end
+            labels[tuple(index)] = background
+    origin = origin - spacing
+    cells = np.array(labels.shape) - 1
+    sums = np.zeros((int(np.prod(cells)), 3))
+    counts = np.zeros(int(np.prod(cells)))
+    found = []
+    for axis in range(3):
+        nodes, a, b, fraction = _crossings(fields, labels, axis)
+        point = nodes.astype(np.float64)
+        point[:, axis] += fraction
+        (u, v), offsets = _AROUND[axis]
+        quad = np.empty((len(nodes), 4), dtype=np.int64)
+        for corner, (du, dv) in enumerate(offsets):
+            cell = nodes.copy()
+            cell[:, u] += du
+            cell[:, v] += dv
+            quad[:, corner] = np.ravel_multi_index(tuple(cell.T), tuple(cells))
+            np.add.at(sums, quad[:, corner], point)
+            np.add.at(counts, quad[:, corner], 1.0)
+        found.append((quad, a, b))
+    used = np.flatnonzero(counts)
+    number = np.full(len(counts), -1, dtype=np.int64)
+    number[used] = np.arange(len(used))
+    quads = np.concatenate([q for q, _, _ in found])
+    inner = np.concatenate([a for _, a, _ in found])
+    outer = np.concatenate([b for _, _, b in found])
+    quads = number[quads]
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    inner, outer = np.tile(inner, 2), np.tile(outer, 2)
+    points = sums[used] / counts[used, None]
+    if iterations:
+        cell = np.column_stack(np.unravel_index(used, tuple(cells))).astype(np.float64)
+        junction = _junctions(len(used), faces, inner, outer)
+        points = relaxed(points, faces, cell, junction, iterations)
+    return LabelSurface(origin + spacing * points, faces, inner, outer)
+
+
+def _junctions(count: int, faces: np.ndarray, inner: np.ndarray, outer: np.ndarray) -> np.ndarray:
+    """(V,) bool: vertices of triangles of more than one pair of labels (where three labels
+    meet, or two interfaces of one label touch)."""
+    pair = inner * 65536 + outer
+    pair = np.minimum(pair, outer * 65536 + inner)
+    first = np.full(count, -1, dtype=np.int64)
+    junction = np.zeros(count, dtype=bool)
+    for k in range(3):
+        vertex = faces[:, k]
+        first[vertex] = pair  # any one pair of each vertex
+    for k in range(3):
+        junction[faces[:, k]] |= first[faces[:, k]] != pair
+    return junction
+
+
+#: Taubin's two steps (lambda > 0 smooths, mu < -lambda swells back: no shrinking)
+TAUBIN = (0.5, -0.53)
+
+
+def relaxed(points: np.ndarray, faces: np.ndarray, cell: np.ndarray, fixed: np.ndarray, iterations: int) -> np.ndarray:
+    """Taubin's smoothing of the surface's vertices (grid coordinates), each kept in its cell;
+    ``fixed`` vertices do not move."""
+    edges = np.unique(np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1), axis=0)
+    ends = np.concatenate([edges[:, 0], edges[:, 1]])
+    others = np.concatenate([edges[:, 1], edges[:, 0]])
+    degree = np.bincount(ends, minlength=len(points)).astype(np.float64)
+    moving = (~fixed) & (degree > 0)
+    low, high = cell, cell + 1.0
+    for _ in range(iterations):
+        for factor in TAUBIN:
+            mean = np.column_stack([np.bincount(ends, points[others, k], len(points)) for k in range(3)])
+            step = mean / np.maximum(degree, 1)[:, None] - points
+            points = np.where(moving[:, None], np.clip(points + factor * step, low, high), points)
+    return points

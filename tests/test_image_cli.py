@@ -1,0 +1,110 @@
+"""`fepre mesh` and `fepre surface` on image files: --level, --inside, --labels, and the errors.
+(The meshes take 4-10 s on a loaded machine: slow; test_image_models and test_image_labels mesh
+the same models in the default run.)"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+from fepre import sdf
+from fepre.cli import main
+from fepre.sdf.imagemodel.phantoms import partial_volume
+
+TORUS = sdf.torus(0.6, 0.3)
+TORUS_VOLUME = 2 * math.pi**2 * 0.6 * 0.3**2
+SPACING = 0.05
+
+
+@pytest.fixture(scope="module")
+def scan(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("images")
+    grid = partial_volume(TORUS, (-1, -1, -0.4), (1, 1, 0.4), SPACING, scale=1000.0)
+    grid.save(folder / "scan.vti")
+    return folder / "scan.vti"
+
+
+def test_surface_of_an_image(scan, capsys):
+    out = scan.with_name("scan.stl")
+    assert main(["surface", str(scan), "--level", "500", "-o", str(out)]) == 0
+    assert "genus                 1" in capsys.readouterr().out
+    surface = pv.read(out)
+    assert surface.n_open_edges == 0
+    assert np.abs(TORUS(np.asarray(surface.points, float))).max() <= 0.2 * SPACING  # measured 0.08 voxel
+    assert surface.volume == pytest.approx(TORUS_VOLUME, rel=0.01)
+
+
+@pytest.mark.slow
+def test_mesh_of_an_image(scan, capsys):
+    out = scan.with_name("scan.inp")
+    assert main(["mesh", str(scan), "--level", "500", "--h", "0.15", "-o", str(out), "--quiet"]) == 0
+    mesh = pv.read(out)
+    nodes = mesh.extract_surface(algorithm="dataset_surface").points
+    assert np.abs(TORUS(np.asarray(nodes, float))).max() <= 0.5 * SPACING
+    # the chords at h cost the volume of a torus meshed at 0.15 3.6%; test_image_models compares
+    # the image's mesh with the solid's at the same h
+    assert mesh.volume == pytest.approx(TORUS_VOLUME, rel=0.05)
+    # the pores' side: --inside below is the box minus the torus, cut by the voxels' box
+    assert main(["surface", str(scan), "--level", "500", "--inside", "below", "-o", str(scan.with_name("pores.stl")),
+                 "--no-check"]) == 0
+    pores = pv.read(scan.with_name("pores.stl"))
+    assert pores.volume == pytest.approx(2.0 * 2.0 * 0.8 - TORUS_VOLUME, rel=0.01)
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--h", "0.1"], "scan.vti is an image: pass --level"),
+        (["--h", "0.1", "--level", "5000"], "level 5000.0 is outside the image's values (0.0 to 1000.0)"),
+        (["--h", "0.1", "--level", "500", "--smoothing", "-1"], "smoothing must be"),
+        (["--level", "500"], "no edge length: pass --h"),
+    ],
+)
+def test_image_errors(scan, capsys, arguments, message):
+    assert main(["mesh", str(scan), "-o", str(scan.with_name("x.inp")), *arguments]) == 1
+    assert message in capsys.readouterr().err
+    assert not scan.with_name("x.inp").exists()
+
+
+def test_image_without_scalars(tmp_path, capsys):
+    path = tmp_path / "empty.vti"
+    pv.ImageData(dimensions=(5, 5, 5)).save(path)
+    assert main(["surface", str(path), "--level", "1", "-o", str(tmp_path / "x.stl")]) == 1
+    assert f"{path} has no scalar array" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_mesh_of_a_label_image(tmp_path, capsys):
+    from fepre.sdf.imagemodel.phantoms import label_image
+
+    grid = label_image([sdf.sphere(0.5), sdf.sphere(0.25)], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    grid.save(tmp_path / "labels.vti")
+    out = tmp_path / "labels.inp"
+    assert main(["mesh", str(tmp_path / "labels.vti"), "--labels", "--label", "1=shell", "--label", "2=core",
+                 "--h", "0.15", "-o", str(out), "--material", "shell", "3000", "0.35", "--material", "core", "70000", "0.3",
+                 "--quiet"]) == 0
+    text = out.read_text()
+    assert "ELSET=shell" in text and "ELSET=core" in text and text.count("*SOLID SECTION") == 2
+    mesh = pv.read(out)
+    assert mesh.volume == pytest.approx(4 / 3 * math.pi * 0.5**3, rel=0.05)
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--labels", "--level", "1"], "--level is for a grey image; a label image (--labels) has none"),
+        (["--label", "1=x"], "--label names a region of a label image: add --labels"),
+        (["--labels", "--label", "1:x"], "--label must be VALUE=NAME with an integer VALUE"),
+        (["--labels"], "holds 1 label besides the background 0"),
+    ],
+)
+def test_label_errors(scan, tmp_path, capsys, arguments, message):
+    one = tmp_path / "one.vti"
+    grid = pv.ImageData(dimensions=(6, 6, 6))
+    grid["labels"] = (np.arange(216) % 2).astype(np.int16)
+    grid.save(one)
+    assert main(["mesh", str(one), "--h", "0.1", "-o", str(tmp_path / "x.inp"), *arguments]) == 1
+    assert message in capsys.readouterr().err

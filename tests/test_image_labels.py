@@ -1,0 +1,155 @@
+"""fepre.sdf.labels: a label image as the regions of one conformal mesh, checked on a cube with a
+spherical inclusion (region volumes against the analytic ones and against the mesh of the
+analytic regions at the same h), shared interfaces, the part's border and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.regions import interface_faces
+from fepre.sdf.imagemodel import ImageInputError
+from fepre.sdf.imagemodel.multilabel import label_surface
+from fepre.sdf.imagemodel.phantoms import label_image
+
+CUBE, BALL = sdf.box(1.0), sdf.sphere(0.3)
+BALL_VOLUME = 4 / 3 * np.pi * 0.3**3
+SPACING = 0.05
+
+
+@pytest.fixture(scope="module")
+def regions():
+    grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    return sdf.labels(grid, names={1: "matrix", 2: "inclusion"})
+
+
+def test_region_models(regions):
+    assert list(regions) == ["matrix", "inclusion"] and regions.labels == {"matrix": 1, "inclusion": 2}
+    matrix, inclusion, part = regions["matrix"], regions["inclusion"], regions.part
+    # smoothed surface nets: vertices within a fraction of a voxel of the sphere, volumes within 1%
+    assert np.abs(BALL(inclusion.vertices)).max() <= 0.3 * SPACING  # measured 0.18 voxel
+    assert np.abs(BALL(inclusion.vertices)).mean() <= 0.06 * SPACING  # measured 0.037
+    assert inclusion.volume == pytest.approx(BALL_VOLUME, rel=0.01)  # measured -0.2%
+    assert matrix.volume == pytest.approx(1 - BALL_VOLUME, rel=0.01)
+    assert part.volume == pytest.approx(1.0, rel=0.01)
+    # the interface is the same triangles in both regions: both zero on it, exactly
+    on = inclusion.vertices
+    assert np.abs(matrix(on)).max() < 1e-12 and np.abs(inclusion(on)).max() < 1e-12
+    # no gap, no overlap: one region holds each point of the part
+    points = np.random.default_rng(0).uniform(-0.55, 0.55, (20000, 3))
+    inside = part(points) < -1e-9
+    holding = (matrix(points[inside]) < 1e-9).astype(int) + (inclusion(points[inside]) < 1e-9)
+    assert (holding == 1).all()
+    for model in (matrix, inclusion, part):
+        assert model.exact and model.repaired.closed
+
+
+def test_conformal_mesh_of_nested_balls(tmp_path):
+    outer, inner = sdf.sphere(0.5), sdf.sphere(0.25)
+    grid = label_image([outer, inner], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    regions = sdf.labels(grid, names={1: "shell", 2: "core"})
+    mesh = fepre.distmesh(regions.part, 0.15, regions=regions, progress=False)
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    shell, core = 4 / 3 * np.pi * (0.5**3 - 0.25**3), 4 / 3 * np.pi * 0.25**3
+    # chords of 0.15 on a ball of radius 0.25 sag up to 0.011 (13% of its volume; measured 10%);
+    # the slow cube test compares with the mesh of the analytic regions at the same h
+    assert volumes[0] == pytest.approx(shell, rel=0.05)
+    assert volumes[1] == pytest.approx(core, rel=0.13)
+    # a ball 5 voxels across: its voxels hold 5.4% more than the ball; the surface follows them
+    voxels = float((grid["labels"] == 2).sum()) * SPACING**3
+    assert regions["core"].volume == pytest.approx(voxels, rel=0.02)  # measured -1.6%
+    faces, _, _ = interface_faces(np.asarray(mesh.cells_dict[10]), mesh["region_id"], mesh.n_points)
+    nodes = mesh.points[np.unique(faces)]
+    assert len(nodes) > 20 and np.abs(inner(nodes)).max() <= 0.5 * SPACING
+    for k in range(2):
+        assert mesh["min_dihedral_angle"][mesh["region_id"] == k].min() >= 25.0
+    fepre.export(mesh, tmp_path / "balls.inp", materials={"shell": (3e3, 0.35), "core": (70e3, 0.3)})
+    text = (tmp_path / "balls.inp").read_text()
+    assert "ELSET=shell" in text and "ELSET=core" in text and text.count("*SOLID SECTION") == 2
+
+
+@pytest.mark.slow
+def test_conformal_mesh_of_the_labels(regions, tmp_path):
+    h = 0.1
+    mesh = fepre.distmesh(regions.part, h, regions=regions, progress=False)
+    exact = fepre.distmesh(CUBE, h, regions={"matrix": CUBE - BALL, "inclusion": BALL}, progress=False)
+    names = list(mesh.field_data["region_names"])
+    assert names == ["matrix", "inclusion"]
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    reference = np.bincount(exact["region_id"], exact["volume"])
+    # the chords at h cost both meshes about the same (the inclusion's 5%): within 2% of each other
+    assert volumes == pytest.approx(reference, rel=0.02)
+    assert volumes[1] == pytest.approx(BALL_VOLUME, rel=0.08)
+    faces, first, second = interface_faces(np.asarray(mesh.cells_dict[10]), mesh["region_id"], mesh.n_points)
+    assert len(faces) > 50
+    nodes = mesh.points[np.unique(faces)]
+    assert np.abs(BALL(nodes)).max() <= 0.5 * SPACING
+    for k in range(2):
+        assert mesh["min_dihedral_angle"][mesh["region_id"] == k].min() >= 25.0
+    written = fepre.export(mesh, tmp_path / "labels.inp", materials={"matrix": (3e3, 0.35), "inclusion": (70e3, 0.3)})
+    text = (tmp_path / "labels.inp").read_text()
+    assert "ELSET=matrix" in text and "ELSET=inclusion" in text
+    assert text.count("*SOLID SECTION") == 2
+    assert written.n_cells == mesh.n_cells
+
+
+def test_three_labels_and_the_border():
+    # two slabs side by side filling the image, and a ball across their interface: three labels
+    # meet along a circle; the part reaches the image's border and is cut by the voxels' box
+    left = sdf.box((0.6, 1.2, 1.2), center=(-0.3, 0, 0))
+    grid = label_image([sdf.box(1.2), left, sdf.sphere(0.3)], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    regions = sdf.labels(grid)
+    assert list(regions) == ["label_1", "label_2", "label_3"]
+    assert np.allclose(regions.part.bounds, ((-0.6,) * 3, (0.6,) * 3))
+    volumes = [regions[name].volume for name in regions]
+    half = 0.5 * (1.2**3 - BALL_VOLUME)
+    # the slabs' surfaces close within a voxel beyond the border: compare inside the box only
+    points = np.random.default_rng(1).uniform(-0.6, 0.6, (200000, 3))
+    shares = [float((regions[name](points) < 0).mean()) * 1.2**3 for name in regions]
+    assert shares == pytest.approx([half, half, BALL_VOLUME], rel=0.03)
+    assert volumes[2] == pytest.approx(BALL_VOLUME, rel=0.02)
+
+
+def test_surface_nets_on_one_voxel():
+    indices = np.zeros((3, 3, 3), np.int16)
+    indices[1, 1, 1] = 1
+    surface = label_surface(indices, 2, np.ones(3), np.zeros(3), 0.0, 0)
+    faces, other = surface.region(1)
+    assert len(surface.vertices) == 8 and len(faces) == 12 and (other == 0).all()
+    # each cell's vertex is the mean of its three crossings (the edges' midpoints next to the
+    # voxel): a cube of side 1/3 around it, facing out
+    assert np.allclose(np.sort(np.unique(surface.vertices)), [5 / 6, 7 / 6])
+    a, b, c = (surface.vertices[faces[:, k]] for k in range(3))
+    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6 == pytest.approx(1 / 27)
+
+
+@pytest.mark.parametrize(
+    "values, kwargs, message",
+    [
+        (np.ones((4, 4, 4), np.int16), {}, "holds 1 label besides the background 0 (values [1]); regions need at least two"),
+        (np.zeros((4, 4, 4), np.int16), {}, "holds 0 labels besides the background 0"),
+        (np.full((4, 4, 4), 0.5), {}, "holds non-integer values"),
+        (np.arange(64).reshape(4, 4, 4) % 3, {"names": {5: "x"}}, "names gives labels [5] that the image does not hold"),
+        (np.arange(64).reshape(4, 4, 4) % 3, {"names": {1: "a b"}}, "names"),
+        (np.arange(16).reshape(4, 4) % 3, {}, "not a 3D image"),
+    ],
+)
+def test_bad_label_images(values, kwargs, message):
+    with pytest.raises((ImageInputError, ValueError)) as caught:
+        sdf.labels(values, **kwargs)
+    assert message in str(caught.value)
+
+
+def test_background_kept_as_a_region():
+    grid = label_image([sdf.sphere(0.4)], (-0.5,) * 3, (0.5,) * 3, SPACING)  # one label and the background
+    regions = sdf.labels(grid, keep_background=True, names={1: "ball"})
+    assert list(regions) == ["ball", "background"] and regions.labels == {"ball": 1, "background": 0}
+    assert np.allclose(regions.part.bounds, ((-0.5,) * 3, (0.5,) * 3))  # the voxels' box
+    points = np.random.default_rng(3).uniform(-0.5, 0.5, (20000, 3))
+    ball, background = regions["ball"](points), regions["background"](points)
+    assert ((ball < 0) != (background < 0)).all()  # one region holds each point
+    assert float((ball < 0).mean()) == pytest.approx(4 / 3 * np.pi * 0.4**3, rel=0.03)
+    on = regions["ball"].vertices
+    assert np.abs(regions["background"](on)).max() < 1e-12

@@ -1,0 +1,189 @@
+"""fepre.sdf.image: grey-value images as models, checked on partial-volume phantoms of analytic
+solids (the boundary within a fraction of a voxel, volumes, 1-Lipschitz values, gradients,
+projection), the image's border, anisotropic spacing, files and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import fepre
+from fepre import sdf
+from fepre.sdf.imagemodel import ImageInputError, ImageModel
+from fepre.sdf.imagemodel.phantoms import label_image, partial_volume
+
+RADIUS = 0.6
+BALL = sdf.sphere(RADIUS)
+SPACING = 0.05  # 24 voxels across the ball
+
+
+@pytest.fixture(scope="module")
+def ball_image():
+    return partial_volume(BALL, (-0.8,) * 3, (0.8,) * 3, SPACING)
+
+
+@pytest.fixture(scope="module")
+def ball(ball_image):
+    return sdf.image(ball_image, level=0.5)
+
+
+def test_surface_within_a_fraction_of_a_voxel_and_volume(ball):
+    assert isinstance(ball, ImageModel) and ball.exact and ball.refine == 2
+    assert np.abs(BALL(ball.vertices)).max() <= 0.15 * SPACING  # measured 0.075 voxel
+    assert abs(ball.volume / (4 / 3 * np.pi * RADIUS**3) - 1) < 0.01  # measured -0.2%
+    # values are distances to that surface: within the same fraction of the true distance
+    points = np.random.default_rng(0).uniform(-0.9, 0.9, (4000, 3))
+    assert np.abs(ball(points) - BALL(points)).max() <= 0.15 * SPACING
+
+
+def test_one_lipschitz_gradient_and_projection(ball):
+    rng = np.random.default_rng(1)
+    a = rng.uniform(-0.9, 0.9, (20000, 3))
+    b = a + rng.normal(size=a.shape) * rng.uniform(0.001, 0.3, (len(a), 1))
+    ratio = np.abs(ball(a) - ball(b)) / np.linalg.norm(a - b, axis=1)
+    assert ratio.max() <= 1 + 1e-9
+    # gradient: unit, near the radius (the exact distance's gradient points at the closest
+    # point, an edge or corner of the triangles for most points: the normals of the triangles
+    # around it differ by up to 10 degrees on a partial-volume surface)
+    points = rng.normal(size=(500, 3))
+    points *= (rng.uniform(0.7, 0.9, 500) / np.linalg.norm(points, axis=1))[:, None]
+    gradient = ball.gradient(points)
+    radial = points / np.linalg.norm(points, axis=1, keepdims=True)
+    assert np.abs(np.linalg.norm(gradient, axis=1) - 1).max() < 1e-6
+    assert np.einsum("ij,ij->i", gradient, radial).min() > np.cos(np.radians(15))  # measured 10.5
+    projected = ball.project(points)
+    assert np.abs(ball(projected)).max() < 1e-9
+    assert np.abs(BALL(projected)).max() <= 0.15 * SPACING
+
+
+def test_mesh_of_the_image_matches_the_mesh_of_the_solid(ball):
+    h = 3 * SPACING
+    mesh = fepre.distmesh(ball, h, progress=False)
+    exact = fepre.distmesh(BALL, h, progress=False)
+    nodes = mesh.points[mesh["boundary"] == 1]
+    assert np.abs(BALL(nodes)).max() <= 0.5 * SPACING  # measured 0.08 voxel
+    # the meshes' chords cost both the same volume at this h: the image's within 1% of the solid's
+    assert abs(mesh["volume"].sum() / exact["volume"].sum() - 1) < 0.01
+    assert mesh["min_dihedral_angle"].min() >= 25.0
+
+
+def test_torus_and_inside_below():
+    torus = sdf.torus(0.6, 0.3)
+    spacing = 0.05
+    grid = partial_volume(torus, (-1.0, -1.0, -0.4), (1.0, 1.0, 0.4), spacing, scale=1000.0)
+    model = sdf.image(grid, level=500.0)
+    assert np.abs(torus(model.vertices)).max() <= 0.2 * spacing
+    assert abs(model.volume / (2 * np.pi**2 * 0.6 * 0.3**2) - 1) < 0.01
+    # the pores of an inverted image: values below the level are the solid
+    inverted = pv.ImageData(dimensions=grid.dimensions, spacing=grid.spacing, origin=grid.origin)
+    inverted["density"] = 1000.0 - grid["density"]
+    below = sdf.image(inverted, level=500.0, inside="below")
+    points = np.random.default_rng(2).uniform(-1, 1, (2000, 3)) * [1, 1, 0.4]
+    assert np.abs(below(points) - model(points)).max() < 1e-5 * spacing
+
+
+def test_anisotropic_spacing_is_accepted():
+    spacing = np.array([0.04, 0.05, 0.07])
+    axes = [np.arange(-0.8, 0.8 + 1e-9, s) for s in spacing]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    values = np.clip(0.5 - (np.sqrt(x**2 + y**2 + z**2) - RADIUS) / spacing.mean(), 0, 1)
+    model = sdf.image(values, level=0.5, spacing=spacing, origin=[a[0] for a in axes])
+    assert np.abs(BALL(model.vertices)).max() <= 0.2 * spacing.max()  # measured 0.13
+    assert abs(model.volume / (4 / 3 * np.pi * RADIUS**3) - 1) < 0.005
+
+
+def test_solid_at_the_border_is_cut_by_the_voxels_box():
+    values = np.ones((10, 12, 14))
+    values[4:6, 5:7, 6:8] = 0.0  # a pore in a block that fills the image
+    model = sdf.image(values, level=0.5, spacing=0.1, origin=(0, 0, 0))
+    assert not isinstance(model, ImageModel)  # the image model cut by the box
+    assert np.allclose(model.bounds, ((-0.05, -0.05, -0.05), (0.95, 1.15, 1.35)))
+    assert float(model([[-0.05, 0.5, 0.5]])[0]) == pytest.approx(0.0, abs=1e-12)
+    assert float(model([[0.45, 0.55, 0.65]])[0]) > 0  # the pore's centre is outside
+    assert float(model([[0.2, 0.2, 0.2]])[0]) == pytest.approx(-0.25, abs=1e-9)
+
+
+def test_files_and_cell_data(tmp_path, ball_image, ball):
+    path = tmp_path / "ball.vti"
+    ball_image.save(path)
+    read = sdf.image(path, level=0.5)
+    assert read.name == str(path)
+    assert np.array_equal(read.vertices, ball.vertices)
+    # a density on cells (a SIMP result): samples at the cell centres
+    cells = pv.ImageData(dimensions=np.array(ball_image.dimensions) + 1, spacing=ball_image.spacing,
+                         origin=np.array(ball_image.origin) - 0.5 * SPACING)
+    cells.cell_data["rho"] = ball_image["density"]
+    assert np.array_equal(sdf.image(cells, level=0.5).vertices, ball.vertices)
+
+
+def test_label_phantom_counts():
+    grid = label_image([sdf.box(1.0), sdf.sphere(0.3)], (-0.6,) * 3, (0.6,) * 3, 0.05)
+    counts = np.bincount(grid["labels"])
+    assert counts[2] * 0.05**3 == pytest.approx(4 / 3 * np.pi * 0.3**3, rel=0.03)
+    assert (counts[1] + counts[2]) * 0.05**3 == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    "source, kwargs, message",
+    [
+        (np.zeros((5, 5)), {"level": 0.5}, "not a 3D image (shape (5, 5))"),
+        (np.zeros((5, 1, 5)), {"level": 0.5}, "not a 3D image (shape (5, 1, 5))"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 30.0}, "level 30.0 is outside the image's values (0.0 to 26.0)"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 0.0}, "level 0.0 is outside the image's values"),
+        (np.arange(27.0).reshape(3, 3, 3), {}, "level is required"),
+        (np.full((3, 3, 3), np.nan), {"level": 0.5}, "27 non-finite values"),
+        (pv.ImageData(dimensions=(4, 4, 4)), {"level": 0.5}, "has no scalar array"),
+        ("no/such/scan.vti", {"level": 0.5}, "image file no/such/scan.vti does not exist"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 5, "inside": "in"}, "inside must be 'above' or 'below'"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 5, "refine": 8}, "refine must be an integer from 1 to 4"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 5, "smoothing": -1}, "smoothing"),
+        (np.arange(27.0).reshape(3, 3, 3), {"level": 5, "spacing": (1, 0, 1)}, "spacing must be three positive numbers"),
+        ({"a": 1}, {"level": 5}, "image must be a pyvista.ImageData"),
+    ],
+)
+def test_bad_input(source, kwargs, message):
+    with pytest.raises((ValueError, TypeError)) as caught:
+        sdf.image(source, **kwargs)
+    assert message in str(caught.value)
+
+
+def test_bad_grids(tmp_path):
+    grid = pv.ImageData(dimensions=(4, 4, 4))
+    grid.point_data["a"] = np.arange(64.0)
+    grid.point_data["b"] = np.arange(64.0)
+    grid.point_data.active_scalars_name = None
+    with pytest.raises(ImageInputError, match="several arrays \\('a', 'b'\\) and none is active; name one with array="):
+        sdf.image(grid, level=3.5)
+    assert sdf.image(grid, level=30.5, array="b").bounds is not None
+    with pytest.raises(ImageInputError, match="has no array 'c'"):
+        sdf.image(grid, level=3.5, array="c")
+    flat = pv.ImageData(dimensions=(6, 6, 1))
+    flat["v"] = np.arange(36.0)
+    path = tmp_path / "flat.vti"
+    flat.save(path)
+    with pytest.raises(ImageInputError, match=f"{path} is not a 3D image \\(shape \\(6, 6, 1\\)\\)"):
+        sdf.image(path, level=3.5)
+    (tmp_path / "junk.vti").write_text("not xml")
+    with pytest.raises(ImageInputError, match="junk.vti could not be read"):
+        sdf.image(tmp_path / "junk.vti", level=1)
+
+
+def test_nifti_and_tiff_stacks(tmp_path, ball_image, ball):
+    values = np.asarray(ball_image["density"]).reshape(ball_image.dimensions, order="F")
+    nibabel = pytest.importorskip("nibabel")
+    affine = np.diag([SPACING, SPACING, SPACING, 1.0])
+    affine[:3, 3] = ball_image.origin
+    nibabel.save(nibabel.Nifti1Image(values, affine), tmp_path / "ball.nii.gz")
+    read = sdf.image(tmp_path / "ball.nii.gz", level=0.5)
+    assert np.allclose(read.vertices, ball.vertices, atol=1e-6)  # the affine is stored in float32
+    # an axis flipped by the affine is read back the right way round
+    flipped = affine.copy()
+    flipped[0, 0] = -SPACING
+    flipped[0, 3] = ball_image.origin[0] + SPACING * (values.shape[0] - 1)
+    nibabel.save(nibabel.Nifti1Image(values[::-1].copy(), flipped), tmp_path / "flipped.nii")
+    assert np.allclose(sdf.image(tmp_path / "flipped.nii", level=0.5).vertices, ball.vertices, atol=1e-6)
+    tifffile = pytest.importorskip("tifffile")
+    tifffile.imwrite(tmp_path / "ball.tif", np.transpose(values, (2, 1, 0)))  # slices along z
+    stack = sdf.image(tmp_path / "ball.tif", level=0.5)  # voxels of 1, from the origin
+    assert np.allclose(stack.vertices * SPACING + np.asarray(ball_image.origin), ball.vertices, atol=1e-6)
