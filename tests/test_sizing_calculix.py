@@ -46,12 +46,18 @@ def test_kirsch_plate_meshed_with_the_automatic_size_field(tmp_path):
     field = fepre.size_field(plate, 0.25, 10.0, elements_across=1)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # the hole's chords ask for sizes near hmin (chord tolerance 0.003 R), so the feature
+        # search grid at hmin / 4 over the plate exceeds MAX_GRID_NODES and is coarsened; the
+        # plate's edges are far longer than the coarser grid
+        warnings.filterwarnings("ignore", "distmesh: the search grid was coarsened", fepre.FeatureWarning)
         mesh = fepre.distmesh(plate, size=field)
-    # measured (this script, ccx's iterative Cholesky solver for the large ones): this mesh has
+    # measured (this script, ccx's iterative Cholesky solver for the large ones): this mesh had
     # 17,268 cells and Kt 1.2% low; uniform meshes at h = 1.5, 1, 0.9 and 0.75 have 45,000,
     # 147,959, 182,196 and 353,866 cells and are 7.7%, 4.1%, 3.1% and 0.6% low: the uniform mesh
-    # as accurate as this one has more than 182,196 cells, over ten times this mesh's
-    assert mesh.n_cells < 182_196 / 10
+    # as accurate as this one has more than 182,196 cells. Since the default chord tolerance is
+    # at most 0.003 R (edges of 0.155 R on the hole: issue 33's volume target), it has 27,298
+    # cells, still under a sixth of that uniform mesh's
+    assert mesh.n_cells < 182_196 / 6
     faces = {"left": sdf.plane((-1, 0, 0), (-WIDTH / 2, 0, 0)), "right": sdf.plane((1, 0, 0), (WIDTH / 2, 0, 0))}
     exported = fepre.export(mesh, tmp_path / "part.inp", order=2, model=plate, boundaries=faces)
     points = np.asarray(exported.points)

@@ -6,6 +6,7 @@ cells outside the part."""
 from __future__ import annotations
 
 import itertools
+import re
 import warnings
 
 import numpy as np
@@ -152,7 +153,9 @@ def test_the_volume_check():
     points, tets = block(4, size=1.0)
     model = sdf.box((0.7, 1.0, 1.0), center=(0.35, 0.5, 0.5))  # the block is 43% larger
     found = {d.check: d for d in mesh_defects(points, tets, model, 1.0, bounds=(np.full(3, -0.2), np.full(3, 1.2)))}
-    assert "+43%" in found["volume"].cause
+    # +43% exactly; the grid estimate of the box (1.4 / 13 wide samples) is within 3% of 0.7
+    off = float(re.search(r"is \+(\d+)% off", found["volume"].cause).group(1))
+    assert 39 <= off <= 44
 
 
 def _job(points, tets, model, h):
