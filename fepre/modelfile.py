@@ -104,7 +104,7 @@ def _error_line(exc: BaseException, path: Path) -> str:
     return f" (line {line})" if line is not None else ""
 
 
-def load_model(path: str | os.PathLike) -> ModelFile:
+def load_model(path: str | os.PathLike, *, inside: str = "closed") -> ModelFile:
     """Run a model file and return what it defines.
 
     Parameters
@@ -113,6 +113,9 @@ def load_model(path: str | os.PathLike) -> ModelFile:
         A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; or a
         surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK), whose model is
         :func:`fepre.sdf.mesh` of it.
+    inside : {"closed", "winding"}
+        For a surface mesh file, ``inside=`` of :func:`fepre.sdf.mesh` (``"winding"``: the solid
+        where the generalised winding number exceeds 1/2, for open surfaces).
 
     Returns
     -------
@@ -141,9 +144,12 @@ def load_model(path: str | os.PathLike) -> ModelFile:
         from .sdf import mesh
 
         try:
-            return ModelFile(path=path, model=mesh(path))
+            return ModelFile(path=path, model=mesh(path, inside=inside))
         except ValueError as exc:
             raise ModelFileError(str(exc)) from None
+    if inside != "closed":
+        raise ModelFileError(f"model file {path}: --inside {inside} applies to surface mesh files "
+                             f"({', '.join(MESH_SUFFIXES)}) only; a Python model file defines its solid itself")
     if path.suffix != ".py":
         raise ModelFileError(
             f"model file {path} must be a Python file ending in .py or a surface mesh "

@@ -75,6 +75,10 @@ def model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL",
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
                              "or a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model")
+    parser.add_argument("--inside", choices=("closed", "winding"), default="closed",
+                        help="for a surface mesh file: the solid is what the repaired surface encloses (closed, the default; "
+                             "open surfaces with large holes are refused) or where its generalised winding number exceeds 1/2 "
+                             "(winding: scans with large openings, overlapping open sheets)")
 
 
 def load_part(args: argparse.Namespace):
@@ -83,7 +87,7 @@ def load_part(args: argparse.Namespace):
     from ..modelfile import load_model
     from ..sdf import MeshModel
 
-    part = load_model(args.model)
+    part = load_model(args.model, inside=getattr(args, "inside", "closed"))
     if isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
         repaired = part.model.repaired.summary()
         say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
