@@ -151,3 +151,17 @@ def test_distmesh_of_the_open_dome_is_valid_and_keeps_the_half_ball(hemisphere):
     on_disc = np.abs(nodes[:, 2]) < 1.5e-3
     assert (on_dome | on_disc).all()
     assert on_disc.sum() > 20 and on_dome.sum() > 100
+
+
+def test_model_files_take_inside_for_mesh_files_only(tmp_path, hemisphere):
+    from fepre.modelfile import ModelFileError, load_model
+
+    script = tmp_path / "ball.py"
+    script.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    with pytest.raises(ModelFileError, match="--inside winding applies to surface mesh files"):
+        load_model(script, inside="winding")
+    path = tmp_path / "dome.stl"
+    hemisphere.triangulate().save(path)
+    with pytest.raises(ModelFileError, match="inside='winding'"):
+        load_model(path)
+    assert load_model(path, inside="winding").model.inside == "winding"
