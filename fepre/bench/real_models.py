@@ -207,7 +207,7 @@ def _cells(row: dict | None) -> str:
             f"{100 * row['volume']:+6.2f}% {row['boundary']:6.3f} {100 * row['off']:5.1f} {row['seconds']:6.1f}")
 
 
-HEADER = (f"{'model':28s} {'tris':>6s} {'h':>12s} | {'fepre':3s} {'cells':>7s} {'worst':>5s} {'max':>5s} {'rr':>5s} "
+HEADER = (f"{'model':34s} {'tris':>6s} {'h':>12s} | {'fepre':3s} {'cells':>7s} {'worst':>5s} {'max':>5s} {'rr':>5s} "
           f"{'dV':>7s} {'bnd/h':>6s} {'off%':>5s} {'s':>6s} | {'ptw':3s} {'cells':>7s} {'worst':>5s} {'max':>5s} {'rr':>5s} "
           f"{'dV':>7s} {'bnd/h':>6s} {'off%':>5s} {'s':>6s}")
 
@@ -254,7 +254,7 @@ def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwi
         try:
             ref = reference(path, samples)
         except Exception as exc:  # noqa: BLE001
-            out(f"{path.name:28s} unreadable: {type(exc).__name__}: {exc}")
+            out(f"{path.name:34s} unreadable: {type(exc).__name__}: {exc}")
             continue
         for size in sizes:
             ours = _fepre(path, size, ref, inside)
@@ -262,11 +262,13 @@ def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwi
             theirs = _pytetwild(ref, size.h(ref.diagonal)) if run_peer else None
             name = ref.name + ("" if ref.closed else " (open)") + (" w" if ours.get("inside") == "winding" else "")
             h = size.h(ref.diagonal)
-            out(f"{name[:28]:28s} {len(ref.faces):6d} {size.label:>12s} | {_cells(ours)} | {_cells(theirs)}")
+            out(f"{name[:34]:34s} {len(ref.faces):6d} {size.label:>12s} | {_cells(ours)} | {_cells(theirs)}")
             if ours.get("problems"):
-                out(f"{'':28s}   fepre problems: {'; '.join(ours['problems'])}")
+                out(f"{'':34s}   fepre problems: {'; '.join(ours['problems'])}")
             if ours.get("warnings"):
-                out(f"{'':28s}   fepre warned: {', '.join(ours['warnings'])}")
+                out(f"{'':34s}   fepre warned: {', '.join(ours['warnings'])}")
+            if theirs and theirs.get("problems"):
+                out(f"{'':34s}   pytetwild problems: {'; '.join(theirs['problems'])}")
             rows.append(dict(model=ref.name, size=size.label, triangles=len(ref.faces), h=h, closed=ref.closed,
                              reference_volume=ref.volume, fepre=ours, pytetwild=theirs))
     ratios = [r["fepre"]["seconds"] / r["pytetwild"]["seconds"] for r in rows
