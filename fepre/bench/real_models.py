@@ -160,7 +160,7 @@ def _fepre(path: Path, size: Size, ref: Reference, inside: str) -> dict:
                 model = mesh(path, inside=used)
             grid = fepre.distmesh(model, h=h)
         except Exception as exc:  # noqa: BLE001 - a bench reports every failure and goes on
-            return dict(error=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - start)
+            return dict(error=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - start, inside=used)
     seconds = time.perf_counter() - start
     fine = h if np.isscalar(h) else h[0]
     row = measure(np.asarray(grid.points, float), grid.cells_dict[10].astype(np.int64), model, fine, ref, seconds)
