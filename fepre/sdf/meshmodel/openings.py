@@ -161,6 +161,10 @@ def _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells: int):
         closest, distance = _closest_on_segments(points[edge], rim[0], rim[1], spacing / 4)
         snap = distance <= 2.0 * SHEET_GAP * spacing
         points[edge[snap]] = closest[snap]
+        # rim vertices snapped onto one point: one vertex, and the triangles it collapses dropped
+        # (a zero-area triangle has no closest-point barycentrics)
+        points, triangles, _ = _merge_vertices(points, triangles)
+        triangles = triangles[face_normals(points, triangles)[1] > 1e-12 * spacing**2]
     return points, triangles, spacing
 
 
@@ -205,6 +209,7 @@ def span_openings(vertices: np.ndarray, faces: np.ndarray, cells: int = OPENING_
     sheet_vertices, sheet_faces, _, internal, backwards = _drop_internal(vertices, faces)
     # the pieces of triangles split at a seam share their corners: one patch, not one per piece
     sheet_vertices, sheet_faces, _ = _merge_vertices(sheet_vertices, sheet_faces)
+    sheet_faces = _drop_degenerate_and_duplicates(sheet_faces)[0]
     points, triangles, _ = _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells)
     pieces = 0
     if len(triangles):
