@@ -135,7 +135,7 @@ def _is_image(path: Path) -> bool:
     return any(name.endswith(suffix) for suffix in IMAGE_SUFFIXES)
 
 
-def load_model(path: str | os.PathLike, image: dict | None = None) -> ModelFile:
+def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: str = "closed") -> ModelFile:
     """Run a model file and return what it defines.
 
     Parameters
@@ -149,6 +149,9 @@ def load_model(path: str | os.PathLike, image: dict | None = None) -> ModelFile:
         For an image file: ``level`` (required) and the keywords of :func:`fepre.sdf.image`
         (``inside``, ``smoothing``); or ``labels=True`` and the keywords of
         :func:`fepre.sdf.labels` (``names``, ``smoothing``): a label image, its regions.
+    inside : {"closed", "winding"}
+        For a surface mesh file, ``inside=`` of :func:`fepre.sdf.mesh` (``"winding"``: the solid
+        where the generalised winding number exceeds 1/2, for open surfaces).
 
     Returns
     -------
@@ -173,15 +176,25 @@ def load_model(path: str | os.PathLike, image: dict | None = None) -> ModelFile:
         raise ModelFileError(f"model file {path} does not exist")
     if path.is_dir():
         raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
+    image_inside = (image or {}).get("inside")
     if _is_image(path):
+        if inside != "closed" or image_inside in ("closed", "winding"):
+            raise ModelFileError(f"{path} is an image: --inside takes 'above' or 'below' for an image (the part is "
+                                 f"where the image is above or below --level); got {image_inside or inside!r}")
         return _load_image(path, image)
+    if image_inside in ("above", "below"):
+        raise ModelFileError(f"model file {path}: --inside {image_inside} applies to images only; a surface mesh file "
+                             "takes --inside closed or winding")
     if path.suffix.lower() in MESH_SUFFIXES:
         from .sdf import mesh
 
         try:
-            return ModelFile(path=path, model=mesh(path))
+            return ModelFile(path=path, model=mesh(path, inside=inside))
         except ValueError as exc:
             raise ModelFileError(str(exc)) from None
+    if inside != "closed":
+        raise ModelFileError(f"model file {path}: --inside {inside} applies to surface mesh files "
+                             f"({', '.join(MESH_SUFFIXES)}) only; a Python model file defines its solid itself")
     if path.suffix != ".py":
         raise ModelFileError(
             f"model file {path} must be a Python file ending in .py, a surface mesh "

@@ -108,3 +108,15 @@ def test_label_errors(scan, tmp_path, capsys, arguments, message):
     grid.save(one)
     assert main(["mesh", str(one), "--h", "0.1", "-o", str(tmp_path / "x.inp"), *arguments]) == 1
     assert message in capsys.readouterr().err
+
+
+def test_inside_is_checked_against_the_kind_of_model(scan, capsys, tmp_path):
+    # one --inside flag: closed/winding for surface mesh files, above/below for images
+    assert main(["surface", str(scan), "--level", "500", "--inside", "winding", "-o", str(tmp_path / "a.stl")]) != 0
+    err = capsys.readouterr().err
+    assert "is an image: --inside takes 'above' or 'below'" in err and "'winding'" in err
+    stl = tmp_path / "ball.stl"
+    pv.Sphere(radius=1.0).save(stl)
+    assert main(["surface", str(stl), "--inside", "below", "-o", str(tmp_path / "b.stl")]) != 0
+    assert "--inside below applies to images only" in capsys.readouterr().err
+    assert not (tmp_path / "a.stl").exists() and not (tmp_path / "b.stl").exists()

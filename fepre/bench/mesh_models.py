@@ -14,6 +14,10 @@ For each: cells, the worst and largest dihedral and the smallest radius ratio, v
 (:func:`fepre.corpus.check_mesh`, boundary-node distance left out for pytetwild, whose boundary
 is an envelope), the volume error against the input's winding-number volume (Monte Carlo), how
 far the input's sharp edges are from the mesh's boundary (in h) and the time.
+
+``--real FOLDER`` runs :mod:`fepre.bench.real_models` instead: every model file in FOLDER
+(real-world STL/OBJ/PLY/OFF, ``--cad`` adds tessellated CAD parts) at h = D/25, D/50, D/100 and
+graded, fepre and pytetwild side by side.
 """
 
 from __future__ import annotations
@@ -115,6 +119,14 @@ def _sharp_samples(item, seed: int) -> np.ndarray:
 
 
 def main(argv: list[str]) -> int:
+    if "--real" in argv:  # a folder of real-world models: fepre.bench.real_models
+        from .real_models import main as real
+
+        at = argv.index("--real")
+        if at + 1 >= len(argv):
+            print("fepre bench mesh-models: error: --real needs a FOLDER")
+            return 2
+        return real(argv[:at] + argv[at + 1:], prog="fepre bench mesh-models --real")
     import pyvista as pv
 
     import fepre
@@ -127,6 +139,8 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--no-pytetwild", action="store_true", help="fepre only")
     parser.add_argument("--no-queries", action="store_true", help="skip the distance-query timing")
     parser.add_argument("--seed", type=int, default=0, help="seed of the random defects (default 0)")
+    parser.add_argument("--real", metavar="FOLDER",
+                        help="instead, mesh every model in FOLDER (see `fepre bench real-models --help` for its options)")
     args = parser.parse_args(argv)
     from ..corpus.meshes import CLEAN, _DIRTY
 

@@ -76,6 +76,11 @@ def model_argument(parser: argparse.ArgumentParser) -> None:
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
                              "a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model, "
                              "or an image (.vti, .nii, .nii.gz, .tif) with --level")
+    parser.add_argument("--inside", choices=("closed", "winding", "above", "below"),
+                        help="for a surface mesh file: the solid is what the repaired surface encloses (closed, the default; "
+                             "open surfaces with large holes are refused) or where its generalised winding number exceeds 1/2 "
+                             "(winding: scans with large openings, overlapping open sheets); for an image: the part is where "
+                             "the image is above the level (the default) or below it")
 
 
 def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None:
@@ -83,8 +88,6 @@ def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None
     if level:
         parser.add_argument("--level", type=float,
                             help="for an image MODEL: the grey value of the part's boundary")
-    parser.add_argument("--inside", choices=("above", "below"), default="above",
-                        help="for an image MODEL: the part is where the image is above the level (default) or below it")
     parser.add_argument("--smoothing", type=float,
                         help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans; "
                              "default 0, for --labels 0.5)")
@@ -97,6 +100,15 @@ def label_arguments(parser: argparse.ArgumentParser) -> None:
                              "label 0 is the background")
     parser.add_argument("--label", action="append", metavar="VALUE=NAME",
                         help="with --labels: the region name of a label (repeat; default label_<VALUE>)")
+
+
+IMAGE_INSIDE = ("above", "below")
+
+
+def mesh_inside(args: argparse.Namespace) -> str:
+    """``--inside`` for a surface mesh file (``closed`` unless ``closed`` or ``winding`` given)."""
+    inside = getattr(args, "inside", None)
+    return inside if inside in ("closed", "winding") else "closed"
 
 
 def image_options(args: argparse.Namespace) -> dict:
@@ -137,7 +149,7 @@ def load_part(args: argparse.Namespace):
     from ..sdf import MeshModel
     from ..sdf.imagemodel import LabelModel
 
-    part = load_model(args.model, image=image_options(args))
+    part = load_model(args.model, image=image_options(args), inside=mesh_inside(args))
     image = image_of(part.model)
     if image is not None:
         if not getattr(args, "quiet", False):

@@ -13,12 +13,16 @@ from ..core import SDF, Coords
 from .distance import TriangleDistance
 from .patches import PatchPlanes, segment_patches
 from .read import MeshInputError, read_triangles
+from .openings import span_openings
 from .repair import MAX_HOLE_FRACTION, Repair, repair
 from .tables import face_normals
 
 __all__ = ["MeshModel", "mesh"]
 
 SIGNS = ("winding", "pseudonormal")
+#: What the solid of a surface is: what it encloses once repaired, or where its winding number
+#: exceeds 1/2 (open surfaces that no hole fill closes).
+INSIDES = ("closed", "winding")
 
 
 class MeshModel(SDF):
@@ -29,10 +33,11 @@ class MeshModel(SDF):
 
     analytic_gradient = True
 
-    def __init__(self, repaired: Repair, name: str, *, sign: str, features: float) -> None:
+    def __init__(self, repaired: Repair, name: str, *, sign: str, features: float, inside: str = "closed") -> None:
         self.repaired = repaired
         self.name = name
         self.sign = sign
+        self.inside = inside
         self.features = features
         vertices, faces = repaired.vertices, repaired.faces
         pseudonormal = repaired.closed and repaired.internal == 0
@@ -80,6 +85,8 @@ class MeshModel(SDF):
         parameters: dict[str, Any] = {"source": self.name, "triangles": len(self.faces)}
         if self.sign != "winding":
             parameters["sign"] = self.sign
+        if self.inside != "closed":
+            parameters["inside"] = self.inside
         if self.features != 30.0:
             parameters["features"] = self.features
         return parameters
@@ -153,7 +160,7 @@ class MeshModel(SDF):
         return closest[0] if single else closest
 
 
-def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshModel:
+def mesh(source: Any, *, sign: str = "winding", features: float = 30.0, inside: str = "closed") -> MeshModel:
     """The solid enclosed by a triangle mesh, as a model.
 
     Values are the exact Euclidean distance to the triangles (libigl's bounding-box tree, not a
@@ -178,6 +185,14 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
         Edges whose two triangles' normals differ by more than this many degrees are sharp:
         :func:`fepre.features` and DistMesh keep them as feature curves and corners. 0 treats
         the whole surface as smooth.
+    inside : {"closed", "winding"}
+        What the solid is. ``"closed"`` (default): what the repaired surface encloses; an open
+        surface whose holes would add more than ``MAX_HOLE_FRACTION`` of its area is refused.
+        ``"winding"``: where the generalised winding number of the triangles exceeds 1/2
+        (Jacobson et al. 2013), for scans with large openings and overlapping open sheets: no
+        hole is filled; the model is the distance to the input triangles that bound that set
+        plus surfaces spanning its openings (the ``w = 1/2`` level set, see
+        :mod:`fepre.sdf.meshmodel.openings`), signed by the winding number.
 
     Returns
     -------
@@ -201,16 +216,28 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
     >>> part = ball - sdf.cylinder(radius=0.3, height=3.0)   # combines with CSG
     >>> float(part([0.0, 0.0, 0.0]))
     0.3
+    >>> bowl = pv.Sphere(theta_resolution=48, phi_resolution=48).clip(normal="-z", origin=(0, 0, 0))
+    >>> cap = sdf.mesh(bowl, inside="winding")                 # an open hemisphere: its solid
+    >>> round(float(cap([0.0, 0.0, 0.2])), 3), round(cap.volume / (3.14159 / 12), 2)
+    (-0.2, 1.0)
     """
+    if inside not in INSIDES:
+        raise ValueError(f"inside must be one of {', '.join(map(repr, INSIDES))}; got {inside!r}")
     if sign not in SIGNS:
         raise ValueError(f"sign must be one of {', '.join(map(repr, SIGNS))}; got {sign!r}")
     features = finite_float(features, "features")
     if not 0.0 <= features < 180.0:
         raise ValueError(f"features must be an angle in degrees in [0, 180); got {features!r}")
     vertices, faces, name = read_triangles(source)
-    repaired = repair(vertices, faces)
-    _check_solid(repaired, name)
-    _warn_of_changes(repaired, vertices[np.unique(faces)], name)
+    if inside == "winding":
+        if sign == "pseudonormal":
+            raise MeshInputError(f"{name}: inside='winding' signs by the winding number; use sign='winding'")
+        repaired = span_openings(vertices, faces)
+        _check_volume(repaired, name)
+    else:
+        repaired = repair(vertices, faces)
+        _check_solid(repaired, name)
+        _warn_of_changes(repaired, vertices[np.unique(faces)], name)
     if sign == "pseudonormal" and not (repaired.closed and repaired.internal == 0):
         raise MeshInputError(
             f"{name}: sign='pseudonormal' needs a closed, consistently oriented surface, and this one is not "
@@ -218,7 +245,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0) -> MeshM
         )
     if isinstance(source, (str, os.PathLike)):
         name = os.fspath(source)
-    return MeshModel(repaired, name, sign=sign, features=features)
+    return MeshModel(repaired, name, sign=sign, features=features, inside=inside)
 
 
 #: A repair that changes the volume by more than this fraction (beyond flat caps on holes) warns.
@@ -262,8 +289,16 @@ def _check_solid(repaired: Repair, name: str) -> None:
         raise MeshInputError(
             f"{name} has no inside: it is an open surface, and closing its {repaired.holes} boundary loop(s) "
             f"would add {100 * repaired.hole_area / total:.0f}% of its area (fepre closes holes up to "
-            f"{100 * MAX_HOLE_FRACTION:.0f}%); give a closed surface"
+            f"{100 * MAX_HOLE_FRACTION:.0f}%); give a closed surface, or pass inside='winding' (CLI: --inside "
+            "winding) to mesh the solid where its generalised winding number exceeds 1/2"
         )
+    _check_volume(repaired, name)
+
+
+def _check_volume(repaired: Repair, name: str) -> None:
+    """The surface must enclose a positive volume."""
+    if len(repaired.faces) == 0:
+        raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
     a, b, c = (repaired.vertices[repaired.faces[:, k]] for k in range(3))
     volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     extent = np.ptp(repaired.vertices[np.unique(repaired.faces)], axis=0)

@@ -1,0 +1,52 @@
+"""``fepre bench mesh-models --real FOLDER``: the bench's core on a tiny model in a tmp folder."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+from fepre.bench import real_models
+
+
+def _box(path, missing_face: bool = False):
+    box = pv.Cube(x_length=2.0, y_length=1.0, z_length=1.0).triangulate().subdivide(1)
+    if missing_face:
+        box = box.extract_cells(np.flatnonzero(box.cell_normals[:, 2] < 0.9)).extract_surface(algorithm=None)
+    box.save(path)
+    return path
+
+
+def test_bench_core_on_a_tiny_box(tmp_path):
+    _box(tmp_path / "box.stl")
+    (tmp_path / "notes.txt").write_text("not a model")
+    lines: list[str] = []
+    rows = real_models.bench_folder(tmp_path, ["6"], pytetwild=True, out=lines.append, warm_up=False)
+    assert len(rows) == 1
+    row = rows[0]
+    assert row["model"] == "box.stl" and row["closed"] and row["size"] == "D/6"
+    assert row["reference_volume"] == pytest.approx(2.0, rel=1e-12)        # divergence volume, closed input
+    assert row["h"] == pytest.approx(np.sqrt(6.0) / 6)
+    for mesher in ("fepre", "pytetwild"):
+        figures = row[mesher]
+        assert "error" not in figures, figures
+        assert figures["valid"], figures["problems"]
+        assert abs(figures["volume"]) < 0.01                              # a box: no chords
+        assert figures["boundary"] < 0.05 and figures["seconds"] > 0
+        assert 0 < figures["worst"] <= 70.53 <= figures["largest"] < 180 and 0 < figures["rr"] <= 1
+    assert row["fepre"]["boundary"] < 1e-3 and row["fepre"]["off"] == 0.0  # fepre's nodes on the faces
+    text = "\n".join(lines)
+    assert "box.stl" in text and "time fepre/pytetwild: median" in text and "1 of 1 meshes valid" in text
+
+
+def test_open_input_is_retried_with_the_winding_number_and_sizes_are_checked(tmp_path):
+    _box(tmp_path / "tray.stl", missing_face=True)          # a planar hole: closed flat, not refused
+    rows = real_models.bench_folder(tmp_path, ["5"], pytetwild=False, out=lambda line: None, samples=200_000,
+                                    warm_up=False)
+    assert rows[0]["fepre"]["inside"] == "closed" and not rows[0]["closed"]
+    assert abs(rows[0]["fepre"]["volume"]) < 0.015          # against the winding-number volume (MC: 0.3%)
+    with pytest.raises(ValueError, match="--sizes: '50:60' is not K"):
+        real_models.Size.parse("50:60")
+    assert real_models.Size.parse("50:12").h(100.0) == (2.0, 100.0 / 12)
+    with pytest.raises(ValueError, match="holds no model"):
+        real_models.bench_folder(tmp_path / "..", ["5"], pytetwild=False, names=["nothing-like-this"])

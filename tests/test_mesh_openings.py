@@ -1,0 +1,167 @@
+"""Open surfaces as the solid of their winding number: ``sdf.mesh(path, inside="winding")``."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+from fepre import sdf
+from fepre.corpus.meshes import winding_volume
+from fepre.sdf.meshmodel import MeshInputError
+
+
+def _triangles(surface: pv.PolyData) -> tuple[np.ndarray, np.ndarray]:
+    surface = surface.triangulate().clean()
+    return np.asarray(surface.points, float), surface.faces.reshape(-1, 4)[:, 1:].astype(np.int64)
+
+
+def _polyhedral_ball_volume(surface: pv.PolyData) -> float:
+    return float(surface.triangulate().clean().volume)
+
+
+@pytest.fixture(scope="module")
+def hemisphere() -> pv.PolyData:
+    """A scan-like dome: the upper half of a unit sphere (clip removes the side the normal
+    points to), open at the equator."""
+    return pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=48).clip(normal="-z", origin=(0, 0, 0))
+
+
+def _sheet_pair() -> pv.PolyData:
+    """Two open sheets of one unit sphere, each past the equator, overlapping on a band from
+    80 to 100 degrees, triangulated differently (two scans of a ball)."""
+    upper = pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=40, start_phi=0, end_phi=100)
+    lower = pv.Sphere(radius=1.0, theta_resolution=40, phi_resolution=36, start_phi=80, end_phi=180)
+    return upper.merge(lower)
+
+
+def _box_without_two_faces() -> pv.PolyData:
+    cube = pv.Cube(x_length=2.0, y_length=2.0, z_length=2.0).triangulate().subdivide(3)
+    normals = cube.cell_normals
+    return cube.extract_cells(np.flatnonzero(~((normals[:, 0] > 0.9) | (normals[:, 1] > 0.9)))).extract_surface(algorithm=None)
+
+
+def test_open_surfaces_are_refused_with_the_option_named(hemisphere):
+    for surface in (hemisphere, _sheet_pair(), _box_without_two_faces()):
+        with pytest.raises(MeshInputError, match=r"has no inside: it is an open surface.*inside='winding'"):
+            sdf.mesh(surface)
+    with pytest.raises(ValueError, match="inside must be one of 'closed', 'winding'; got 'wind'"):
+        sdf.mesh(hemisphere, inside="wind")
+    with pytest.raises(MeshInputError, match="use sign='winding'"):
+        sdf.mesh(hemisphere, inside="winding", sign="pseudonormal")
+
+
+def test_hemisphere_is_the_half_ball_with_a_flat_disc(hemisphere):
+    """On the equator's disc the hemisphere subtends exactly half of the sphere's solid angle:
+    w = 1/2 there, so the solid is the half ball and the spanning surface the flat disc."""
+    model = sdf.mesh(hemisphere, inside="winding")
+    half_ball = _polyhedral_ball_volume(pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=48)) / 2
+    assert model.repaired.holes == 1
+    assert model.repaired.hole_area == pytest.approx(np.pi, rel=0.01)     # the disc, polygon rim
+    assert model.volume == pytest.approx(half_ball, rel=2e-3)
+    # below the disc, outside: the distance is to the disc (the depth)
+    below = np.array([[0.0, 0.0, -0.3], [0.2, -0.1, -0.5], [0.0, 0.0, -0.05]])
+    np.testing.assert_allclose(model(below), -below[:, 2], atol=2e-3)
+    above = np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 0.9], [0.2, -0.1, 0.5], [0.5, 0.0, 0.02]])
+    np.testing.assert_allclose(model(above), [-0.5, -0.1, -(1 - np.sqrt(0.3)), -0.02], atol=3e-3)
+    # the kept sheet is the input: every input vertex is on the zero set
+    points = np.asarray(hemisphere.points)
+    assert np.abs(model(points)).max() < 1e-9
+
+
+@pytest.mark.slow  # about 10 s: the overlap band splits thousands of triangles at its seams
+def test_overlapping_sheet_pair_is_the_ball():
+    surface = _sheet_pair()
+    vertices, faces = _triangles(surface)
+    model = sdf.mesh(surface, inside="winding")
+    assert model.repaired.holes == 0          # the sheets close each other: nothing to span
+    from fepre.corpus.validate import monte_carlo_volume
+
+    volume, error = monte_carlo_volume(model, (-1, -1, -1), (1, 1, 1), 200_000)
+    reference, reference_error = winding_volume(vertices, faces, 200_000)
+    assert volume == pytest.approx(4 / 3 * np.pi, rel=0.01)
+    assert abs(volume - reference) < 4 * np.hypot(error, reference_error)
+    # sign and distance at points of known depth
+    np.testing.assert_allclose(model([[0, 0, 0], [0, 0.5, 0], [0, 0, 1.5]]), [-1.0, -0.5, 0.5], atol=0.01)
+
+
+@pytest.mark.parametrize("kind", ["tube", "box"])
+def test_spanned_openings_match_the_winding_number_volume(kind):
+    """A tube without end caps and a box without two adjacent faces: w = 1/2 bulges into the
+    openings (the analytic volume is not the closed solid's); the model's solid matches libigl's
+    winding numbers on independent samples."""
+    if kind == "tube":
+        surface = pv.CylinderStructured(radius=1.0, height=2.0, theta_resolution=64, z_resolution=20).extract_surface(algorithm=None)
+    else:
+        surface = _box_without_two_faces()
+    vertices, faces = _triangles(surface)
+    model = sdf.mesh(surface, inside="winding")
+    reference, reference_error = winding_volume(vertices, faces, 400_000)
+    closed_volume = 2 * np.pi if kind == "tube" else 8.0
+    assert 0.7 * closed_volume < reference < 0.99 * closed_volume
+    assert model.volume == pytest.approx(reference, rel=0.005)
+    assert model.repaired.holes == (2 if kind == "tube" else 1)
+
+
+def test_flat_sheet_has_no_inside():
+    with pytest.raises(MeshInputError, match="has no inside"):
+        sdf.mesh(pv.Plane(i_resolution=8, j_resolution=8), inside="winding")
+
+
+@pytest.mark.slow  # two subprocesses
+def test_cli_inside_flag(tmp_path, hemisphere):
+    path = tmp_path / "bowl.stl"
+    hemisphere.triangulate().save(path)
+    run = lambda *args: subprocess.run([sys.executable, "-m", "fepre", *args], capture_output=True, text=True)
+    refused = run("surface", str(path), "-o", str(tmp_path / "x.stl"), "--spacing", "0.1")
+    assert refused.returncode == 1 and "--inside winding" in refused.stderr
+    out = tmp_path / "bowl_solid.stl"
+    result = run("surface", str(path), "--inside", "winding", "-o", str(out), "--spacing", "0.05")
+    assert result.returncode == 0, result.stderr
+    assert pv.read(out).volume == pytest.approx(2 / 3 * np.pi, rel=0.02)
+
+
+@pytest.mark.slow  # about 10 s
+def test_distmesh_of_the_open_dome_is_valid_and_keeps_the_half_ball(hemisphere):
+    import fepre
+    from fepre.corpus import check_mesh
+
+    model = sdf.mesh(hemisphere, inside="winding")
+    h = 2 * np.sqrt(3) / 25
+    grid = fepre.distmesh(model, h=h)
+    tets = grid.cells_dict[10]
+    check = check_mesh(np.asarray(grid.points), tets, model, h)
+    assert check.valid, check.problems
+    half_ball = _polyhedral_ball_volume(pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=48)) / 2
+    assert check.volume == pytest.approx(half_ball, rel=0.015)
+    assert check.min_dihedral > 20.0
+    # boundary nodes: on the dome (radius 1) or on the disc (z = 0)
+    faces = np.sort(tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3), axis=1)
+    unique, counts = np.unique(faces, axis=0, return_counts=True)
+    nodes = np.asarray(grid.points)[np.unique(unique[counts == 1])]
+    from fepre.sdf.meshmodel.bvh import TriangleTree
+
+    vertices, triangles = _triangles(hemisphere)
+    on_dome = np.sqrt(TriangleTree(vertices, triangles).query(nodes)[0]) < 1e-3 * h  # on the input's triangles
+    # the disc is the w = 1/2 contour of fast winding numbers on a grid of spacing 2.2/128:
+    # flat to a few 1e-4 (FWN's error), about 0.05 grid spacings
+    on_disc = np.abs(nodes[:, 2]) < 1.5e-3
+    assert (on_dome | on_disc).all()
+    assert on_disc.sum() > 20 and on_dome.sum() > 100
+
+
+def test_model_files_take_inside_for_mesh_files_only(tmp_path, hemisphere):
+    from fepre.modelfile import ModelFileError, load_model
+
+    script = tmp_path / "ball.py"
+    script.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    with pytest.raises(ModelFileError, match="--inside winding applies to surface mesh files"):
+        load_model(script, inside="winding")
+    path = tmp_path / "dome.stl"
+    hemisphere.triangulate().save(path)
+    with pytest.raises(ModelFileError, match="inside='winding'"):
+        load_model(path)
+    assert load_model(path, inside="winding").model.inside == "winding"
