@@ -309,7 +309,9 @@ def _volume_check(points, tets, model, lower, upper, defects) -> None:
     gradient = np.gradient(values, *ordered)
     reach = sum(np.abs(g) * w for g, w in zip(gradient, ordered)) / np.maximum(
         np.sqrt(sum(g * g for g in gradient)), 1e-300)
-    reach = np.where(reach > 0, reach, widths.max())
+    # within the cells' widths: on a near-cubic grid this is the width (a few samples across a
+    # small ball give a poor gradient), on a flat one it follows the normal
+    reach = np.clip(np.where(reach > 0, reach, widths.max()), widths.min(), widths.max())
     share = np.clip(0.5 - values / reach, 0.0, 1.0)
     expected = float(share.sum() * np.prod(widths))
     volume = float(signed_volumes(points, tets).sum())
