@@ -31,7 +31,7 @@ from .boundary_slivers import CREASE_ANGLE, _unit_normals
 from .flips import MIN_GAIN, RING_OF_EDGE, _apply, _region, _ring_tables
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted
+from .tet_topology import EDGE_OF_TET, edge_keys, face_keys, in_sorted
 
 __all__ = ["boundary_edge_round", "MAX_OPEN_RING"]
 
@@ -44,10 +44,7 @@ DEPTH_SLACK = 1.25
 
 def _outward(points: np.ndarray, faces: np.ndarray, inside: np.ndarray) -> np.ndarray:
     """``faces`` (K, 3) reordered so that their right-hand normals point away from ``inside`` (K,)."""
-    tri = points[faces]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    flip = np.einsum("ij,ij->i", normal, tri.mean(axis=1) - points[inside]) < 0
-    return np.where(flip[:, None], faces[:, ::-1], faces)
+    return _along(points, faces, points[faces].mean(axis=1) - points[inside])
 
 
 def _along(points: np.ndarray, faces: np.ndarray, direction: np.ndarray) -> np.ndarray:

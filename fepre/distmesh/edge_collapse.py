@@ -210,8 +210,8 @@ def collapse_round(
             if result is None:
                 continue
             removed, changed, new, new_quality, old_faces, new_faces = result
-            tets = tets.copy()
-            quality = quality.copy()
+            if done == 0:  # the caller's arrays stay as they were
+                tets, quality = tets.copy(), quality.copy()
             tets[changed], quality[changed] = new, new_quality
             alive = np.ones(tets.shape[0], dtype=bool)
             alive[removed] = False
