@@ -125,3 +125,61 @@ def test_gmsh_triangulation_threads_and_openmp_count():
     volume = np.abs(np.einsum("ij,ij->i", corners[:, 1] - corners[:, 0],
                               np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 0]))).sum() / 6
     assert 0.9 * ConvexHull(points).volume < volume <= ConvexHull(points).volume * (1 + 1e-9)
+
+
+def _parallel_kernels(tree):
+    import ast
+
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef):
+            for decorator in node.decorator_list:
+                if isinstance(decorator, ast.Call) and any(k.arg == "parallel" and getattr(k.value, "value", False)
+                                                           for k in decorator.keywords):
+                    names.add(node.name)
+    return names
+
+
+def _ungated_calls(tree, kernels):
+    """Calls of ``kernels`` outside a ``with kernel_threads(...)`` block, as line numbers."""
+    import ast
+
+    found = []
+
+    def visit(node, gated):
+        if isinstance(node, ast.With):
+            gated = gated or any(isinstance(item.context_expr, ast.Call)
+                                 and getattr(item.context_expr.func, "id", "") == "kernel_threads" for item in node.items)
+        if isinstance(node, ast.FunctionDef) and node.name in kernels:
+            return  # a kernel's own body
+        if isinstance(node, ast.Call) and getattr(node.func, "id", "") in kernels and not gated:
+            found.append(node.lineno)
+        for child in ast.iter_child_nodes(node):
+            visit(child, gated)
+
+    visit(tree, False)
+    return found
+
+
+def test_every_parallel_kernel_is_launched_through_the_thread_choice():
+    """A new ``parallel=True`` kernel called without ``kernel_threads`` would pay the busy-wait
+    of every launch again: each call site in fepre is inside the ``with`` block."""
+    import ast
+    from pathlib import Path
+
+    root = Path(kt.__file__).parent
+    checked, ungated = 0, []
+    for path in sorted(root.rglob("*.py")):
+        if path.name == "kernel_threads.py":
+            continue  # its probe is the launch it times
+        tree = ast.parse(path.read_text())
+        kernels = _parallel_kernels(tree)
+        if kernels:
+            checked += len(kernels)
+            ungated += [f"{path.relative_to(root)}:{line}" for line in _ungated_calls(tree, kernels)]
+    assert checked >= 20  # the per-cell, per-bar, coverage, validation and feature kernels
+    assert ungated == []
+    # and the check finds an ungated call
+    sample = ast.parse("from numba import njit\n@njit(parallel=True)\ndef k(x):\n    pass\ndef f(x):\n    k(x)\n"
+                       "def g(x):\n    with kernel_threads(len(x)):\n        k(x)\n")
+    assert _ungated_calls(sample, _parallel_kernels(sample)) == [6]
