@@ -183,3 +183,9 @@ def test_every_parallel_kernel_is_launched_through_the_thread_choice():
     sample = ast.parse("from numba import njit\n@njit(parallel=True)\ndef k(x):\n    pass\ndef f(x):\n    k(x)\n"
                        "def g(x):\n    with kernel_threads(len(x)):\n        k(x)\n")
     assert _ungated_calls(sample, _parallel_kernels(sample)) == [6]
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    assert doctest.testmod(kt).failed == 0
