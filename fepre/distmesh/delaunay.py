@@ -183,7 +183,8 @@ def tetrahedralize(
     matter. The final mesh is checked separately. ``keep_flat=True`` keeps them (in the
     backend's vertex order, so their orientation is undetermined), for the final mesh to flip
     them away (:func:`fepre.distmesh.finalize.final_mesh`). ``backend`` is ``"scipy"``,
-    ``"gmsh"`` (gmsh's HXT kernel on every core fepre may use, see :func:`_gmsh`) or ``"auto"``
+    ``"gmsh"`` (gmsh's HXT kernel on every core fepre may use when the work pays for a parallel
+    launch, see :func:`_gmsh` and :mod:`fepre.kernel_threads`) or ``"auto"``
     (gmsh when it can be imported).
 
     Examples
@@ -195,7 +196,7 @@ def tetrahedralize(
     (True, 1.0)
     """
     points = _near_origin(points)
-    return _canonical(points, _triangulate(points, backend, None), scale, keep_flat)
+    return _canonical(points, _triangulate(points, backend, _threads_for(len(points))), scale, keep_flat)
 
 
 def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel: bool = True) -> np.ndarray:
@@ -211,7 +212,7 @@ def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel
     6
     """
     points = _near_origin(points)
-    tets = _triangulate(points, backend, _loop_threads(len(points)) if parallel else 1)
+    tets = _triangulate(points, backend, _threads_for(len(points)) if parallel else 1)
     return _canonical(points, tets, scale, False, ordered=False)
 
 
@@ -219,8 +220,8 @@ def loop_tetrahedralize(points: np.ndarray, backend: str, scale: float, parallel
 _HXT_SECONDS_PER_POINT = 1.0e-6
 
 
-def _loop_threads(n_points: int) -> int:
-    """gmsh's threads for the loop's triangulation of ``n_points``: every core fepre may use
+def _threads_for(n_points: int) -> int:
+    """gmsh's threads for a triangulation of ``n_points``: every core fepre may use
     when the work pays for a parallel launch now (:func:`fepre.kernel_threads.choose_threads`;
     HXT's threads are libgomp's, as numba's kernels'), else one. The cells are the same."""
     from ..kernel_threads import choose_threads
