@@ -1,4 +1,5 @@
-"""Per-cell kernels over tetrahedra, compiled and run on every core (numba, cached on disk).
+"""Per-cell kernels over tetrahedra, compiled (numba, cached on disk) and run on every core when
+the work pays for a parallel launch (:mod:`fepre.kernel_threads`), on one thread otherwise.
 
 Each computes in one pass what the array form computes in a dozen (M, 6, 3) temporaries: the
 quality arrays of a mesh, the DistMesh loop's volume-edge ratio and the packed face keys that
@@ -10,8 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import numba
 from numba import njit, prange
+
+from .kernel_threads import kernel_threads
 
 __all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes",
            "ideal_positions", "corner_volumes"]
@@ -87,7 +89,8 @@ def quality_arrays(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     signed volume of each cell (the formulas of :func:`fepre.quality.tet_quality`)."""
     out = np.empty((5, len(tets)))
     if len(tets):
-        _quality(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), _FACES, _EDGE_FACES, _EDGES, out)
+        with kernel_threads(len(tets), 7e-8):
+            _quality(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), _FACES, _EDGE_FACES, _EDGES, out)
     return out
 
 
@@ -113,7 +116,8 @@ def volume_edge_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """``6 sqrt(2) V / l_rms^3`` of each cell (M,)."""
     out = np.empty(len(tets))
     if len(tets):
-        _volume_edge(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
+        with kernel_threads(len(tets), 7e-9):
+            _volume_edge(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
     return out
 
 
@@ -142,7 +146,8 @@ def packed_face_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
     :data:`fepre.distmesh.tet_topology.MAX_PACKED_POINTS`."""
     out = np.empty(4 * len(tets), np.int64)
     if len(tets):
-        _face_keys(np.ascontiguousarray(tets, np.int64), _FACES, np.int64(n_points), out)
+        with kernel_threads(len(tets), 5e-9):
+            _face_keys(np.ascontiguousarray(tets, np.int64), _FACES, np.int64(n_points), out)
     return out
 
 
@@ -177,7 +182,8 @@ def canonical_cells(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     corners (M,) (their absolute values are the cells' volumes)."""
     volumes = np.empty(len(tets))
     if len(tets):
-        _canonical(np.ascontiguousarray(points, np.float64), tets, volumes)
+        with kernel_threads(len(tets), 5e-9):
+            _canonical(np.ascontiguousarray(points, np.float64), tets, volumes)
     return volumes
 
 
@@ -202,8 +208,9 @@ def centroid_bounds(points: np.ndarray, tets: np.ndarray, bound: np.ndarray) -> 
     centroids = np.empty((len(tets), 3))
     reach = np.empty(len(tets))
     if len(tets):
-        _centroid_reach(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64),
-                        np.ascontiguousarray(bound, np.float64), centroids, reach)
+        with kernel_threads(len(tets), 7e-9):
+            _centroid_reach(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64),
+                            np.ascontiguousarray(bound, np.float64), centroids, reach)
     return centroids, reach
 
 
@@ -219,7 +226,8 @@ def packed_edge_keys(tets: np.ndarray, n_points: int) -> np.ndarray:
     """(6 M,) int64 keys ``lo n + hi`` of each cell's six edges."""
     out = np.empty(6 * len(tets), np.int64)
     if len(tets):
-        _edge_keys(np.ascontiguousarray(tets, np.int64), _EDGES, np.int64(n_points), out)
+        with kernel_threads(len(tets), 5e-9):
+            _edge_keys(np.ascontiguousarray(tets, np.int64), _EDGES, np.int64(n_points), out)
     return out
 
 
@@ -307,10 +315,11 @@ def face_uses(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
         n_points = max(int(n_points), int(tets.max()) + 1)  # the groups are indexed by vertex
         small = np.int32 if n_points < 2**31 else np.int64  # the three corners: memory at millions of cells
         lo, mid, hi = (np.empty(4 * m, small) for _ in range(3))
-        _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)
-        start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points), np.int64(numba.get_num_threads()))
-        del lo, mid, hi
-        _match(start, key, slots, mate, uses)
+        with kernel_threads(m, 1e-7) as threads:
+            _sorted_faces(np.ascontiguousarray(tets, np.int64), _FACES, lo, mid, hi)
+            start, key, slots = _bucket_by_lowest(lo, mid, hi, np.int64(n_points), np.int64(threads))
+            del lo, mid, hi
+            _match(start, key, slots, mate, uses)
     return mate, uses
 
 
@@ -372,7 +381,8 @@ def shape_extremes(corners: np.ndarray, flat_volume: float) -> tuple[np.ndarray,
     largest_cos, smallest_cos, ratio = (np.empty(len(corners)) for _ in range(3))
     valid = np.empty(len(corners), bool)
     if len(corners):
-        _shape_extremes(corners, float(flat_volume), largest_cos, smallest_cos, ratio, valid)
+        with kernel_threads(len(corners), 5e-8):
+            _shape_extremes(corners, float(flat_volume), largest_cos, smallest_cos, ratio, valid)
     smallest = np.degrees(np.arccos(np.clip(largest_cos, -1.0, 1.0)))
     largest = np.degrees(np.arccos(np.clip(smallest_cos, -1.0, 1.0)))
     return np.where(valid, smallest, -1.0), np.where(valid, largest, -1.0), np.where(valid, ratio, -1.0)
@@ -431,7 +441,8 @@ def ideal_positions(points: np.ndarray, tets: np.ndarray, height: float) -> np.n
     (:func:`fepre.distmesh.tet_shape.ideal_vertex_positions`)."""
     out = np.empty((4, 3, len(tets)))
     if len(tets):
-        _ideal(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), float(height) / 3.0, out)
+        with kernel_threads(len(tets), 3e-8):
+            _ideal(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), float(height) / 3.0, out)
     return out
 
 
@@ -451,5 +462,6 @@ def corner_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     the (M, 4, 3) copy of the corners."""
     out = np.empty(len(tets))
     if len(tets):
-        _volumes(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
+        with kernel_threads(len(tets), 5e-9):
+            _volumes(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
     return out

@@ -54,3 +54,13 @@ def test_the_cad_bench_prints_a_row_per_part(capsys):
     # quality, volume and cells pass; the time per cell of 1,639 cells is the fixed costs' (3.0 ms
     # against 0.095 for the uniform mesh's 20,638: the field, features, the pipeline's stages)
     assert cells[6] in (["PASS"], ["miss", "time"])
+
+
+def test_the_row_prints_the_loop_iterations_of_both_meshes():
+    from fepre.bench._sizing_cad import line
+
+    row, _ = _row(iterations=57, uniform_iterations=35)
+    timing = line(row).split("|")[3].split()
+    assert timing == ["1000", "1000", "57/35"]  # us per cell, graded and uniform; iterations
+    row, _ = _row(iterations=57, uniform_real=False)
+    assert line(row).split("|")[3].split()[2] == "57/-"  # an estimated uniform mesh ran no loop

@@ -1,6 +1,7 @@
 """Per-bar kernels of the DistMesh loop, compiled (numba, cached on disk).
 
-:func:`unique_bars` finds a triangulation's edges; :func:`bar_vectors` runs on every core; the
+:func:`unique_bars` finds a triangulation's edges; :func:`bar_vectors` runs on every core when the
+work pays for it (:mod:`fepre.kernel_threads`); the
 force assembly adds each bar's force to its two ends in bar order, as ``np.bincount`` does, so
 the totals equal the array form's bit for bit.
 """
@@ -8,9 +9,10 @@ the totals equal the array form's bit for bit.
 from __future__ import annotations
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import njit, prange
 
 from .._cell_kernels import chunk_offsets
+from ..kernel_threads import kernel_threads
 
 __all__ = ["bar_vectors", "assemble_forces", "unique_bars"]
 
@@ -27,7 +29,8 @@ def bar_vectors(points: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.nd
     """Vectors ``points[ends[:, 1]] - points[ends[:, 0]]`` (E, 3) and their lengths (E,)."""
     vectors = np.empty((len(ends), 3))
     if len(ends):
-        _vectors(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(ends, np.int64), vectors)
+        with kernel_threads(len(ends), 6e-9):
+            _vectors(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(ends, np.int64), vectors)
     # numpy's einsum, not the kernel's sum of squares: its rounding is the loop's since the start
     return vectors, np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
 
@@ -124,12 +127,13 @@ def unique_bars(tets: np.ndarray, n_points: int, edges: np.ndarray) -> np.ndarra
     if len(tets) == 0:
         return np.zeros((0, 2), np.int64)
     n_points = max(int(n_points), int(tets.max()) + 1)  # the groups are indexed by vertex
-    start, other = _edges_by_lowest(np.ascontiguousarray(tets, np.int64), edges, np.int64(n_points),
-                                    np.int64(get_num_threads()))
-    unique = np.empty(n_points, np.int64)
-    _dedupe_buckets(start, other, unique, 4 * get_num_threads())
-    offsets = np.zeros(n_points + 1, np.int64)
-    np.cumsum(unique, out=offsets[1:])
-    bars = np.empty((offsets[-1], 2), np.int64)
-    _write_bars(start, other, offsets, bars)
+    with kernel_threads(len(tets), 2.5e-8) as threads:
+        start, other = _edges_by_lowest(np.ascontiguousarray(tets, np.int64), edges, np.int64(n_points),
+                                        np.int64(threads))
+        unique = np.empty(n_points, np.int64)
+        _dedupe_buckets(start, other, unique, 4 * threads)
+        offsets = np.zeros(n_points + 1, np.int64)
+        np.cumsum(unique, out=offsets[1:])
+        bars = np.empty((offsets[-1], 2), np.int64)
+        _write_bars(start, other, offsets, bars)
     return bars

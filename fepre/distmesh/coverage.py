@@ -1,4 +1,5 @@
-"""Which nodes of a regular grid lie in a tetrahedral mesh (compiled, both cores).
+"""Which nodes of a regular grid lie in a tetrahedral mesh (compiled; every core when the work pays
+for it, :mod:`fepre.kernel_threads`).
 
 Each cell marks the grid nodes of its bounding box on the inner side of its four face planes
 (to ``tol``). Exact for any set of cells, overlapping or not, with no point location structure:
@@ -11,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
+
+from ..kernel_threads import kernel_threads
 
 __all__ = ["covered_nodes"]
 
@@ -106,5 +109,6 @@ def covered_nodes(points: np.ndarray, tets: np.ndarray, origin, spacing, dimensi
     nx, ny, nz = (int(n) for n in dimensions)
     out = np.zeros((nz, ny, nx), dtype=np.bool_)
     if len(tets) and nx and ny and nz:
-        _mark(points, tets, np.asarray(origin, np.float64), np.asarray(spacing, np.float64), nz, ny, nx, float(tol), out)
+        with kernel_threads(len(tets), 1e-6):  # about 125 nodes of a cell's box tested
+            _mark(points, tets, np.asarray(origin, np.float64), np.asarray(spacing, np.float64), nz, ny, nx, float(tol), out)
     return out

@@ -18,6 +18,7 @@ from numba import njit, prange
 
 from ..features import Features
 from ..features.geometry import nearest_on_segments
+from ..kernel_threads import kernel_threads
 
 __all__ = ["FeatureProtection", "RATIO"]
 
@@ -137,7 +138,8 @@ class _VoxelFilter:
             return np.zeros(len(points), dtype=bool)
         if self.marked is not None:
             mask = np.empty(len(points), dtype=np.bool_)
-            _in_marked_voxels(np.ascontiguousarray(points, np.float64), self.origin, float(self.side), self.marked, mask)
+            with kernel_threads(len(points), 5e-9):
+                _in_marked_voxels(np.ascontiguousarray(points, np.float64), self.origin, float(self.side), self.marked, mask)
             return mask
         cells = np.floor((points - self.origin) / self.side)
         inside = np.all((cells >= 0) & (cells < self.shape), axis=1)

@@ -89,9 +89,10 @@ class DistMeshOptions:
         faster). ``"auto"``: gmsh when it can be imported, scipy otherwise.
     parallel : bool, default True
         Triangulate on every core fepre may use (``fepre.config.workers``; gmsh's HXT kernel
-        is multithreaded, Qhull is not). The result is the same either way. ``False`` keeps
-        the triangulations on one thread (the compiled quality kernels still use every core
-        numba is allowed).
+        is multithreaded, Qhull is not) when the work pays for a parallel launch
+        (:mod:`fepre.kernel_threads`). The result is the same either way. ``False`` keeps
+        the triangulations on one thread (the compiled kernels still choose their threads
+        by their work).
     seed : int, default 0
         Seed of every random choice (lattice jitter, size rejection); same seed, same mesh.
     slivers : bool, default True

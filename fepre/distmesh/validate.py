@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_threads import kernel_threads
 from ..quality import signed_volumes
 from .topology import _FACES, nonmanifold_items
 
@@ -119,7 +120,8 @@ def _cell_checks(points: np.ndarray, tets: np.ndarray, defects: list[Defect]) ->
     mate, uses = face_uses(tets, len(points))
     volumes = np.empty(len(tets))
     same_side = np.empty(len(mate), np.bool_)
-    _cell_signs(points, tets, mate, volumes, same_side)
+    with kernel_threads(len(tets), 3e-8):
+        _cell_signs(points, tets, mate, volumes, same_side)
     volumes /= 6.0
     bad = volumes <= 0
     if bad.any():
@@ -285,8 +287,9 @@ def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
         # orientations within rounding of zero (1e-10 of the pair's size cubed) count as zero:
         # faces in one plane (a flat side's) touch at most, and are not taken for crossing
         tolerance = _FLAT * (radii[pairs[:, 0]] + radii[pairs[:, 1]]) ** 3
-        _crossing_pairs(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(faces, np.int64),
-                        np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), tolerance, hit)
+        with kernel_threads(len(pairs), 5e-8):
+            _crossing_pairs(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(faces, np.int64),
+                            np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), tolerance, hit)
     return pairs[hit]
 
 
