@@ -169,9 +169,14 @@ def _stage_with_insertions(job: MeshingJob, pinned: np.ndarray) -> None:
     for round_ in range(INSERTION_ROUNDS + 1):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            points, tets, info = improve_arrays(
-                job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
-                collapse=_removable_nodes(job), local_size=_local_size(job))
+            try:
+                points, tets, info = improve_arrays(
+                    job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
+                    collapse=_removable_nodes(job), local_size=_local_size(job))
+            except MeshingError:
+                if best is None:  # the stage itself failed: quality_stage falls back
+                    raise
+                break  # a later run refused its own result: the best so far stands
         worst = float(targets.score(points[tets]).min())
         if best is None or worst > best[0]:
             best = (worst, points, tets, job.fixed_mask, list(caught))
