@@ -156,8 +156,9 @@ def _stage_with_insertions(job: MeshingJob, pinned: np.ndarray) -> None:
     ``INSERTION_ROUNDS`` times. The mesh kept is the round's whose worst cell scores best: a
     round can make things worse before the next one repairs them (libigl's arm at D/50: 17.5
     deg after the stage, 26.3 after six rounds, with the first alone worse), and splits in a
-    cluster of feature nodes can only make cells smaller. Only the kept run's warning that the
-    targets were not met reaches the user."""
+    cluster of feature nodes can only make cells smaller. The runs after an insertion skip the
+    stage's passes over the whole mesh (``bad_cells_only``). Only the kept run's warning that
+    the targets were not met reaches the user."""
     import warnings
 
     from .bad_cell_splits import split_bad_cells
@@ -172,7 +173,7 @@ def _stage_with_insertions(job: MeshingJob, pinned: np.ndarray) -> None:
             try:
                 points, tets, info = improve_arrays(
                     job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
-                    collapse=_removable_nodes(job), local_size=_local_size(job))
+                    collapse=_removable_nodes(job), local_size=_local_size(job), bad_cells_only=round_ > 0)
             except MeshingError:
                 if best is None:  # the stage itself failed: quality_stage falls back
                     raise
