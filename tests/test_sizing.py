@@ -414,3 +414,17 @@ def test_graded_meshes_of_parts_with_junctions_meet_the_targets(make):
     lower, upper = (np.asarray(b, dtype=float) for b in part.bounds)
     # the flange: 21.6% since curved faces get edges of at most 0.155 R (its bolt holes and bore hmin)
     assert mesh.n_cells < 0.25 * estimated_cells(part, None, hmin, lower, upper, False)
+
+
+def test_a_faceted_surface_gets_the_curvature_of_the_surface_it_tessellates():
+    # a triangle surface is flat on every facet: before the facets' own curvature was used, the
+    # field of tessellated balls was hmax on them; now it follows the analytic model's
+    balls = sdf.sphere(1.0) | sdf.sphere(0.4).translate((2.0, 0, 0))
+    facets = sdf.mesh(fepre.isosurface(balls, spacing=0.05))
+    probes = np.array([[-1.0, 0, 0], [0, 0.7071, 0.7071], [2.4, 0, 0], [2.0, 0, -0.4]])  # R = 1, 1, 0.4, 0.4
+    # the facets' curvature: 1/R on both balls, at the scale of hmin
+    np.testing.assert_allclose(facets.facet_curvature(probes, 0.08), [1.0, 1.0, 2.5, 2.5], rtol=0.1)
+    exact = size_field(balls, 0.08, 1.0)(probes)
+    faceted = size_field(facets, 0.08, 1.0)(probes)
+    assert np.all(faceted <= 1.05 * exact) and np.all(faceted >= 0.75 * exact)
+    assert faceted[2:].max() < faceted[:2].min() < 0.5  # smaller on the small ball

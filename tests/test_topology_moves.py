@@ -12,6 +12,7 @@ import pytest
 
 import fepre
 from fepre import sdf
+from fepre.distmesh.bad_cell_splits import split_candidates
 from fepre.distmesh.surface_refine import LONG_EDGE, split_long_boundary_edges
 from fepre.distmesh.tet_shape import signed_volume
 from fepre.distmesh.tet_topology import face_neighbours, faces_on_boundary, open_boundary_reason
@@ -19,7 +20,7 @@ from fepre.mesh_metrics import tetra_cells
 
 
 @pytest.mark.parametrize("name", ["fepre.distmesh.surface_refine", "fepre.distmesh.boundary_flips",
-                                  "fepre.distmesh.edge_collapse"])
+                                  "fepre.distmesh.edge_collapse", "fepre.distmesh.bad_cell_splits"])
 def test_docstring_examples_run(name):
     result = doctest.testmod(importlib.import_module(name))
     assert result.failed == 0 and result.attempted > 0
@@ -88,3 +89,43 @@ def test_a_faceted_organic_model_meets_the_quality_targets():
     boundary = grid.point_data["boundary"] == 1
     assert np.abs(model(np.asarray(grid.points)[boundary])).max() < 1e-3 * diagonal / 25
     assert grid.n_points == len(np.unique(tetra_cells(grid)))  # no node left out of the cells
+
+
+def test_a_wedges_inner_edge_is_the_first_to_split():
+    # an octahedron as four cells around its axis: each holds two boundary faces (the top and
+    # bottom faces on one equator edge), and its inner edge is the axis
+    ring = [[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]]
+    points = np.array([[0, 0, 1.0], [0, 0, -1.0]] + ring, dtype=float)
+    tets = np.array([[0, 1, 2 + i, 2 + (i + 1) % 4] for i in range(4)])
+    tets[signed_volume(points[tets]) < 0] = tets[signed_volume(points[tets]) < 0][:, [0, 1, 3, 2]]
+    candidates = split_candidates(points, tets, np.arange(4), len(points))
+    assert candidates[0].tolist() == [0, 1]
+    # then each cell's longest edge, every edge once
+    assert len(candidates) == len(np.unique(candidates, axis=0))
+    assert {tuple(e) for e in candidates} >= {(0, 1), (0, 2), (1, 2), (2, 3)}
+
+
+def pedestal(resolution: int = 32):
+    """A bust on a plinth, joined by blends tighter than h and tessellated (5.6k triangles): the
+    plinth's rim and the blends bend at the scale of h."""
+    plinth = sdf.box((2.0, 2.0, 0.5)).translate((0, 0, -0.25))
+    neck = sdf.cylinder(0.35, 1.2).translate((0, 0, 0.3))
+    part = sdf.union(plinth, neck, sdf.sphere(0.8).translate((0, 0, 0.6)), k=0.1)
+    return fepre.isosurface(part, spacing=2.8 / resolution)
+
+
+@pytest.mark.slow
+def test_vertices_inserted_where_the_surface_bends_at_the_scale_of_h():
+    # without the insertions: worst dihedral 15.4 deg, largest 152.4, radius ratio 0.15
+    model = sdf.mesh(pedestal())
+    h = float(np.linalg.norm(np.subtract(model.bounds[1], model.bounds[0]))) / 25
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fepre.ConvergenceWarning)
+        grid = fepre.distmesh(model, h=h)
+    assert grid.field_data["distmesh_inserted_nodes"][0] >= 1
+    assert grid.cell_data["min_dihedral_angle"].min() >= 25.0
+    assert grid.cell_data["max_dihedral_angle"].max() <= 150.0
+    assert grid.cell_data["radius_ratio"].min() >= 0.25
+    assert abs(grid.volume / model.volume - 1) < 0.015
+    boundary = grid.point_data["boundary"] == 1
+    assert np.abs(model(np.asarray(grid.points)[boundary])).max() < 1e-3 * h

@@ -62,6 +62,8 @@ class MeshingJob:
         Stage times: ``features``, ``loop`` (everything up to the final mesh), ``slivers``.
     split_edges : int
         Long boundary edges split before the quality stage (new nodes on the surface).
+    inserted_nodes : int
+        Nodes inserted at the cells the quality stage left below its targets, before running again.
     """
 
     model: SDF
@@ -93,6 +95,7 @@ class MeshingJob:
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     split_edges: int = 0  # long boundary edges the quality stage split
+    inserted_nodes: int = 0  # nodes inserted at the cells the quality stage left below its targets
     frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)
 

@@ -25,7 +25,7 @@ import numpy as np
 from .tet_shape import signed_volume
 from .tet_topology import EDGE_OF_TET, edge_keys, face_neighbours, faces_on_boundary
 
-__all__ = ["split_long_boundary_edges", "LONG_EDGE"]
+__all__ = ["split_long_boundary_edges", "split_edges", "LONG_EDGE"]
 
 #: Edges longer than this many local sizes (times the mesh's own scale, when above 1) are split.
 LONG_EDGE = 1.8
@@ -86,11 +86,25 @@ def _long_edges(points, tets, h, size, scale) -> tuple[np.ndarray, np.ndarray, n
 def _split_pass(points, tets, model, h, size, scale: float, first_new: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
     """One pass of splits; only the cells with a vertex numbered ``first_new`` or above are
     searched for long edges (the halves of the last pass's splits)."""
-    n = points.shape[0]
     searched = tets if first_new == 0 else tets[(tets >= first_new).any(axis=1)]
     edges, middle, length = _long_edges(points, searched, h, size, scale)
+    return split_edges(points, tets, model, h, edges)
+
+
+def split_edges(points: np.ndarray, tets: np.ndarray, model, h: float, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Split ``edges`` (E, 2), in priority order, at their midpoints: a boundary edge's midpoint
+    projected onto the zero set, an inner edge's kept where it is (if inside the model).
+
+    Splits whose projection jumps away from the edge or that would invert a cell are left out,
+    and so is every edge sharing a cell with an edge earlier in the list (the splits of one call
+    touch disjoint cells). Returns the points with the K new vertices appended, the cells and K.
+    """
+    n = points.shape[0]
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     if edges.shape[0] == 0:
         return points, tets, 0
+    middle = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
+    length = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
     # everything below looks at the cells at the long edges' ends only: every cell around such
     # an edge and every face on it is one of them
     ends = np.zeros(n, dtype=bool)

@@ -305,7 +305,10 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     thickness = ray_lengths(model, seeds, -normal, True, elements_across * hmax, step)
     gap = ray_lengths(model, seeds, normal, False, hmax, step)
     gap[_across_junction(model, seeds, normal, gap)] = np.inf
-    curvature = max_curvature(model, seeds, 0.05 * hmin)
+    if hasattr(model, "facet_curvature"):  # a faceted surface: flat on every facet, curved between
+        curvature = model.facet_curvature(seeds, hmin)
+    else:
+        curvature = max_curvature(model, seeds, 0.05 * hmin)
     with np.errstate(divide="ignore"):
         tolerance = np.minimum(hmin / 10.0, CHORD_RATIO / curvature) if chord_tolerance is None else chord_tolerance
         chord = np.sqrt(8.0 * tolerance / curvature)

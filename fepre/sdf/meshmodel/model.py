@@ -142,6 +142,29 @@ class MeshModel(SDF):
     def _patch_values(self, labels: np.ndarray, points: np.ndarray) -> np.ndarray:
         return self._planes.values(labels, np.asarray(points, dtype=np.float64))
 
+    def facet_curvature(self, points: Any, scale: float) -> np.ndarray:
+        """The largest principal curvature of the surface at the facet nearest each point, as
+        the facets show it at the length ``scale`` (:mod:`~fepre.sdf.meshmodel.facet_curvature`;
+        the Hessian of a faceted surface is zero on every facet).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from fepre import sdf
+        >>> ball = sdf.mesh(pv.Sphere(radius=2.0, theta_resolution=64, phi_resolution=64))
+        >>> round(float(ball.facet_curvature([[0.0, 0.0, 2.0], [2.0, 0.0, 0.0]], scale=0.5).mean()), 2)
+        0.49
+        """
+        from .facet_curvature import facet_curvatures
+
+        key = float(scale)
+        cache = self.__dict__.setdefault("_facet_curvature_cache", {})
+        if key not in cache:
+            cache[key] = facet_curvatures(self.repaired.vertices, self.repaired.faces, self._distance.normals,
+                                          self._face_patch, self._distance.areas, key)
+        _, face = self._distance.values(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        return cache[key][face]
+
     def project(self, points: Any, iterations: int = 10, tol: float | None = None, warn: bool = True) -> np.ndarray:
         """Closest points on the surface (exact: one step).
 
