@@ -211,9 +211,8 @@ def improve_arrays(
         crosses the rim of an interface along the part's surface.
 
     bad_cells_only : bool
-        Skip the passes over the whole mesh (the first flips and relaxation, the shape rounds)
-        and only work on the cells under the targets: for a mesh the stage improved before
-        and that changed in a few places since.
+        Only work on the cells under the targets, without the passes over the whole mesh (for
+        a mesh the stage improved before that changed in a few places since).
 
     Returns
     -------
