@@ -120,7 +120,9 @@ def quality_stage(job: MeshingJob) -> None:
     try:
         if not any(constraint.quality_stage(job, pinned, locked) for constraint in job.constraints):
             if locked is None and _default_quality_stage(job):
-                _stage_with_insertions(job, pinned)
+                from .insertion_stage import stage_with_insertions
+
+                stage_with_insertions(job, pinned, _removable_nodes, _local_size(job))
             else:
                 job.points, job.tets, _ = improve_arrays(
                     job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
@@ -144,54 +146,6 @@ def quality_stage(job: MeshingJob) -> None:
         job.stage_log("quality stage", f"worst dihedral {measured['min_dihedral_angle'].min():.1f} deg, largest "
                       f"{measured['max_dihedral_angle'].max():.1f} deg, smallest radius ratio "
                       f"{measured['radius_ratio'].min():.3f}")
-
-
-#: Rounds of vertex insertion at the cells the quality stage leaves below its targets, at most.
-INSERTION_ROUNDS = 6
-
-
-def _stage_with_insertions(job: MeshingJob, pinned: np.ndarray) -> None:
-    """The quality stage, then, while cells stay below the targets: an edge of each split
-    (:func:`~fepre.distmesh.bad_cell_splits.split_bad_cells`) and the stage run again, up to
-    ``INSERTION_ROUNDS`` times. The mesh kept is the round's whose worst cell scores best: a
-    round can make things worse before the next one repairs them (libigl's arm at D/50: 17.5
-    deg after the stage, 26.3 after six rounds, with the first alone worse), and splits in a
-    cluster of feature nodes can only make cells smaller. The runs after an insertion skip the
-    stage's passes over the whole mesh (``bad_cells_only``). Only the kept run's warning that
-    the targets were not met reaches the user."""
-    import warnings
-
-    from .bad_cell_splits import split_bad_cells
-    from .improve_mesh import stage_pins
-    from .slivers import improve_arrays
-    from .tet_shape import ShapeTargets
-
-    h, targets, best = job.h, ShapeTargets(), None
-    for round_ in range(INSERTION_ROUNDS + 1):
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                points, tets, info = improve_arrays(
-                    job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
-                    collapse=_removable_nodes(job), local_size=_local_size(job), bad_cells_only=round_ > 0)
-            except MeshingError:
-                if best is None:  # the stage itself failed: quality_stage falls back
-                    raise
-                break  # a later run refused its own result: the best so far stands
-        worst = float(targets.score(points[tets]).min())
-        if best is None or worst > best[0]:
-            best = (worst, points, tets, job.fixed_mask, list(caught))
-        if info["converged"] or round_ == INSERTION_ROUNDS:
-            break
-        job.points, job.tets, split = split_bad_cells(points, tets, job.model, h, targets)
-        if split == 0:
-            break
-        job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
-        pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
-    _, job.points, job.tets, job.fixed_mask, caught = best
-    job.inserted_nodes = len(job.fixed_mask) - len(job.unimproved[2]) - job.split_edges
-    for item in caught:
-        warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
 
 
 def _local_size(job: MeshingJob):

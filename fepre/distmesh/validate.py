@@ -41,9 +41,15 @@ VOLUME_BOUND = 0.15
 #: orientation tests of the crossing check within this share of the pair's size cubed are zero
 _FLAT = 1e-10
 #: samples of the model for the volume estimate: one per this many cells, within the limits
-#: below (a small mesh's run makes few evaluations; the check must not add many)
+#: below (a small mesh's run makes few evaluations; the check must not add many). At least 32^3:
+#: behind a convex edge a CSG intersection's value is below the distance (the planes' own),
+#: and 13^3 samples counted 21% too much volume behind a 15 deg wedge's edge (its valid mesh
+#: refused); 32^3 count it within 1%
 _CELLS_PER_SAMPLE = 8
-_VOLUME_SAMPLES = (2_048, 64_000)
+_VOLUME_SAMPLES = (32_768, 64_000)
+#: Samples per axis inside a sample cell that a thin sheet or slot crosses, and most such cells.
+THIN_SUBSAMPLES = 4
+_THIN_LIMIT = 16_000
 
 
 @dataclass(frozen=True)
@@ -293,6 +299,39 @@ def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return pairs[hit]
 
 
+def _thin_cells(values: np.ndarray) -> np.ndarray:
+    """Sample cells (z, y, x) whose two neighbours along one axis are both on the other side of
+    the surface: a sheet or a slot thinner than two cells passes through them."""
+    thin = np.zeros(values.shape, dtype=bool)
+    inside = values < 0
+    for axis in range(3):
+        before = [slice(None)] * 3
+        after = [slice(None)] * 3
+        middle = [slice(None)] * 3
+        before[axis], middle[axis], after[axis] = slice(None, -2), slice(1, -1), slice(2, None)
+        low, mid, high = inside[tuple(before)], inside[tuple(middle)], inside[tuple(after)]
+        thin[tuple(middle)] |= (low == high) & (low != mid)
+    return thin
+
+
+def _refine_thin_cells(share, values, reach, axes, widths, model) -> None:
+    """Each thin cell's share (:func:`_thin_cells`) from ``THIN_SUBSAMPLES``^3 samples inside
+    it, in place. The share ``1/2 - sdf/reach`` assumes one surface in a cell: in the tip of a
+    15 deg wedge, whose two faces cross the cell, it counted half a cell where there was a
+    sliver (the wedge's volume was overestimated by 34% and its valid mesh refused)."""
+    cells = np.argwhere(_thin_cells(values))[:_THIN_LIMIT]
+    if cells.size == 0:
+        return
+    k = THIN_SUBSAMPLES
+    offsets = (np.arange(k) + 0.5) / k - 0.5
+    grid = np.stack(np.meshgrid(offsets, offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 3)  # (x, y, z)
+    centres = np.stack([axes[0][cells[:, 2]], axes[1][cells[:, 1]], axes[2][cells[:, 0]]], axis=1)
+    samples = (centres[:, None, :] + grid[None, :, :] * widths).reshape(-1, 3)
+    sub_reach = np.repeat(reach[tuple(cells.T)] / k, k**3)
+    sub = np.clip(0.5 - np.asarray(model(samples), np.float64) / sub_reach, 0.0, 1.0)
+    share[tuple(cells.T)] = sub.reshape(len(cells), -1).mean(axis=1)
+
+
 def _volume_check(points, tets, model, lower, upper, defects) -> None:
     """The mesh's volume against a grid estimate of the model's in the box (each sample cell
     counted by the share ``1/2 - sdf/reach`` of it inside, clipped to [0, 1], ``reach`` the
@@ -316,6 +355,7 @@ def _volume_check(points, tets, model, lower, upper, defects) -> None:
     # small ball give a poor gradient), on a flat one it follows the normal
     reach = np.clip(np.where(reach > 0, reach, widths.max()), widths.min(), widths.max())
     share = np.clip(0.5 - values / reach, 0.0, 1.0)
+    _refine_thin_cells(share, values, reach, axes, widths, model)
     expected = float(share.sum() * np.prod(widths))
     volume = float(signed_volumes(points, tets).sum())
     if expected > 0 and abs(volume - expected) > VOLUME_BOUND * expected:
