@@ -153,40 +153,29 @@ def boundary_layer_points(model, points: np.ndarray, values: np.ndarray, lower: 
 
 def _graded_points(model, lower, upper, h, distribution, geps, jitter, field, rng, boundary_layer) -> np.ndarray:
     """Initial points for a size field: an octave lattice (:mod:`.graded_lattice`) thinned to
-    density ``1 / size^3``; with ``boundary_layer`` a Poisson-disk selection
-    (:func:`_poisson_points`)."""
+    density ``1 / size^3``; with ``boundary_layer``, each octave's surface points
+    (:func:`boundary_layer_points`) at density ``1 / size^2`` and the lattice points it keeps inside."""
     from .graded_lattice import graded_lattice
 
-    if boundary_layer:
-        return _poisson_points(model, lower, upper, h, distribution, field, rng)
     points, octave, at = graded_lattice(field, lower, upper, h, _CELL[distribution], _BASIS[distribution])
     if jitter > 0 and len(points):
         points = points + rng.uniform(-jitter, jitter, size=points.shape) * octave[:, None]
     values = model(points) if len(points) else np.zeros(0)
-    keep = (values < geps) & (rng.random(len(points)) < (octave / at) ** 3)
-    return points[keep]
-
-
-def _poisson_points(model, lower, upper, h, distribution, field, rng) -> np.ndarray:
-    """Initial points for a size field with a boundary layer, by Poisson-disk selection
-    (:mod:`.poisson_start`): each octave's surface points (:func:`boundary_layer_points`) and
-    its points deeper than half a size, from a lattice ``FINER`` times finer, the surface's
-    taken first, each kept unless a kept point is within ``ALPHA`` local sizes."""
-    from .graded_lattice import graded_lattice
-    from .poisson_start import ALPHA, FINER, poisson_select
-
-    points, octave, at = graded_lattice(field, lower, upper, h, _CELL[distribution] / FINER, _BASIS[distribution])
-    values = model(points) if len(points) else np.zeros(0)
-    surface = [np.zeros((0, 3))]
+    if not boundary_layer:
+        keep = (values < geps) & (rng.random(len(points)) < (octave / at) ** 3)
+        return points[keep]
+    chunks = []
+    deep = np.zeros(len(points), bool)
     for size in np.unique(octave):
         mine = np.flatnonzero(octave == size)
-        surface.append(boundary_layer_points(model, points[mine], values[mine], lower, size / FINER, distribution)[0])
-    surface = np.concatenate(surface)
-    deep = values < -0.5 * octave
-    candidates = np.concatenate([surface, points[deep]])
-    sizes = np.concatenate([field(surface) if len(surface) else np.zeros(0), at[deep]])
-    order = np.concatenate([rng.permutation(len(surface)), len(surface) + rng.permutation(int(deep.sum()))])
-    return candidates[poisson_select(candidates, ALPHA * sizes, order)]
+        surface, inside = boundary_layer_points(model, points[mine], values[mine], lower, size, distribution)
+        deep[mine[inside]] = True
+        if len(surface):
+            local = field(surface)
+            chunks.append(surface[rng.random(len(surface)) < np.minimum(1.0, (size / local) ** 2)])
+    deep &= rng.random(len(points)) < (octave / at) ** 3
+    chunks.append(points[deep])
+    return np.concatenate(chunks)
 
 
 def initial_points(
