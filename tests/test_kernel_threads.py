@@ -189,3 +189,22 @@ def test_docstring_examples_run():
     import doctest
 
     assert doctest.testmod(kt).failed == 0
+
+
+def test_one_blas_thread_limits_blas_inside_the_block_only():
+    from threadpoolctl import threadpool_info
+
+    from fepre.kernel_threads import one_blas_thread
+
+    def blas_threads():
+        return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+    before = blas_threads()
+    points = np.random.default_rng(0).normal(size=(200_000, 3))
+    matrix = np.random.default_rng(1).normal(size=(3, 3))
+    free = points @ matrix.T
+    with one_blas_thread():
+        assert blas_threads() and set(blas_threads()) == {1}
+        single = points @ matrix.T
+    assert blas_threads() == before
+    assert np.array_equal(single, free)  # each row's product is the same on any thread

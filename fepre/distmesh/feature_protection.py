@@ -46,8 +46,11 @@ class FeatureProtection:
         self.radius_of_segment = RATIO * lengths
         self.corner_radius = RATIO * h
         self.reach = max(float(self.radius_of_segment.max()) if len(lengths) else 0.0, self.corner_radius)
+        # a point is pushed only within its nearest feature's radius: within that radius (plus
+        # half the piece) of the piece's midpoint, or of the corner
         self._near = _VoxelFilter(np.concatenate([self.corners, 0.5 * (self.segments[:, 0] + self.segments[:, 1])]),
-                                  self.reach + (0.5 * float(lengths.max()) if len(lengths) else 0.0))
+                                  np.concatenate([np.full(len(self.corners), self.corner_radius),
+                                                  self.radius_of_segment + 0.5 * lengths]))
 
     def radius(self, segment: np.ndarray) -> np.ndarray:
         """Protection radius of each nearest feature (segment index, or -1 for a corner)."""
@@ -94,6 +97,8 @@ class FeatureProtection:
         return index, moved
 
 
+#: Largest neighbourhood of an anchor in :class:`_VoxelFilter`, in voxels along an axis.
+MAX_RINGS = 4
 #: Most voxels of :class:`_VoxelFilter`'s dense grid (one byte each); above it, sorted voxel codes.
 _DENSE_VOXELS = 1 << 24
 
@@ -109,20 +114,30 @@ def _in_marked_voxels(points, origin, side, marked, out):  # pragma: no cover - 
 
 
 class _VoxelFilter:
-    """Which points may lie within ``reach`` of some of ``anchors``: voxels of side ``reach``
-    holding an anchor or next to one (a point within ``reach`` of an anchor is in such a voxel).
-    A lookup per point instead of a k-d tree query of every point in every iteration."""
+    """Which points may lie within ``reach`` (one per anchor, or one for all) of some of
+    ``anchors``: voxels holding an anchor or within its reach of one, in voxels (a point within
+    ``r`` of an anchor is at most ``ceil(r / side)`` voxels from the anchor's along each axis).
+    The side is the smallest reach, but at least ``1 / MAX_RINGS`` of the largest. A lookup per
+    point instead of a k-d tree query of every point in every iteration; in a graded mesh the
+    reach of a long feature piece does not spread over the short ones' neighbourhoods."""
 
-    def __init__(self, anchors: np.ndarray, reach: float) -> None:
-        self.side = reach if reach > 0 else 1.0
+    def __init__(self, anchors: np.ndarray, reach) -> None:
+        reach = np.broadcast_to(np.asarray(reach, np.float64), (len(anchors),))
+        largest = float(reach.max()) if len(reach) else 0.0
+        self.side = max(float(reach.min()), largest / MAX_RINGS) if largest > 0 else 1.0
         self.empty = len(anchors) == 0
         if self.empty:
             return
-        self.origin = anchors.min(axis=0) - 2.0 * self.side
+        rings = np.maximum(np.ceil(reach / self.side - 1e-12).astype(np.int64), 1)
+        self.origin = anchors.min(axis=0) - (int(rings.max()) + 1) * self.side
         cells = np.floor((anchors - self.origin) / self.side).astype(np.int64)
-        self.shape = cells.max(axis=0) + 3
-        around = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-        cells = (cells[:, None, :] + around[None]).reshape(-1, 3)
+        self.shape = cells.max(axis=0) + int(rings.max()) + 2
+        marked = []
+        for ring in np.unique(rings):  # anchors of each neighbourhood size together
+            steps = np.arange(-ring, ring + 1)
+            around = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), axis=-1).reshape(-1, 3)
+            marked.append((cells[rings == ring][:, None, :] + around[None]).reshape(-1, 3))
+        cells = np.concatenate(marked)
         self.marked = self.codes = None
         if np.prod(self.shape) <= _DENSE_VOXELS:
             self.marked = np.zeros(tuple(self.shape), dtype=np.bool_)

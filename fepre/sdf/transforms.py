@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import _numeric_array, as_vector, finite_float, shown
+from ..kernel_threads import one_blas_thread
 from .core import SDF, Coords, operation
 
 __all__ = ["Affine", "translate", "rotate", "scale", "mirror", "transform"]
@@ -85,7 +86,8 @@ class Affine(SDF):
         return values
 
     def _pulled_back_points(self, points: np.ndarray) -> np.ndarray:
-        return points @ self.inverse[: self.dim, : self.dim].T + self.inverse[: self.dim, self.dim]
+        with one_blas_thread():  # memory-bound: BLAS's threads only spin on busy cores
+            return points @ self.inverse[: self.dim, : self.dim].T + self.inverse[: self.dim, self.dim]
 
     @property
     def patch_count(self) -> int:
