@@ -248,10 +248,11 @@ def lost_material_message(regions: list[LostRegion], h: float | None) -> str:
     """One line naming the largest lost regions and the ``h`` that would mesh them (half the
     thinnest: two elements across; at one element a 0.6 fin's base corners were still cut)."""
     total, shown, fine = _summary(regions, "{:.3g} thick")
+    graded = f"h=({fine:.2g}, {h:.4g})" if h is not None else f"h=({fine:.2g}, hmax)"
     return (
         f"the mesh leaves out about {total:.3g} (volume) of the model where it is thinner than "
-        f"{_resolving(h)}: {shown}; mesh with h <= {fine:.2g} (or a size field that "
-        "is that fine there) to keep it"
+        f"{_resolving(h)}: {shown}; mesh with h <= {fine:.2g}, or with {graded} (the automatic "
+        "size field: that fine only where the model is that thin), to keep it"
     )
 
 
