@@ -317,8 +317,12 @@ def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) ->
             break
         strict = repair_selection(tets, selected, locked, np.where(bridging, np.inf, add_cost), remove_cost, len(state.points))
         if not _valid_selection(state.points, tets[strict]):
-            # a pinch the stars of interior nodes hold on both sides: fill a little farther out
+            # a pinch the stars of interior nodes hold on both sides: fill a little farther out,
+            # unless the unrestricted repair is one the validation would take (on a faceted head
+            # the 0.5 h one was valid too but left a 1.2 deg cell the quality stage kept)
             held = _holding(state, tets, strict & locked, boundary_faces(tets[strict]))
+            if _acceptable(model, state, tets[repaired], h):
+                break
             continue
 
         def misplaced(choice: np.ndarray) -> float:
@@ -329,6 +333,17 @@ def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) ->
         held = np.zeros(0, np.int64)
         break
     return tets[repaired], held
+
+
+def _acceptable(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
+    """True when ``tets`` are a closed solid with no boundary face centroid farther than the
+    validation stage's bound (:data:`fepre.distmesh.validate.CENTROID_BOUND` h) from the zero set."""
+    from .validate import CENTROID_BOUND
+
+    if not _valid_selection(state.points, tets):
+        return False
+    faces = boundary_faces(tets)
+    return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= CENTROID_BOUND * h)
 
 
 def _holding(state: _PointSet, tets: np.ndarray, kept_stars: np.ndarray, faces: np.ndarray) -> np.ndarray:
