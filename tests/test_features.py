@@ -242,3 +242,21 @@ def test_a_rotated_block_on_a_plate_has_the_corners_and_curves_of_the_upright_on
         rotated = fepre.features((plate | block).rotate(37.0, (0.3, 0.5, 0.8)), 1.0, warn=False)
     assert (len(upright.corners), len(upright.curves)) == (16, 24)
     assert (len(rotated.corners), len(rotated.curves)) == (16, 24)
+
+
+def test_nodes_of_one_curve_closer_than_half_h_are_not_both_kept():
+    """A curve that doubles back (a hairpin 0.2 h wide) or is shorter than h/2 (two nodes 0.024 h
+    apart, as on truck.obj at D/50) put two fixed nodes closer than any element can join: cells of
+    0.0 degrees. Of such a pair the later node goes, and the count joins the warning."""
+    from fepre.features.conflicts import resolve_conflicts
+    from fepre.features.curves import FeatureCurve
+
+    hairpin = FeatureCurve(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [2, 0.2, 0], [1, 0.2, 0], [0, 0.2, 0]], float), (0, 1), False, 90.0)
+    stub = FeatureCurve(np.array([[5, 5, 5], [5.024, 5, 5]]), (1, 2), False, 90.0)
+    h = lambda points: np.ones(len(points))
+    corners, curves, skipped = resolve_conflicts(np.zeros((0, 3)), [hairpin, stub], h, 10.0, 30.0)
+    nodes = np.concatenate([c.points for c in curves])
+    gaps = np.linalg.norm(nodes[:, None] - nodes[None], axis=2) + np.eye(len(nodes)) * 9
+    assert gaps.min() >= 0.5
+    np.testing.assert_allclose(nodes, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])  # the way back and the stub go
+    assert any("5 feature curve node(s) within 0.5 h" in message for message in skipped)  # the stub's first too, alone

@@ -46,12 +46,20 @@ __all__ = ["final_mesh", "compact", "crease_nodes"]
 FALLBACK_BACKEND = "scipy"
 #: cells whose centroid is farther outside than this (times h) are never added by the repair
 _FAR_OUTSIDE = 0.25
+#: the repair's bounds on the cells it may add (centroid outside, times h), tried in turn: a vertex
+#: pinched between the stars of two interior nodes (a notch or gap narrower than h at a feature
+#: tip) can need cells a little beyond _FAR_OUTSIDE; the unrestricted repair fills whole hull
+#: regions (faces 1.3 h out on the decimated knight at D/25)
+_BRIDGING_REACHES = (_FAR_OUTSIDE, 0.5)
 #: rounds of "triangulate, then move or drop interior nodes whose star reaches outside"
 _STAR_ROUNDS = 4
 #: points closer than this (times h) are merged
 _MERGE = 0.2
 #: interior nodes at most this deep (times h) are moved onto the zero set, deeper ones dropped
 _PROJECT_DEPTH = 0.5
+#: rounds of "release the interior nodes that hold a pinch, triangulate and choose again" before
+#: a closed choice over cells outside the part is refused
+_RELEASE_ROUNDS = 3
 #: rounds of flips that remove flat cells from inside the final triangulation
 _FLAT_FLIP_ROUNDS = 6
 #: cells on the zero set whose nodes' normals are all within about 60 degrees of each other
@@ -111,6 +119,17 @@ class _PointSet:
         lost = np.zeros(len(self.points), bool)
         lost[index] = np.abs(self.values[index]) > self.tol
         self.keep(~lost)
+
+    def release(self, index: np.ndarray, depth: float) -> None:
+        """Interior nodes ``index`` leave the interior: those deeper than ``depth`` go, the others
+        are moved onto the zero set; then close points are merged."""
+        keep = np.ones(len(self.points), bool)
+        keep[index[self.values[index] < -depth]] = False
+        moved = np.zeros(len(self.points), bool)
+        moved[index] = True
+        self.keep(keep)
+        self.project(np.flatnonzero(moved[keep]))
+        self.merge()
 
     def merge(self) -> None:
         """Drop points closer than ``_MERGE h`` to another: fixed points stay, points on the
@@ -272,9 +291,10 @@ def _star_rounds(model, state: _PointSet, previous, backend: str, h: float, mend
     return tets
 
 
-def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) -> np.ndarray:
+def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """The cells of the solid: every interior node's star, the cells inside but shallow caps,
-    repaired to a closed 2-manifold."""
+    repaired to a closed 2-manifold; and, when no repair within the bridging bounds closes it,
+    the interior nodes whose stars hold a defect left by the last of them (:func:`_holding`)."""
     centroid_values = model(state.points[tets].mean(axis=1))
     on_surface = state.on_surface
     locked = ~on_surface[tets].all(axis=1)
@@ -289,19 +309,56 @@ def _choose(model, state: _PointSet, tets: np.ndarray, geps: float, h: float) ->
     # a chord across a concave surface puts a centroid at most about h^2 / (8 R) outside: cells
     # farther out bridge a concave region: a second repair never adds them, and of the two
     # repairs the valid one that puts less volume on the wrong side wins
-    bridging = (centroid_values > _FAR_OUTSIDE * h) & ~selected
     repaired = repair_selection(tets, selected, locked, add_cost, remove_cost, len(state.points))
-    if bridging.any():
+    held = np.zeros(0, np.int64)
+    for reach in _BRIDGING_REACHES:
+        bridging = (centroid_values > reach * h) & ~selected
+        if not bridging.any():
+            break
         strict = repair_selection(tets, selected, locked, np.where(bridging, np.inf, add_cost), remove_cost, len(state.points))
+        if not _valid_selection(state.points, tets[strict]):
+            # a pinch the stars of interior nodes hold on both sides: fill a little farther out,
+            # unless the unrestricted repair is one the validation would take (on a faceted head
+            # the 0.5 h one was valid too but left a 1.2 deg cell the quality stage kept)
+            held = _holding(state, tets, strict & locked, boundary_faces(tets[strict]))
+            if _acceptable(model, state, tets[repaired], h):
+                break
+            continue
 
         def misplaced(choice: np.ndarray) -> float:
             return float(add_cost[choice & ~selected].sum() + remove_cost[~choice & selected].sum())
 
-        if _valid_selection(state.points, tets[strict]) and (
-            misplaced(strict) < misplaced(repaired) or not _valid_selection(state.points, tets[repaired])
-        ):
+        if misplaced(strict) < misplaced(repaired) or not _valid_selection(state.points, tets[repaired]):
             repaired = strict
-    return tets[repaired]
+        held = np.zeros(0, np.int64)
+        break
+    return tets[repaired], held
+
+
+def _acceptable(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
+    """True when ``tets`` are a closed solid with no boundary face centroid farther than the
+    validation stage's bound (:data:`fepre.distmesh.validate.CENTROID_BOUND` h) from the zero set."""
+    from .validate import CENTROID_BOUND
+
+    if not _valid_selection(state.points, tets):
+        return False
+    faces = boundary_faces(tets)
+    return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= CENTROID_BOUND * h)
+
+
+def _holding(state: _PointSet, tets: np.ndarray, kept_stars: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Free interior nodes of the cells ``kept_stars`` (stars of interior nodes, kept whole) at
+    the non-manifold edges and pinched vertices of the boundary ``faces``: the repair can neither
+    carve those stars nor, within its bounds, fill between them."""
+    from .topology import nonmanifold_items
+
+    bad_edges, pinched = nonmanifold_items(faces, len(state.points))
+    defect = np.zeros(len(state.points), bool)
+    defect[bad_edges.ravel()] = True
+    defect[pinched] = True
+    cells = tets[kept_stars & defect[tets].any(axis=1)]
+    nodes = np.unique(cells)
+    return nodes[~state.on_surface[nodes] & ~state.fixed[nodes]]
 
 
 def _valid_solid(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
@@ -337,6 +394,40 @@ def _drop_far_cells(model, state: _PointSet, tets: np.ndarray, h: float, size, a
     if far_boundary(state.points, boundary_faces(repaired), model, h, size, absolute):
         return None
     return repaired
+
+
+def _attempts(model, state: _PointSet, previous, backend: str, h: float, geps: float):
+    """Triangulate ``state``'s points and choose a solid, trying the backend's triangulation, then
+    with its cracks mended, then Qhull's (the same two); ``(trial, chosen, valid, held)``: the
+    point set and cells of the first valid solid, else of the backend's mended attempt (or the
+    closed choice that stopped the attempts), and the interior nodes holding its defects.
+
+    The backend's own triangulation comes first, even when dropping its flat cells left cracks: a
+    crack outside the part, or on its surface, is left out with the outside cells. (Qhull's full
+    triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds stacks of
+    slivers as long as the cylinder.) When the solid chosen from it is not valid, the cracks are
+    mended by flipping the flat cells away and the choice is made again.
+    """
+    attempts = [(backend, False), (backend, True)]
+    if backend != FALLBACK_BACKEND:  # another triangulation of the same points
+        attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
+    mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
+    for number, (triangulator, mend_cracks) in enumerate(attempts):
+        trial = state.copy()
+        tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
+        chosen, held = _choose(model, trial, tets, geps, h)
+        if _valid_solid(model, trial, chosen, h):
+            return trial, chosen, True, held
+        if number == 1:
+            mended = (trial, chosen, held)
+        # a closed solid refused only for a face far from the surface: another triangulation of
+        # the same points is the same Delaunay one but for ties, and mending changes nothing
+        # where nothing is cracked, so the same face comes back (a gyroid block's four attempts
+        # took 20 s, all alike)
+        if number < 2 and _valid_selection(trial.points, chosen):
+            if number == 1 or not _cracked(tets, len(trial.points)):
+                return trial, chosen, False, held
+    return mended[0], mended[1], False, mended[2]
 
 
 def final_mesh(
@@ -378,35 +469,10 @@ def final_mesh(
         previous = sorted_cells(previous, len(state.points))
         previous = previous if _manifold(previous, len(state.points)) else None
 
-    # The backend's own triangulation first, even when dropping its flat cells left cracks: a
-    # crack outside the part, or on its surface, is left out with the outside cells. (Qhull's
-    # full triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds
-    # stacks of slivers as long as the cylinder.) When the solid chosen from it is not valid,
-    # the cracks are mended by flipping the flat cells away and the choice is made again.
-    attempts = [(backend, False), (backend, True)]
-    if backend != FALLBACK_BACKEND:  # another triangulation of the same points
-        attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
-    valid = False
-    mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
-    for number, (triangulator, mend_cracks) in enumerate(attempts):
-        trial = state.copy()
-        tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
-        chosen = _choose(model, trial, tets, geps, h)
-        valid = _valid_solid(model, trial, chosen, h)
-        if valid:
+    for release in range(_RELEASE_ROUNDS + 1):
+        trial, chosen, valid, held = _attempts(model, state, previous, backend, h, geps)
+        if valid or not len(chosen) or not _valid_selection(trial.points, chosen):
             break
-        if number == 1:
-            mended = (trial, chosen)
-        # a closed solid refused only for a face far from the surface: another triangulation of
-        # the same points is the same Delaunay one but for ties, and mending changes nothing
-        # where nothing is cracked, so the same face comes back (a gyroid block's four attempts
-        # took 20 s, all alike)
-        if number < 2 and _valid_selection(trial.points, chosen):
-            if number == 1 or not _cracked(tets, len(trial.points)):
-                break
-    else:
-        trial, chosen = mended
-    if not valid and len(chosen) and _valid_selection(trial.points, chosen):
         # closed and manifold but refused by _valid_solid: returned only if the validation
         # stage would take it (a face a little past _FAR_OUTSIDE h), never over hull cells
         from .validate import defects_message, far_boundary
@@ -416,10 +482,16 @@ def final_mesh(
             repaired = _drop_far_cells(model, trial, chosen, h, size, absolute)
             if repaired is not None:
                 far, chosen = [], repaired
-        if far:
+        if not far:
+            break
+        if release == _RELEASE_ROUNDS or len(held) == 0:
             raise MeshingError(
                 "DistMesh could not choose a valid solid from the final triangulation: the closed "
                 f"choice keeps cells outside the part ({defects_message(far)}); try a smaller h")
+        # the interior nodes whose stars hold the pinches go onto the zero set (or, when deep, go)
+        # and the points are triangulated again
+        state, previous = trial, None
+        state.release(held, _PROJECT_DEPTH * h)
     state, tets = trial, chosen
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
@@ -428,10 +500,15 @@ def final_mesh(
     boundary = np.unique(report.boundary_faces)
     off = np.abs(model(points_out[boundary])) > state.tol
     if not report.ok or off.any():
+        where = ""
+        if off.any():  # a fixed node off the zero set is an interior node to the choice
+            node = boundary[off][int(np.argmax(np.abs(model(points_out[boundary[off]]))))]
+            kind = "a fixed node" if fixed_out[node] else "a node"
+            where = f", the farthest {kind} at ({', '.join(f'{v:.6g}' for v in points_out[node])})"
         raise MeshingError(
             "DistMesh could not choose a valid solid from the final triangulation "
             f"({report.nonmanifold_edges} non-manifold edges, {report.pinched_vertices} pinched vertices, "
-            f"{int(off.sum())} boundary nodes off the zero set); try a smaller h"
+            f"{int(off.sum())} boundary nodes off the zero set{where}); try a smaller h"
         )
     return points_out, tets, fixed_out
 

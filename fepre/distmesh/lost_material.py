@@ -248,10 +248,11 @@ def lost_material_message(regions: list[LostRegion], h: float | None) -> str:
     """One line naming the largest lost regions and the ``h`` that would mesh them (half the
     thinnest: two elements across; at one element a 0.6 fin's base corners were still cut)."""
     total, shown, fine = _summary(regions, "{:.3g} thick")
+    graded = f"h=({fine:.2g}, {h:.4g})" if h is not None else f"h=({fine:.2g}, hmax)"
     return (
         f"the mesh leaves out about {total:.3g} (volume) of the model where it is thinner than "
-        f"{_resolving(h)}: {shown}; mesh with h <= {fine:.2g} (or a size field that "
-        "is that fine there) to keep it"
+        f"{_resolving(h)}: {shown}; mesh with h <= {fine:.2g}, or with {graded} (the automatic "
+        "size field: that fine only where the model is that thin), to keep it"
     )
 
 
@@ -263,4 +264,56 @@ def added_material_message(regions: list[LostRegion], h: float | None) -> str:
         f"than {_resolving(h)} (a narrow gap, or parts touching along an edge or at a point): "
         f"{shown}; mesh with h <= {fine:.2g} to keep a gap open (parts that only touch "
         "stay joined)"
+    )
+
+
+#: A mesh of a triangle-mesh model whose volume is off the model's exact volume by more than this
+#: fraction warns (issue 32's fidelity target is 1% at D/50).
+VOLUME_TOLERANCE = 0.01
+#: The volume error the h named in that warning aims at (the error falls about as h squared).
+VOLUME_AIM = 0.005
+
+
+def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, upper, h: float, graded: bool) -> str | None:
+    """A line when the cells' volume is more than ``VOLUME_TOLERANCE`` off the exact volume of
+    ``given``, a triangle-mesh model (None otherwise, or when ``given`` is not one, or when the
+    domain box ``lower``-``upper`` cuts ``model``, the solid meshed: ``given`` or, for a part far
+    from the origin, ``given`` moved).
+
+    The lost-material check names parts thinner than ``h``; a limb a few ``h`` across loses as
+    much through its chords (a radius of 2 h inscribed with edges of h: 4% of its section) and is
+    not thin. The chords' sag falls as ``h^2``, so the line names the ``h`` that would bring the
+    error to ``VOLUME_AIM``.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from fepre import sdf
+    >>> ball = sdf.mesh(pv.Sphere(radius=1.0, theta_resolution=64, phi_resolution=64))
+    >>> octahedron = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], [0, 0, 0]], float)
+    >>> cells = np.array([[6, 0, 2, 4], [6, 2, 1, 4], [6, 1, 3, 4], [6, 3, 0, 4],
+    ...                   [6, 2, 0, 5], [6, 1, 2, 5], [6, 3, 1, 5], [6, 0, 3, 5]])
+    >>> volume_message(ball, ball, octahedron, cells, (-1, -1, -1), (1, 1, 1), 1.0, False)[:45]
+    "the mesh's volume is 68.1% short of the model"
+    """
+    from ..quality import signed_volumes
+    from ..sdf.meshmodel import MeshModel
+
+    if not isinstance(given, MeshModel) or len(tets) == 0 or model.bounds is None:
+        return None
+    bounds_lower, bounds_upper = (np.asarray(b, np.float64) for b in model.bounds)
+    if (np.asarray(lower) > bounds_lower + 1e-9 * h).any() or (np.asarray(upper) < bounds_upper - 1e-9 * h).any():
+        return None
+    exact = abs(given.volume)
+    meshed = float(signed_volumes(points, tets).sum())
+    error = meshed / exact - 1.0
+    if abs(error) <= VOLUME_TOLERANCE:
+        return None
+    finer = h * np.sqrt(VOLUME_AIM / abs(error))
+    size = "hmin" if graded else "h"
+    return (
+        f"the mesh's volume is {100 * abs(error):.1f}% {'short of' if error < 0 else 'over'} the model's "
+        f"({meshed:.4g} against {exact:.4g}): surfaces curved at the scale of h lose their chords' sag, parts "
+        f"thinner than h are lost; mesh with {size} <= {finer:.2g} to come within about "
+        f"{100 * VOLUME_AIM:g}% (the error falls about as {size} squared)"
     )

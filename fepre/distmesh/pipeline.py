@@ -239,7 +239,7 @@ def validate_mesh(job: MeshingJob) -> None:
 
 def check_mesh(job: MeshingJob) -> None:
     """The resolution check (material lost or added), the history, the constraints' checks."""
-    from .lost_material import added_material_message, lost_material_message, material_checks
+    from .lost_material import added_material_message, lost_material_message, material_checks, volume_message
 
     o, loop, h = job.options, job.loop, job.h
     local = job.size if job.absolute else None
@@ -251,6 +251,11 @@ def check_mesh(job: MeshingJob) -> None:
         warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
     if added:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
+    if o.check_resolution and not any(value is not None for value in job.keywords.values()):  # not a cut cell
+        message = volume_message(job.given_model, job.model, job.points, job.tets, job.lower, job.upper, h,
+                                 job.absolute or job.size is not None)
+        if message:
+            warn_user(f"distmesh: {message}", ResolutionWarning)
     job.history = dict(loop.history)
     job.history.update(
         iterations=np.array([loop.iterations]),

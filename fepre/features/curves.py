@@ -135,6 +135,27 @@ def _resample(
         moved = nodes[inner]
         moved[ok] = solved[ok]
         nodes[inner] = moved
+    return _onto_surface(model, nodes, scale)
+
+
+#: Curve nodes farther than this (times the model's size) from its zero set are projected onto it.
+ON_SURFACE = 1e-9
+
+
+def _onto_surface(model, nodes: np.ndarray, scale: float) -> np.ndarray:
+    """``nodes`` moved onto the model's zero set where they are off it.
+
+    The two patches' functions meet on the surface where the patches share the feature (a CSG
+    part's primitives, a closed triangle mesh's facets across an edge). A triangle mesh whose
+    pieces meet without shared edges (the spans of an open surface against its rims, shells cut
+    at a seam) has facets whose planes cross a little off the surface: a node there is not on
+    the zero set, and a fixed node off it is an interior node to the mesher (its whole star is
+    kept, cells outside and all).
+    """
+    off = np.abs(np.asarray(model(nodes), np.float64)) > ON_SURFACE * scale
+    if off.any():
+        nodes = nodes.copy()
+        nodes[off] = model.project(nodes[off], iterations=30, tol=0.1 * ON_SURFACE * scale, warn=False)
     return nodes
 
 
