@@ -46,6 +46,51 @@ def test_region_models(regions):
         assert model.exact and model.repaired.closed
 
 
+def test_voxel_planes_keep_sharp_edges(regions):
+    # the cube's faces are runs of voxel faces: their edges and corners stay sharp (the smoothed
+    # indicators alone rounded them 0.40 voxel deep), the ball stays smooth
+    part, matrix, inclusion = regions.part, regions["matrix"], regions["inclusion"]
+    assert np.abs(CUBE(part.vertices)).max() < 1e-9
+    assert np.allclose(part.bounds, ((-0.5,) * 3, (0.5,) * 3), atol=1e-12)
+    # patches: the six faces, and the ball's surface on its own
+    assert (part.patch_count, matrix.patch_count, inclusion.patch_count) == (6, 7, 1)
+    found = fepre.features(part, h=0.1)
+    assert len(found.corners) == 8 and len(found.curves) == 12
+    assert matrix.volume == pytest.approx(1 - BALL_VOLUME, rel=0.003)  # measured +0.03%
+
+
+def test_sharp_planes_need_two_large_planes():
+    from fepre.sdf.imagemodel.sharp import sharp_planes
+
+    # a 3-cell row, one cell crossed along two axes: no plane of 16 cells, nothing moves
+    raw = np.random.default_rng(0).uniform(0, 1, (3, 3))
+    points, fixed, member = sharp_planes(np.arange(3), np.array([1, 1, 3], np.uint8), raw, (3, 1, 1))
+    assert not fixed.any() and (member == -1).all() and np.array_equal(points, raw)
+    # a block of 6^3 voxels: its faces are planes of 36 cells meeting at 12 edges
+    indices = np.zeros((10, 10, 10), np.int16)
+    indices[2:8, 2:8, 2:8] = 1
+    surface = label_surface(indices, 2, np.ones(3), np.zeros(3), 0.5, 0, 30)
+    block = sdf.box(6.0, center=(4.5, 4.5, 4.5))  # voxel centres 2..7
+    assert np.abs(block(surface.vertices)).max() < 1e-9
+    assert len(np.unique(surface.plane)) == 6 and (surface.plane >= 0).all()
+
+
+@pytest.mark.slow
+def test_label_mesh_quality_at_four_voxels_per_h():
+    # h = 4 voxels: with the cube's edges rounded to half a voxel and no creases the matrix had
+    # cells of 4.6 degrees; with the sharp edges as features, 33.0 (measured)
+    grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, 0.025)
+    fine = sdf.labels(grid, names={1: "matrix", 2: "inclusion"})
+    mesh = fepre.distmesh(fine.part, 0.1, regions=fine, progress=False)
+    for k in range(2):
+        chosen = mesh["region_id"] == k
+        assert mesh["min_dihedral_angle"][chosen].min() >= 25.0
+        assert mesh["max_dihedral_angle"][chosen].max() <= 150.0
+        assert mesh["radius_ratio"][chosen].min() >= 0.25
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    assert volumes[0] == pytest.approx(1 - BALL_VOLUME, rel=0.02)
+
+
 def test_conformal_mesh_of_nested_balls(tmp_path):
     outer, inner = sdf.sphere(0.5), sdf.sphere(0.25)
     grid = label_image([outer, inner], (-0.6,) * 3, (0.6,) * 3, SPACING)

@@ -14,27 +14,38 @@ from __future__ import annotations
 
 import numpy as np
 
+from .sharp import sharp_planes
+
 __all__ = ["LabelSurface", "label_surface"]
 
 
 class LabelSurface:
-    """Vertices (V, 3), triangles (F, 3) facing from ``inner`` to ``outer`` (F,) label indices."""
+    """Vertices (V, 3), triangles (F, 3) facing from ``inner`` to ``outer`` (F,) label indices;
+    ``plane`` (F,): the voxel-aligned plane with a sharp edge that each triangle lies on, -1 for
+    none (:mod:`.sharp`)."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, inner: np.ndarray, outer: np.ndarray) -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, inner: np.ndarray, outer: np.ndarray,
+                 plane: np.ndarray | None = None) -> None:
         self.vertices, self.faces, self.inner, self.outer = vertices, faces, inner, outer
+        self.plane = np.full(len(faces), -1, dtype=np.int64) if plane is None else plane
 
     def region(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """Triangles of region ``index`` facing out of it, and the label on their other side."""
+        faces, other, _ = self.region_planes(index)
+        return faces, other
+
+    def region_planes(self, index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`region`, with each triangle's plane (-1: none)."""
         out, into = self.inner == index, self.outer == index
         faces = np.concatenate([self.faces[out], self.faces[into][:, ::-1]])
-        return faces, np.concatenate([self.outer[out], self.inner[into]])
+        return faces, np.concatenate([self.outer[out], self.inner[into]]), np.concatenate([self.plane[out], self.plane[into]])
 
-    def part(self, background: int) -> tuple[np.ndarray, np.ndarray]:
-        """Triangles between the background and any other label, facing out of the part, and
-        the label inside each."""
+    def part(self, background: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Triangles between the background and any other label, facing out of the part, the
+        label inside each, and each triangle's plane."""
         out, into = self.outer == background, self.inner == background
         faces = np.concatenate([self.faces[out], self.faces[into][:, ::-1]])
-        return faces, np.concatenate([self.inner[out], self.outer[into]])
+        return faces, np.concatenate([self.inner[out], self.outer[into]]), np.concatenate([self.plane[out], self.plane[into]])
 
 
 def _smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
@@ -74,11 +85,12 @@ _AROUND = {0: ((1, 2), ((-1, -1), (0, -1), (0, 0), (-1, 0))),
 
 
 def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: np.ndarray, sigma: float,
-                  background: int, iterations: int = 0) -> LabelSurface:
+                  background: int, iterations: int = 0, sharp: bool = True) -> LabelSurface:
     """The shared interface surface of label indices ``0..count-1`` on a grid (see the module).
 
     The grid is padded by one node of ``background`` on every side (kept so after smoothing), so
     every region's surface is closed; regions at the border close within a voxel beyond it.
+    ``sharp`` keeps the edges where large voxel-aligned planes meet (:mod:`.sharp`).
     """
     indices = np.pad(indices, 1, constant_values=background)
     fields, labels = _smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
@@ -91,6 +103,7 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     cells = np.array(labels.shape) - 1
     sums = np.zeros((int(np.prod(cells)), 3))
     counts = np.zeros(int(np.prod(cells)))
+    axes = np.zeros(int(np.prod(cells)), dtype=np.uint8)
     found = []
     for axis in range(3):
         nodes, a, b, fraction = _crossings(fields, labels, axis)
@@ -105,6 +118,7 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
             quad[:, corner] = np.ravel_multi_index(tuple(cell.T), tuple(cells))
             np.add.at(sums, quad[:, corner], point)
             np.add.at(counts, quad[:, corner], 1.0)
+            axes[quad[:, corner]] |= np.uint8(1 << axis)
         found.append((quad, a, b))
     used = np.flatnonzero(counts)
     number = np.full(len(counts), -1, dtype=np.int64)
@@ -116,11 +130,25 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
     inner, outer = np.tile(inner, 2), np.tile(outer, 2)
     points = sums[used] / counts[used, None]
+    fixed, plane = np.zeros(len(used), dtype=bool), np.full(len(faces), -1, dtype=np.int64)
+    if sharp:
+        points, fixed, member = sharp_planes(used, axes[used], points, tuple(int(c) for c in cells))
+        plane = _face_planes(faces, member)
     if iterations:
         cell = np.column_stack(np.unravel_index(used, tuple(cells))).astype(np.float64)
         junction = _junctions(len(used), faces, inner, outer)
-        points = relaxed(points, faces, cell, junction, iterations)
-    return LabelSurface(origin + spacing * points, faces, inner, outer)
+        points = relaxed(points, faces, cell, junction | fixed, iterations)
+    return LabelSurface(origin + spacing * points, faces, inner, outer, plane)
+
+
+def _face_planes(faces: np.ndarray, member: np.ndarray) -> np.ndarray:
+    """(F,) the plane all three vertices of each triangle lie on, -1 for none."""
+    plane = np.full(len(faces), -1, dtype=np.int64)
+    for k in range(3):
+        ids = member[faces, k]
+        common = (ids[:, 0] >= 0) & (ids[:, 0] == ids[:, 1]) & (ids[:, 0] == ids[:, 2]) & (plane < 0)
+        plane[common] = ids[common, 0]
+    return plane
 
 
 def _junctions(count: int, faces: np.ndarray, inner: np.ndarray, outer: np.ndarray) -> np.ndarray:
