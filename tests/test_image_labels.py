@@ -75,6 +75,34 @@ def test_sharp_planes_need_two_large_planes():
     assert len(np.unique(surface.plane)) == 6 and (surface.plane >= 0).all()
 
 
+def test_voxels_touching_along_an_edge_give_manifold_surfaces():
+    from fepre.sdf.meshmodel.repair import _is_closed
+
+    # label 1 on two voxels that share an edge only, label 2 on two that share a corner only:
+    # the diagonal faces are joined up (the larger region, the background, takes a node), so
+    # every region's surface is closed and manifold (each edge in two triangles) and needs no
+    # repair
+    indices = np.zeros((10, 10, 10), np.int16)
+    indices[2:4, 2:4, 2:4] = indices[4:6, 4:6, 2:4] = 1
+    indices[2:4, 2:4, 5:7] = indices[4:6, 4:6, 7:9] = 2
+    for sigma in (0.0, 0.5):
+        surface = label_surface(indices, 3, np.ones(3), np.zeros(3), sigma, 0, 30)
+        for index in (1, 2):
+            faces, _ = surface.region(index)
+            edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+            _, counts = np.unique(edges, axis=0, return_counts=True)
+            assert len(faces) and (counts == 2).all() and _is_closed(faces)
+    # the largest label takes the nodes: label 1 grows into a block of 3 voxels when it is the larger
+    indices = np.ones((6, 6, 6), np.int16)
+    indices[2, 2, 2] = indices[3, 3, 2] = 0
+    surface = label_surface(indices, 3, np.ones(3), np.zeros(3), 0.0, 0)
+    faces, _ = surface.region(1)
+    assert _is_closed(faces)
+    # the two background voxels joined into three: 12 faces of the two cubes, 2 x 2 lost
+    # where they touch the third, 3 x 2 triangles each, and the border's 6 x 36 x 2
+    assert len(faces) == (3 * 6 - 4) * 2 + 6 * 36 * 2
+
+
 @pytest.mark.slow
 def test_label_mesh_quality_at_four_voxels_per_h():
     # h = 4 voxels: with the cube's edges rounded to half a voxel and no creases the matrix had

@@ -107,6 +107,8 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
     >>> int(fixed.sum())  # no plane of 16 cells
     0
     """
+    if len(used) == 0:
+        return raw.copy(), np.zeros(0, dtype=bool), np.full((0, 3), -1, dtype=np.int64)
     coords = np.column_stack(np.unravel_index(used, cells))
     near = _neighbours(used, coords, cells)
     member, positions = _planes(axes, coords, near)
