@@ -92,6 +92,11 @@ def test_voxels_touching_along_an_edge_give_manifold_surfaces():
             edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
             _, counts = np.unique(edges, axis=0, return_counts=True)
             assert len(faces) and (counts == 2).all() and _is_closed(faces)
+    # the nodes that changed label carry their new label's crossings: no point in two regions
+    regions = sdf.labels(indices, smoothing=0.5)
+    points = np.random.default_rng(2).uniform(1.0, 9.0, (20000, 3))
+    inside = np.stack([np.asarray(model(points)) < 0 for model in regions.values()])
+    assert inside.sum(axis=0).max() == 1 and inside.any(axis=1).all()
     # the largest label takes the nodes: label 1 grows into a block of 3 voxels when it is the larger
     indices = np.ones((6, 6, 6), np.int16)
     indices[2, 2, 2] = indices[3, 3, 2] = 0

@@ -142,7 +142,18 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     fields, labels = _smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
     # the larger region takes a diagonal face's node (the smallest relative change of volume)
     rank = np.argsort(np.argsort(np.bincount(labels.ravel(), minlength=count), kind="stable"), kind="stable").astype(np.int16)
-    labels = np.argsort(rank).astype(np.int16)[_no_diagonal_faces(rank[labels])]
+    joined = np.argsort(rank).astype(np.int16)[_no_diagonal_faces(rank[labels])]
+    # a node that changed label swaps its two labels' smoothed values, so that its new label is
+    # the largest there and every crossing between labels still lies where their difference
+    # changes sign along the edge (with the values as they were, the crossings next to it fell
+    # on the edges' ends and folded triangles over: a brain's grey matter then held points of
+    # its ventricles)
+    changed = np.flatnonzero((joined != labels).ravel())
+    if len(changed):
+        flat = fields.reshape(count, -1)
+        before, after = labels.ravel()[changed], joined.ravel()[changed]
+        flat[before, changed], flat[after, changed] = flat[after, changed], flat[before, changed].copy()
+    labels = joined
     for axis in range(3):  # the pad stays background, so every crossed edge has four cells around it
         for end in (0, -1):
             index = [slice(None)] * 3
