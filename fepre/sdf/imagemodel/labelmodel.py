@@ -22,21 +22,24 @@ class LabelModel(MeshModel):
     triangles of the shared interface surface, negative inside."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any,
-                 other: np.ndarray | None = None, plane: np.ndarray | None = None) -> None:
+                 plane: np.ndarray | None = None) -> None:
         repaired = _closed_or_repaired(vertices, faces)
         super().__init__(repaired, name, sign="winding", features=0.0)
         self.image = source
         self.label = label
-        if other is not None and plane is not None and len(repaired.faces) == len(faces):
-            self._set_patches(other, plane)
+        if plane is not None and (plane >= 0).any() and len(repaired.faces) == len(faces):
+            self._set_patches(plane)
 
-    def _set_patches(self, other: np.ndarray, plane: np.ndarray) -> None:
+    def _set_patches(self, plane: np.ndarray) -> None:
         """Patches for the feature search: each voxel-aligned plane that meets another at a sharp
-        edge (:mod:`.sharp`), and the rest split by the label on the triangles' other side (so
-        the lines where three labels meet are creases where their surfaces meet at an angle)."""
+        edge (:mod:`.sharp`), and the rest as one smooth patch. (Splitting the rest by the label
+        on the other side would make every rim a crease for the feature search, which samples
+        each such model on a grid of h/4: on a brain that is all rims. The rims are laid by the
+        regions' own interface nodes.) A label image with no such planes has one patch, and the
+        feature search passes it by."""
         from ..meshmodel.patches import PatchPlanes
 
-        key = np.where(plane >= 0, plane, -1 - other.astype(np.int64))
+        key = np.where(plane >= 0, plane, -1)
         _, patch = np.unique(key, return_inverse=True)
         self._face_patch = patch.reshape(-1).astype(np.int64)
         self._patch_count = int(self._face_patch.max()) + 1 if len(patch) else 1
@@ -183,11 +186,11 @@ def labels(
     regions.labels, regions.image = {}, data
     for index in range(1, len(order)):
         label = int(order[index])
-        faces, other, plane = surface.region_planes(index)
-        regions[named[label]] = LabelModel(surface.vertices, faces, data.name, data, label, other, plane)
+        faces, _, plane = surface.region_planes(index)
+        regions[named[label]] = LabelModel(surface.vertices, faces, data.name, data, label, plane)
         regions.labels[named[label]] = label
-    faces, inner, plane = surface.part(0)
-    part = LabelModel(surface.vertices, faces, data.name, data, "part", inner, plane)
+    faces, _, plane = surface.part(0)
+    part = LabelModel(surface.vertices, faces, data.name, data, "part", plane)
     lower, upper = data.voxel_box()
     from ..solids import box
 
