@@ -62,7 +62,7 @@ def test_voxel_planes_keep_sharp_edges(regions):
 def test_sharp_planes_need_two_large_planes():
     from fepre.sdf.imagemodel.sharp import sharp_planes
 
-    # a 3-cell row, one cell crossed along two axes: no plane of 16 cells, nothing moves
+    # a 3-cell row, one cell crossed along two axes: no plane 3 cells wide, nothing moves
     raw = np.random.default_rng(0).uniform(0, 1, (3, 3))
     points, fixed, member = sharp_planes(np.arange(3), np.array([1, 1, 3], np.uint8), raw, (3, 1, 1))
     assert not fixed.any() and (member == -1).all() and np.array_equal(points, raw)

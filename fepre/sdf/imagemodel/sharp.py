@@ -5,8 +5,9 @@ machined block, the border of a SIMP domain) and meets another flat run at a str
 segmented part has a sharp edge there; the smoothed indicators of :mod:`.multilabel` round it by
 about half a voxel, and DistMesh, which sees no crease, then leaves cells of 5 degrees along it
 at h of 4 voxels. Here the surface-nets cells are sorted by the axes of their crossed edges: a
-cell whose crossings are all along one axis lies on a plane, and a connected set of at least
-``MIN_PLANE_CELLS`` such cells in one slab of the grid is a large plane. A cell crossed along two
+cell whose crossings are all along one axis lies on a plane, and a connected set of such cells
+in one slab of the grid with at least ``MIN_INNER_CELLS`` cells inside it (all four in-slab
+neighbours in the set: a run at least 3 voxels wide) is a large plane. A cell crossed along two
 (three) axes next to large planes of those axes is an edge (corner) cell: its vertex is put on
 the planes' line (point), and the cells of the planes that meet at such an edge are put on their
 plane, and so do the rims of those planes along the plane's axis (where a flat cap meets a
@@ -22,10 +23,11 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-__all__ = ["MIN_PLANE_CELLS", "sharp_planes"]
+__all__ = ["MIN_INNER_CELLS", "sharp_planes"]
 
-#: the fewest cells of one slab, connected, that make a plane (a 4 x 4 voxel face)
-MIN_PLANE_CELLS = 16
+#: the fewest inner cells (all four in-slab neighbours on it) of a connected run of one slab's
+#: cells that make a plane: a 4 x 4 voxel face has 4
+MIN_INNER_CELLS = 4
 
 
 def _neighbours(used: np.ndarray, coords: np.ndarray, cells: tuple[int, ...]) -> dict:
@@ -62,8 +64,17 @@ def _planes(axes: np.ndarray, coords: np.ndarray, near: dict) -> tuple[np.ndarra
         rows, columns = np.concatenate(rows), np.concatenate(columns)
         graph = sparse.coo_matrix((np.ones(len(rows)), (rows, columns)), shape=(len(axes), len(axes)))
         _, component = csgraph.connected_components(graph.tocsr(), directed=False)
-        sizes = np.bincount(component[face], minlength=component.max() + 1)
-        big = face & (sizes[component] >= MIN_PLANE_CELLS)
+        # a plane is wide: cells whose four in-slab neighbours are on it too (the terraces and
+        # risers of a voxelised cylinder's side are long strips one or two voxels wide: as
+        # planes they made its side a staircase of sharp edges)
+        inner = face.copy()
+        for j in range(3):
+            if j != k:
+                for step in (-1, 1):
+                    other = near[j, step]
+                    inner &= (other >= 0) & face[np.maximum(other, 0)]
+        sizes = np.bincount(component[inner], minlength=component.max() + 1)
+        big = face & (sizes[component] >= MIN_INNER_CELLS)
         if not big.any():
             continue
         kept, local = np.unique(component[big], return_inverse=True)
@@ -105,7 +116,7 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
     >>> import numpy as np
     >>> used = np.arange(3)
     >>> points, fixed, member = sharp_planes(used, np.array([1, 1, 3], np.uint8), np.zeros((3, 3)), (3, 1, 1))
-    >>> int(fixed.sum())  # no plane of 16 cells
+    >>> int(fixed.sum())  # no plane 3 voxels wide
     0
     """
     if len(used) == 0:
