@@ -174,8 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, default=256, help="with --speed: voxels along x (default 256)")
     parser.add_argument("--cells", type=int, default=500_000, help="with --speed: about this many cells (default 500k)")
     parser.add_argument("--no-features", action="store_true",
-                        help="with --speed: features=False (a label image's surfaces are smooth; the feature search "
-                             "samples every region's part finely, 40%% of the time at 128^3)")
+                        help="with --speed: features=False (the fast path for smooth segmentations; the phantom's "
+                             "block edges and rod caps are sharp voxel planes, which the features keep)")
     args = parser.parse_args(argv)
     if args.speed:
         _speed(args.size, args.cells, not args.no_features)
