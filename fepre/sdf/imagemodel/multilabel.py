@@ -190,14 +190,14 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
     inner, outer = np.tile(inner, 2), np.tile(outer, 2)
     points = sums[used] / counts[used, None]
-    fixed, plane = np.zeros((len(used), 3), dtype=bool), np.full(len(faces), -1, dtype=np.int64)
+    fixed, plane = np.zeros(len(used), dtype=bool), np.full(len(faces), -1, dtype=np.int64)
     if sharp:
         points, fixed, member = sharp_planes(used, axes[used], points, tuple(int(c) for c in cells))
         plane = _face_planes(faces, member)
     if iterations:
         cell = np.column_stack(np.unravel_index(used, tuple(cells))).astype(np.float64)
         junction = _junctions(len(used), faces, inner, outer)
-        points = relaxed(points, faces, cell, junction[:, None] | fixed, iterations)
+        points = relaxed(points, faces, cell, junction | fixed, iterations)
     return LabelSurface(origin + spacing * points, faces, inner, outer, plane)
 
 
@@ -232,16 +232,16 @@ TAUBIN = (0.5, -0.53)
 
 def relaxed(points: np.ndarray, faces: np.ndarray, cell: np.ndarray, fixed: np.ndarray, iterations: int) -> np.ndarray:
     """Taubin's smoothing of the surface's vertices (grid coordinates), each kept in its cell;
-    ``fixed`` vertices (V,) or coordinates (V, 3) do not move."""
+    ``fixed`` vertices do not move."""
     edges = np.unique(np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1), axis=0)
     ends = np.concatenate([edges[:, 0], edges[:, 1]])
     others = np.concatenate([edges[:, 1], edges[:, 0]])
     degree = np.bincount(ends, minlength=len(points)).astype(np.float64)
-    moving = ((~fixed).T & (degree > 0)).T if fixed.ndim == 2 else ((~fixed) & (degree > 0))[:, None]
+    moving = (~fixed) & (degree > 0)
     low, high = cell, cell + 1.0
     for _ in range(iterations):
         for factor in TAUBIN:
             mean = np.column_stack([np.bincount(ends, points[others, k], len(points)) for k in range(3)])
             step = mean / np.maximum(degree, 1)[:, None] - points
-            points = np.where(moving, np.clip(points + factor * step, low, high), points)
+            points = np.where(moving[:, None], np.clip(points + factor * step, low, high), points)
     return points

@@ -10,9 +10,8 @@ in one slab of the grid with at least ``MIN_INNER_CELLS`` cells inside it (all f
 neighbours in the set: a run at least 3 voxels wide) is a large plane. A cell crossed along two
 (three) axes next to large planes of those axes is an edge (corner) cell: its vertex is put on
 the planes' line (point), and the cells of the planes that meet at such an edge are put on their
-plane, and so do the rims of those planes along the plane's axis (where a flat cap meets a
-curved side). Those coordinates are held while the rest relax, so the edges stay sharp and the
-planes exactly flat, and every vertex carries the planes it lies on (for the models' patches). Large
+plane. Those vertices are held while the rest relax, so the edges stay sharp and the planes
+exactly flat, and every vertex carries the planes it lies on (for the models' patches). Large
 flat runs that meet no other one (the pole of a ball, where the voxel rows are flattest) are left
 as the smoothing made them.
 """
@@ -106,8 +105,8 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
     -------
     points : (U, 3) float
         The vertices, those on sharp edges and their planes moved onto them.
-    fixed : (U, 3) bool
-        The coordinates moved (to hold while relaxing).
+    fixed : (U,) bool
+        The moved vertices (to hold while relaxing).
     member : (U, 3) int
         Plane (a number per plane) each vertex lies on along each axis, -1 for none.
 
@@ -120,7 +119,7 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
     0
     """
     if len(used) == 0:
-        return raw.copy(), np.zeros((0, 3), dtype=bool), np.full((0, 3), -1, dtype=np.int64)
+        return raw.copy(), np.zeros(0, dtype=bool), np.full((0, 3), -1, dtype=np.int64)
     coords = np.column_stack(np.unravel_index(used, cells))
     near = _neighbours(used, coords, cells)
     member, positions = _planes(axes, coords, near)
@@ -145,21 +144,7 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
     meeting = np.zeros(len(positions) + 1, dtype=bool)
     meeting[member[snapped][member[snapped] >= 0]] = True
     member = np.where(meeting[member], member, -1)
-    # and their rims: a cell crossed along k and another axis next to such a plane of axis k
-    # (where a rod's flat cap meets its curved side) goes onto the plane along k only, so the
-    # plane ends at a sharp rim (a rim rounded by half a voxel with a crease found along it left
-    # cells of 10 degrees)
-    for k in range(3):
-        rim = bits[:, k] & (count >= 2) & (member[:, k] < 0)
-        for j in range(3):
-            if j == k:
-                continue
-            for step in (-1, 1):
-                other = near[j, step]
-                plane = np.where(other >= 0, member[np.maximum(other, 0), k], -1)
-                take = rim & (plane >= 0) & (member[:, k] < 0)
-                member[take, k] = plane[take]
     points = raw.copy()
     on = member >= 0
     points[on] = positions[member[on]]
-    return points, on, member
+    return points, on.any(axis=1), member
