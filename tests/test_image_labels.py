@@ -46,6 +46,84 @@ def test_region_models(regions):
         assert model.exact and model.repaired.closed
 
 
+def test_voxel_planes_keep_sharp_edges(regions):
+    # the cube's faces are runs of voxel faces: their edges and corners stay sharp (the smoothed
+    # indicators alone rounded them 0.40 voxel deep), the ball stays smooth
+    part, matrix, inclusion = regions.part, regions["matrix"], regions["inclusion"]
+    assert np.abs(CUBE(part.vertices)).max() < 1e-9
+    assert np.allclose(part.bounds, ((-0.5,) * 3, (0.5,) * 3), atol=1e-12)
+    # patches: the six faces, and the ball's surface on its own
+    assert (part.patch_count, matrix.patch_count, inclusion.patch_count) == (6, 7, 1)
+    found = fepre.features(part, h=0.1)
+    assert len(found.corners) == 8 and len(found.curves) == 12
+    assert matrix.volume == pytest.approx(1 - BALL_VOLUME, rel=0.003)  # measured +0.03%
+
+
+def test_sharp_planes_need_two_large_planes():
+    from fepre.sdf.imagemodel.sharp import sharp_planes
+
+    # a 3-cell row, one cell crossed along two axes: no plane 3 cells wide, nothing moves
+    raw = np.random.default_rng(0).uniform(0, 1, (3, 3))
+    points, fixed, member = sharp_planes(np.arange(3), np.array([1, 1, 3], np.uint8), raw, (3, 1, 1))
+    assert not fixed.any() and (member == -1).all() and np.array_equal(points, raw)
+    # a block of 6^3 voxels: its faces are planes of 36 cells meeting at 12 edges
+    indices = np.zeros((10, 10, 10), np.int16)
+    indices[2:8, 2:8, 2:8] = 1
+    surface = label_surface(indices, 2, np.ones(3), np.zeros(3), 0.5, 0, 30)
+    block = sdf.box(6.0, center=(4.5, 4.5, 4.5))  # voxel centres 2..7
+    assert np.abs(block(surface.vertices)).max() < 1e-9
+    assert len(np.unique(surface.plane)) == 6 and (surface.plane >= 0).all()
+
+
+def test_voxels_touching_along_an_edge_give_manifold_surfaces():
+    from fepre.sdf.meshmodel.repair import _is_closed
+
+    # label 1 on two voxels that share an edge only, label 2 on two that share a corner only:
+    # the diagonal faces are joined up (the larger region, the background, takes a node), so
+    # every region's surface is closed and manifold (each edge in two triangles) and needs no
+    # repair
+    indices = np.zeros((10, 10, 10), np.int16)
+    indices[2:4, 2:4, 2:4] = indices[4:6, 4:6, 2:4] = 1
+    indices[2:4, 2:4, 5:7] = indices[4:6, 4:6, 7:9] = 2
+    for sigma in (0.0, 0.5):
+        surface = label_surface(indices, 3, np.ones(3), np.zeros(3), sigma, 0, 30)
+        for index in (1, 2):
+            faces, _ = surface.region(index)
+            edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+            _, counts = np.unique(edges, axis=0, return_counts=True)
+            assert len(faces) and (counts == 2).all() and _is_closed(faces)
+    # the nodes that changed label carry their new label's crossings: no point in two regions
+    regions = sdf.labels(indices, smoothing=0.5)
+    points = np.random.default_rng(2).uniform(1.0, 9.0, (20000, 3))
+    inside = np.stack([np.asarray(model(points)) < 0 for model in regions.values()])
+    assert inside.sum(axis=0).max() == 1 and inside.any(axis=1).all()
+    # the largest label takes the nodes: label 1 grows into a block of 3 voxels when it is the larger
+    indices = np.ones((6, 6, 6), np.int16)
+    indices[2, 2, 2] = indices[3, 3, 2] = 0
+    surface = label_surface(indices, 3, np.ones(3), np.zeros(3), 0.0, 0)
+    faces, _ = surface.region(1)
+    assert _is_closed(faces)
+    # the two background voxels joined into three: 12 faces of the two cubes, 2 x 2 lost
+    # where they touch the third, 3 x 2 triangles each, and the border's 6 x 36 x 2
+    assert len(faces) == (3 * 6 - 4) * 2 + 6 * 36 * 2
+
+
+@pytest.mark.slow
+def test_label_mesh_quality_at_four_voxels_per_h():
+    # h = 4 voxels: with the cube's edges rounded to half a voxel and no creases the matrix had
+    # cells of 4.6 degrees; with the sharp edges as features, 33.0 (measured)
+    grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, 0.025)
+    fine = sdf.labels(grid, names={1: "matrix", 2: "inclusion"})
+    mesh = fepre.distmesh(fine.part, 0.1, regions=fine, progress=False)
+    for k in range(2):
+        chosen = mesh["region_id"] == k
+        assert mesh["min_dihedral_angle"][chosen].min() >= 25.0
+        assert mesh["max_dihedral_angle"][chosen].max() <= 150.0
+        assert mesh["radius_ratio"][chosen].min() >= 0.25
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    assert volumes[0] == pytest.approx(1 - BALL_VOLUME, rel=0.02)
+
+
 def test_conformal_mesh_of_nested_balls(tmp_path):
     outer, inner = sdf.sphere(0.5), sdf.sphere(0.25)
     grid = label_image([outer, inner], (-0.6,) * 3, (0.6,) * 3, SPACING)

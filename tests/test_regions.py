@@ -177,6 +177,14 @@ def test_export_writes_regions_sections_and_interfaces(tmp_path):
     text = (tmp_path / "bar.inp").read_text()
     assert "*SOLID SECTION, ELSET=left, MATERIAL=left" in text and "*SOLID SECTION, ELSET=right, MATERIAL=right" in text
     assert "*SURFACE, NAME=interface_left_right, TYPE=ELEMENT" in text
+    assert "*DENSITY" not in text
+    # a density, as a third entry or a key, goes into the material (for GRAV loads and dynamics)
+    fepre.export(mesh, tmp_path / "heavy.inp", materials={"left": (1000, 0.3, 7.85e-9), "right": {"E": 3000, "nu": 0.25, "density": 2.7e-9}})
+    heavy = (tmp_path / "heavy.inp").read_text()
+    assert "*ELASTIC\n1.000000000000e+03, 3.000000000000e-01\n*DENSITY\n7.850000000000e-09\n*SOLID SECTION, ELSET=left" in heavy
+    assert "*DENSITY\n2.700000000000e-09\n*SOLID SECTION, ELSET=right" in heavy
+    with pytest.raises(ValueError, match=r"materials\['left'\] density"):
+        fepre.export(mesh, tmp_path / "bad.inp", materials={"left": (1000, 0.3, -1.0), "right": (1000, 0.3)})
     names = list(written.field_data["boundary_names"])
     assert names == ["boundary", "interface_left_right"]
     table = written.field_data["boundary_faces"]

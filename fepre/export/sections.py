@@ -7,7 +7,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..materials import elastic_material
+from ..materials import elastic_material, material_density
 
 __all__ = ["Section", "sections", "mesh_regions", "section_text"]
 
@@ -19,6 +19,7 @@ class Section:
     region: str
     young: float
     poisson: float
+    density: float | None = None
 
 
 def sections(materials: Mapping[str, Any] | None, region_names: list[str], format_name: str) -> list[Section] | None:
@@ -36,14 +37,20 @@ def sections(materials: Mapping[str, Any] | None, region_names: list[str], forma
             f"materials must name every region exactly: the regions are {region_names}"
             + (f"; unknown {unknown}" if unknown else "") + (f"; missing {missing}" if missing else "")
         )
-    return [Section(name, *elastic_material(materials[name], f"materials[{name!r}]")) for name in region_names]
+    return [
+        Section(name, *elastic_material(materials[name], f"materials[{name!r}]"),
+                material_density(materials[name], f"materials[{name!r}]"))
+        for name in region_names
+    ]
 
 
 def section_text(table: list[Section]) -> str:
-    """``*MATERIAL``, ``*ELASTIC`` and ``*SOLID SECTION`` cards, one material per region."""
+    """``*MATERIAL``, ``*ELASTIC`` (and ``*DENSITY`` when given) and ``*SOLID SECTION`` cards,
+    one material per region."""
     return "".join(
         f"*MATERIAL, NAME={s.region}\n*ELASTIC\n{s.young:.12e}, {s.poisson:.12e}\n"
-        f"*SOLID SECTION, ELSET={s.region}, MATERIAL={s.region}\n"
+        + (f"*DENSITY\n{s.density:.12e}\n" if s.density is not None else "")
+        + f"*SOLID SECTION, ELSET={s.region}, MATERIAL={s.region}\n"
         for s in table
     )
 

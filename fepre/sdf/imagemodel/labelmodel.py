@@ -21,10 +21,31 @@ class LabelModel(MeshModel):
     """One label's region (or the whole part) of a label image: the exact distance to its
     triangles of the shared interface surface, negative inside."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any) -> None:
-        super().__init__(_closed_or_repaired(vertices, faces), name, sign="winding", features=0.0)
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any,
+                 other: np.ndarray | None = None, plane: np.ndarray | None = None) -> None:
+        repaired = _closed_or_repaired(vertices, faces)
+        super().__init__(repaired, name, sign="winding", features=0.0)
         self.image = source
         self.label = label
+        #: the part this region lies in (set by :func:`labels`): meshing that part, the regions
+        #: need no intersection with it
+        self.within = None
+        if plane is not None and other is not None and len(repaired.faces) == len(faces):
+            self._set_patches(plane, other == 0)
+
+    def _set_patches(self, plane: np.ndarray, outside: np.ndarray) -> None:
+        """Patches for the feature search: each voxel-aligned plane that meets another at a sharp
+        edge (:mod:`.sharp`), and the rest split into the triangles on the part's surface (the
+        background on their other side) and those on interfaces, so a rim, where an interface
+        meets the surface, is a crease. A region inside the part with no such planes (a ball in a
+        block) has one patch, and the feature search passes it by."""
+        from ..meshmodel.patches import PatchPlanes
+
+        key = np.where(plane >= 0, plane, np.where(outside, -1, -2))
+        _, patch = np.unique(key, return_inverse=True)
+        self._face_patch = patch.reshape(-1).astype(np.int64)
+        self._patch_count = int(self._face_patch.max()) + 1 if len(patch) else 1
+        self._planes = PatchPlanes(self.vertices, self.faces, self._distance.normals, self._face_patch)
 
     def _parameters(self) -> dict[str, Any]:
         return {"source": self.name, "label": self.label, "triangles": len(self.faces)}
@@ -167,11 +188,11 @@ def labels(
     regions.labels, regions.image = {}, data
     for index in range(1, len(order)):
         label = int(order[index])
-        faces, _ = surface.region(index)
-        regions[named[label]] = LabelModel(surface.vertices, faces, data.name, data, label)
+        faces, other, plane = surface.region_planes(index)
+        regions[named[label]] = LabelModel(surface.vertices, faces, data.name, data, label, other, plane)
         regions.labels[named[label]] = label
-    faces, _ = surface.part(0)
-    part = LabelModel(surface.vertices, faces, data.name, data, "part")
+    faces, _, plane = surface.part(0)
+    part = LabelModel(surface.vertices, faces, data.name, data, "part", np.zeros(len(faces), np.int64), plane)
     lower, upper = data.voxel_box()
     from ..solids import box
 
@@ -183,4 +204,6 @@ def labels(
     else:
         reaches = bool((np.asarray(part.bounds[0]) < lower).any() or (np.asarray(part.bounds[1]) > upper).any())
         regions.part = part & whole if reaches else part
+        for model in regions.values():  # (a region that reaches the border pokes out of the box)
+            model.within = None if reaches else regions.part
     return regions

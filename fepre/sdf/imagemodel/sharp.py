@@ -1,0 +1,150 @@
+"""Sharp edges of a label image's surface where two large voxel-aligned planes meet.
+
+A label boundary is made of voxel faces. Where a long run of them is flat (the face of a
+machined block, the border of a SIMP domain) and meets another flat run at a straight line, the
+segmented part has a sharp edge there; the smoothed indicators of :mod:`.multilabel` round it by
+about half a voxel, and DistMesh, which sees no crease, then leaves cells of 5 degrees along it
+at h of 4 voxels. Here the surface-nets cells are sorted by the axes of their crossed edges: a
+cell whose crossings are all along one axis lies on a plane, and a connected set of such cells
+in one slab of the grid with at least ``MIN_INNER_CELLS`` cells inside it (all four in-slab
+neighbours in the set: a run at least 3 voxels wide) is a large plane. A cell crossed along two
+(three) axes next to large planes of those axes is an edge (corner) cell: its vertex is put on
+the planes' line (point), and the cells of the planes that meet at such an edge are put on their
+plane. Those vertices are held while the rest relax, so the edges stay sharp and the planes
+exactly flat, and every vertex carries the planes it lies on (for the models' patches). Large
+flat runs that meet no other one (the pole of a ball, where the voxel rows are flattest) are left
+as the smoothing made them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
+
+__all__ = ["MIN_INNER_CELLS", "sharp_planes"]
+
+#: the fewest inner cells (all four in-slab neighbours on it) of a connected run of one slab's
+#: cells that make a plane: a 4 x 4 voxel face has 4
+MIN_INNER_CELLS = 4
+
+
+def _neighbours(used: np.ndarray, coords: np.ndarray, cells: tuple[int, ...]) -> dict:
+    """(axis, step) -> index into ``used`` of each cell's neighbour that way, or -1."""
+    shape = np.array(cells)
+    found = {}
+    for axis in range(3):
+        for step in (-1, 1):
+            other = coords.copy()
+            other[:, axis] += step
+            inside = (other[:, axis] >= 0) & (other[:, axis] < shape[axis])
+            flat = np.ravel_multi_index(tuple(np.clip(other, 0, shape - 1).T), cells)
+            position = np.minimum(np.searchsorted(used, flat), len(used) - 1)
+            found[axis, step] = np.where(inside & (used[position] == flat), position, -1)
+    return found
+
+
+def _planes(axes: np.ndarray, coords: np.ndarray, near: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Membership (U, 3) of the large planes (-1: none) and each plane's coordinate."""
+    member = np.full((len(axes), 3), -1, dtype=np.int64)
+    positions = []
+    for k in range(3):
+        face = axes == (1 << k)
+        rows, columns = [], []
+        for j in range(3):
+            if j == k:
+                continue
+            for step in (-1, 1):
+                other = near[j, step]
+                link = face & (other >= 0)
+                link[link] = face[other[link]]
+                rows.append(np.flatnonzero(link))
+                columns.append(other[link])
+        rows, columns = np.concatenate(rows), np.concatenate(columns)
+        graph = sparse.coo_matrix((np.ones(len(rows)), (rows, columns)), shape=(len(axes), len(axes)))
+        _, component = csgraph.connected_components(graph.tocsr(), directed=False)
+        # a plane is wide: cells whose four in-slab neighbours are on it too (the terraces and
+        # risers of a voxelised cylinder's side are long strips one or two voxels wide: as
+        # planes they made its side a staircase of sharp edges)
+        inner = face.copy()
+        for j in range(3):
+            if j != k:
+                for step in (-1, 1):
+                    other = near[j, step]
+                    inner &= (other >= 0) & face[np.maximum(other, 0)]
+        sizes = np.bincount(component[inner], minlength=component.max() + 1)
+        big = face & (sizes[component] >= MIN_INNER_CELLS)
+        if not big.any():
+            continue
+        kept, local = np.unique(component[big], return_inverse=True)
+        # a label boundary is a run of voxel faces: the plane halfway between the voxel centres
+        # on either side, in the middle of the cells' slab (the crossings of the smoothed
+        # indicators are there too, but for those within a voxel or two of the plane's edges)
+        slab = np.zeros(len(kept))
+        slab[local] = coords[big, k]
+        member[big, k] = sum(len(p) for p in positions) + local
+        positions.append(slab + 0.5)
+    return member, (np.concatenate(positions) if positions else np.zeros(0))
+
+
+def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tuple[int, ...]):
+    """Snap the edges and corners between large voxel-aligned planes (see the module).
+
+    Parameters
+    ----------
+    used : (U,) int
+        Flat indices (sorted) of the grid cells that hold a surface vertex.
+    axes : (U,) uint8
+        Bit ``k`` set where the cell has a crossed edge along axis ``k``.
+    raw : (U, 3) float
+        The cells' surface-nets vertices in grid coordinates.
+    cells : tuple
+        Shape of the cell grid.
+
+    Returns
+    -------
+    points : (U, 3) float
+        The vertices, those on sharp edges and their planes moved onto them.
+    fixed : (U,) bool
+        The moved vertices (to hold while relaxing).
+    member : (U, 3) int
+        Plane (a number per plane) each vertex lies on along each axis, -1 for none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> used = np.arange(3)
+    >>> points, fixed, member = sharp_planes(used, np.array([1, 1, 3], np.uint8), np.zeros((3, 3)), (3, 1, 1))
+    >>> int(fixed.sum())  # no plane 3 voxels wide
+    0
+    """
+    if len(used) == 0:
+        return raw.copy(), np.zeros(0, dtype=bool), np.full((0, 3), -1, dtype=np.int64)
+    coords = np.column_stack(np.unravel_index(used, cells))
+    near = _neighbours(used, coords, cells)
+    member, positions = _planes(axes, coords, near)
+    bits = np.stack([(axes >> k) & 1 for k in range(3)], axis=1).astype(bool)
+    count = bits.sum(axis=1)
+    snapped = np.zeros(len(axes), dtype=bool)
+    for order in (2, 3):  # edges from the planes' cells, then corners from the edges'
+        chosen = count == order
+        found = np.full((len(axes), 3), -1, dtype=np.int64)
+        for k in range(3):
+            for j in range(3):
+                if j == k:
+                    continue
+                for step in (-1, 1):
+                    other = near[j, step]
+                    plane = np.where(other >= 0, member[np.maximum(other, 0), k], -1)
+                    found[:, k] = np.maximum(found[:, k], np.where(chosen & bits[:, k], plane, -1))
+        ok = chosen & ((found >= 0) | ~bits).all(axis=1)
+        member[ok] = np.where(bits[ok], found[ok], -1)
+        snapped |= ok
+    # only the planes that meet another one at a sharp edge are made flat
+    meeting = np.zeros(len(positions) + 1, dtype=bool)
+    meeting[member[snapped][member[snapped] >= 0]] = True
+    member = np.where(meeting[member], member, -1)
+    points = raw.copy()
+    on = member >= 0
+    points[on] = positions[member[on]]
+    return points, on.any(axis=1), member
