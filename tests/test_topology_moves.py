@@ -143,3 +143,25 @@ def test_a_thin_wedge_is_meshed_valid_and_whole():
         grid = fepre.distmesh(wedge, h=0.08)
     assert abs(grid.volume / (2 * t) - 1) < 0.01
     assert grid.cell_data["min_dihedral_angle"].min() > 5.0  # the quality stage's mesh, not DistMesh's
+
+
+def test_a_knife_edge_is_named_as_the_reason_and_not_chased():
+    # libigl's extrusion.obj: a prism whose section has a 14 deg corner; no cell on that edge can
+    # have a larger angle, so no vertex is inserted (six futile rounds took 380 s at h = 0.1)
+    # and the warning names the edge and its angle
+    import pyvista as pv
+
+    vertices = np.array([[2.75032, 6, 5], [1.91591, 8, 4.5], [1.91591, 8, 5], [-9.439858, 6, 5],
+                         [-10.274268, 8, 4.5], [-10.274268, 8, 5]])
+    faces = np.array([[0, 1, 2], [3, 5, 4], [3, 0, 2], [3, 2, 5], [4, 5, 1], [1, 5, 2], [1, 0, 3], [1, 3, 4]])
+    model = sdf.mesh(pv.PolyData(vertices, np.hstack([np.full((8, 1), 3), faces]).ravel()))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        grid = fepre.distmesh(model, h=0.25)
+    messages = [str(w.message) for w in caught if issubclass(w.category, fepre.ConvergenceWarning)]
+    assert len(messages) == 1 and "knife edge" in messages[0]
+    angle = float(messages[0].split("meet at ")[1].split(" deg")[0])
+    assert angle == pytest.approx(14.0, abs=0.5)
+    assert grid.field_data["distmesh_inserted_nodes"][0] == 0
+    assert grid.cell_data["min_dihedral_angle"].min() == pytest.approx(angle, abs=0.5)
+    assert abs(grid.volume / model.volume - 1) < 0.005
