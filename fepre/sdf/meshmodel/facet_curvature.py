@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tables import edge_table
+from .tables import edge_table, manifold_pairs
 
 __all__ = ["facet_curvatures", "NOISE_FACETS"]
 
@@ -29,15 +29,8 @@ NOISE_FACETS = 3.0
 def _shape_operators(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, patch: np.ndarray) -> np.ndarray:
     """Per facet, the shape operator (F, 3, 3) fitted to how the normal turns towards its
     neighbours across its edges within its patch (least squares, in its tangent plane)."""
-    edges, face_edge, _ = edge_table(faces)
-    owners = np.repeat(np.arange(len(faces)), 3)
-    edge = face_edge.reshape(-1)
-    order = np.argsort(edge, kind="stable")
-    edge, owners = edge[order], owners[order]
-    counts = np.bincount(edge, minlength=len(edges))
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    two = np.flatnonzero(counts == 2)
-    f, g = owners[starts[two]], owners[starts[two] + 1]
+    edges, face_edge, forward = edge_table(faces)
+    f, g, _, _ = manifold_pairs(face_edge, forward, len(edges))
     same = patch[f] == patch[g]
     f, g = np.concatenate([f[same], g[same]]), np.concatenate([g[same], f[same]])
     centroids = vertices[faces].mean(axis=1)

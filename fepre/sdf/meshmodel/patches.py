@@ -16,7 +16,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .bvh import TriangleTree
-from .tables import edge_table
+from .tables import edge_table, manifold_pairs
 
 __all__ = ["segment_patches", "PatchPlanes"]
 
@@ -49,15 +49,8 @@ def segment_patches(
     count = len(faces)
     if count == 0:
         return np.zeros(0, np.int64), 0
-    edges, face_edge, _ = edge_table(faces)
-    owners = np.repeat(np.arange(count), 3)
-    edge = face_edge.reshape(-1)
-    order = np.argsort(edge, kind="stable")
-    edge, owners = edge[order], owners[order]
-    counts = np.bincount(edge, minlength=len(edges))
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    two = np.flatnonzero(counts == 2)
-    a, b = owners[starts[two]], owners[starts[two] + 1]
+    edges, face_edge, forward = edge_table(faces)
+    a, b, _, _ = manifold_pairs(face_edge, forward, len(edges))
     cosine = np.einsum("ij,ij->i", normals[a], normals[b])
     degenerate = ~(np.any(normals[a] != 0, axis=1) & np.any(normals[b] != 0, axis=1))
     smooth = (cosine >= np.cos(np.radians(angle))) | degenerate

@@ -28,7 +28,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .hole_fill import fill_holes
-from .tables import edge_table, face_normals, winding_numbers
+from .tables import edge_table, face_normals, manifold_pairs, winding_numbers
 
 __all__ = ["Repair", "repair"]
 
@@ -124,27 +124,12 @@ def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int,
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
 
 
-def _manifold_pairs(face_edge: np.ndarray, forward: np.ndarray, edge_count: int):
-    """Triangle pairs across edges shared by exactly two triangles, and whether the pair agrees
-    (traverses the edge in opposite directions)."""
-    owners = np.repeat(np.arange(len(face_edge)), 3)
-    edge = face_edge.reshape(-1)
-    order = np.argsort(edge, kind="stable")
-    edge, owners, direction = edge[order], owners[order], forward.reshape(-1)[order]
-    counts = np.bincount(edge, minlength=edge_count)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    two = np.flatnonzero(counts == 2)
-    first, second = starts[two], starts[two] + 1
-    agree = direction[first] != direction[second]
-    return owners[first], owners[second], agree, counts
-
-
 def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
     """Faces turned so that neighbours across manifold edges agree, keeping each piece's
     majority orientation; then pieces that are inside out are turned over."""
     count = len(faces)
     edges, face_edge, forward = edge_table(faces)
-    a, b, agree, _ = _manifold_pairs(face_edge, forward, len(edges))
+    a, b, agree, _ = manifold_pairs(face_edge, forward, len(edges))
     # parity relative to a root per piece: a breadth-first tree from a virtual root joined to
     # one triangle of every piece, then parities accumulated up the tree by pointer jumping
     graph = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(count, count)).tocsr()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["face_normals", "edge_table", "winding_numbers"]
+__all__ = ["face_normals", "edge_table", "manifold_pairs", "winding_numbers"]
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -35,6 +35,21 @@ def edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     packed, inverse = np.unique(keys[:, 0] * stride + keys[:, 1], return_inverse=True)
     edges = np.column_stack([packed // stride, packed % stride])
     return edges, inverse.reshape(-1, 3), forward.reshape(-1, 3)
+
+
+def manifold_pairs(face_edge: np.ndarray, forward: np.ndarray, edge_count: int):
+    """Triangle pairs across edges shared by exactly two triangles, and whether the pair agrees
+    (traverses the edge in opposite directions)."""
+    owners = np.repeat(np.arange(len(face_edge)), 3)
+    edge = face_edge.reshape(-1)
+    order = np.argsort(edge, kind="stable")
+    edge, owners, direction = edge[order], owners[order], forward.reshape(-1)[order]
+    counts = np.bincount(edge, minlength=edge_count)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    two = np.flatnonzero(counts == 2)
+    first, second = starts[two], starts[two] + 1
+    agree = direction[first] != direction[second]
+    return owners[first], owners[second], agree, counts
 
 
 def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
