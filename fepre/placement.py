@@ -128,4 +128,5 @@ def moved_features(found: Any, shift: np.ndarray) -> Any:
 
     shift = np.asarray(shift, dtype=np.float64)
     curves = tuple(dataclasses.replace(curve, points=curve.points + shift) for curve in found.curves)
-    return dataclasses.replace(found, corners=found.corners + shift, curves=curves)
+    # its crease search (``creases``) stays with the model it was made on
+    return dataclasses.replace(found, corners=found.corners + shift, curves=curves, creases=None)

@@ -115,8 +115,11 @@ def _check_memory(counts: np.ndarray, dtype: np.dtype) -> None:
         )
 
 
-def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: float, dtype, workers: int):
+def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: float, dtype, workers: int, blocks=None):
     """Banded sampling on (x, y, z) axes; returns the array and the number of evaluations.
+
+    ``blocks``: optional ``(centres (B, 3)) -> (B,) bool``, the blocks wanted at all (the others
+    are filled, whatever their distance).
 
     Blocks are aligned (the last one per axis may be short) and about ``BLOCK`` nodes wide along
     the finest axis, fewer along coarser axes, so they stay roughly cubic in world units. Runs of
@@ -136,6 +139,9 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     half_diagonal = 0.5 * float(np.sqrt(np.sum(((np.array(width) - 1) * step) ** 2)))
     margin = half_diagonal + band + 1e-6 * (half_diagonal + band)
     active = np.abs(centre_values) <= margin  # (blocks z, blocks y, blocks x)
+    if blocks is not None:
+        z, y, x = np.meshgrid(centres[2], centres[1], centres[0], indexing="ij")
+        active &= np.asarray(blocks(np.column_stack([x.ravel(), y.ravel(), z.ravel()])), bool).reshape(active.shape)
     fill = np.where(centre_values > 0, band, -band).astype(dtype)
     wx, wy, wz = width
     nx, ny, nz = counts

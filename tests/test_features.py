@@ -260,3 +260,27 @@ def test_nodes_of_one_curve_closer_than_half_h_are_not_both_kept():
     assert gaps.min() >= 0.5
     np.testing.assert_allclose(nodes, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])  # the way back and the stub go
     assert any("5 feature curve node(s) within 0.5 h" in message for message in skipped)  # the stub's first too, alone
+
+
+def test_the_crease_search_samples_a_band_and_finds_the_whole_grids_surface():
+    """Issue 33: the fine surface the creases come from is sampled in a band of one cell
+    diagonal; its vertices and triangles are the whole grid's, bit for bit (a triangle-mesh
+    model: 32 s for the whole grid, 12 s in the band)."""
+    import pyvista as pv
+
+    from fepre.cad_parts import flange
+    from fepre.features.detect import _GRID_SHIFT, fine_surface
+    from fepre.surface.flying_edges import flying_edges
+
+    model, spacing = flange().model, 0.25
+    lower, upper = (np.asarray(b, float) for b in model.bounds)
+    vertices, triangles = fine_surface(model, spacing, (lower, upper))
+    origin = lower - _GRID_SHIFT * spacing
+    counts = np.ceil((upper - lower) / spacing + 2 * _GRID_SHIFT).astype(np.int64) + 1
+    axes = [origin[k] + spacing * np.arange(counts[k]) for k in range(3)]
+    grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=(spacing,) * 3, origin=tuple(origin))
+    grid.point_data["sdf"] = model.values_on_axes(*axes, dtype=np.float32).reshape(-1)
+    whole_vertices, whole_triangles = flying_edges(grid, "sdf", 0.0)
+    assert len(triangles) > 10_000
+    assert np.array_equal(vertices, np.asarray(whole_vertices, np.float64))
+    assert np.array_equal(triangles, np.asarray(whole_triangles, np.int64))

@@ -151,3 +151,49 @@ def test_the_h_named_for_the_volume_keeps_it():
     mesh, lines, _ = _volume_warning(model, named[0])
     assert lines == []
     assert mesh.volume == pytest.approx(model.volume, rel=0.01)  # measured -0.42%
+
+
+def _lattice_mesh(extent: float, spacing: float):
+    """A Delaunay mesh of a cubic lattice filling the box ``[-extent, extent]^3``, its inner
+    nodes jittered (a mesh's nodes are not on the checks' grid)."""
+    from scipy.spatial import Delaunay
+
+    axis = np.arange(-extent, extent + 1e-9, spacing)
+    points = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+    inner = np.all(np.abs(points) < extent - 1e-9, axis=1)
+    points[inner] += np.random.default_rng(1).uniform(-0.2, 0.2, (int(inner.sum()), 3)) * spacing
+    return points, Delaunay(points).simplices.astype(np.int64)
+
+
+def test_a_graded_meshs_checks_sample_each_zone_at_its_octave_and_still_find_what_one_fine_grid_finds():
+    """Issue 33: a graded mesh's checks sample each zone at a quarter of its sizes' octave (a
+    size of 1 at x = -10 growing to 7 at x = 10: three octaves), not the whole box at h / 4.
+    Cubes of 3 (the cells whose centroids are in them, about 14 of volume) left out in the
+    finest zone and in the coarsest (half the size there: the count of deep nodes a region
+    needs is a volume, 8 nodes at h / 4, one at least on a coarser grid), and a slot 2.4 wide
+    the cells bridge in the coarsest, are found where and about as large as one fine grid finds
+    them; a mesh that covers the model has no region either way."""
+    from fepre.distmesh.check_zones import check_zones
+    from fepre.distmesh.lost_material import _box, material_checks
+
+    h = 1.0
+    size = lambda p: h + 0.3 * np.abs(p[:, 0] + 10.0)  # noqa: E731
+    box = sdf.box(20.0)
+    points, tets = _lattice_mesh(10.0, 1.0)
+    zones = check_zones(size, h, 0.25 * h, *_box(box, points, h))
+    assert zones is not None and zones.levels.min() == 0 and zones.levels.max() == 2
+    assert zones.level_at(np.array([[-8.0, 0, 0], [8.0, 0, 0]])).tolist() == [0, 2]
+    assert material_checks(box, points, tets, h, size) == ([], [])
+    centroids = points[tets].mean(axis=1)
+    holes = [np.all(np.abs(centroids - c) < 1.5, axis=1) for c in ((-7.5, 0.0, 0.0), (6.5, 0.0, 0.0))]
+    kept = tets[~(holes[0] | holes[1])]
+    graded, _ = material_checks(box, points, kept, h, size)
+    fine, _ = material_checks(box, points, kept, h, None)
+    assert len(graded) == len(fine) == 2
+    for ours, theirs in zip(sorted(graded, key=lambda r: r.center), sorted(fine, key=lambda r: r.center)):
+        assert np.allclose(ours.center, theirs.center, atol=0.6)
+        assert ours.volume == pytest.approx(theirs.volume, rel=0.5) and theirs.volume > 10.0
+    slotted = box - sdf.box((2.4, 30.0, 30.0), center=(7.0, 0.0, 0.0))  # deeper than 0.15 of the size 6 there
+    (_, added), (_, fine) = material_checks(slotted, points, tets, h, size), material_checks(slotted, points, tets, h, None)
+    assert len(added) == len(fine) == 1 and added[0].center[0] == pytest.approx(7.0, abs=0.3)
+    assert added[0].thickness == pytest.approx(2.4, abs=0.3) and added[0].volume == pytest.approx(fine[0].volume, rel=0.2)

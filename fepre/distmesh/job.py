@@ -107,7 +107,12 @@ class MeshingJob:
         if model is self.model and self.features is not None:
             return self.features
         o = self.options
-        found = detect_features(model, self.h, angle=o.feature_angle, bounds=(self.lower, self.upper), size=self.size, warn=False)
+        # the size field's crease search, taken when it was of this model at this spacing and
+        # angle (hmin / 4, over the part's box with a margin): the features are found once. A
+        # field whose smallest size is above hmin (no grid node at the floor) puts the mesher's
+        # spacing at its own h / 4: searched again
+        found = detect_features(model, self.h, angle=o.feature_angle, bounds=(self.lower, self.upper), size=self.size,
+                                warn=False, creases=getattr(self.size, "creases", None))
         if model is self.model:
             self.features = found
         return found

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import config
+
 __all__ = ["LostRegion", "lost_material", "added_material", "material_checks", "lost_material_message", "added_material_message"]
 
 #: nodes at least this deep (times h) must be in the mesh
@@ -109,6 +111,42 @@ class _Sampled:
     step: np.ndarray
     band: float
     covered: np.ndarray  # (nz, ny, nx) bool
+    mine: np.ndarray | None = None  # (nz, ny, nx) bool: the nodes this grid checks (None: all)
+
+
+def _box(model, points: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """The box the checks sample: the mesh's and the model's, ``h`` beyond."""
+    lower, upper = points.min(axis=0) - h, points.max(axis=0) + h
+    if model.bounds is not None:
+        lower = np.minimum(lower, np.asarray(model.bounds[0], float) - h)
+        upper = np.maximum(upper, np.asarray(model.bounds[1], float) + h)
+    return lower, upper
+
+
+def _zone_grids(model, points: np.ndarray, tets: np.ndarray, h: float, size) -> list[_Sampled] | None:
+    """A graded mesh's samples: one grid per octave of the sizes, each over its zones
+    (:mod:`.check_zones`), in a band of its octave; None when one grid at ``h / 4`` is all."""
+    from ..sampling import _sample_band
+    from .check_zones import check_zones
+    from .coverage import covered_nodes
+
+    lower, upper = _box(model, points, h)
+    zones = check_zones(size, h, _SPACING * h, lower, upper)
+    if zones is None:
+        return None
+    grids = []
+    for level in np.unique(zones.levels).tolist():
+        axes, step, mine = zones.grid(level)
+        if mine.size > _MAX_NODES:
+            return None  # one grid, coarsened
+        band = max(h * 2.0**level, float(np.linalg.norm(step)))
+        values, _ = _sample_band(model, axes, step, band, np.dtype(np.float64), config.resolve_workers(None),
+                                 blocks=zones.blocks(level, 3.5 * step))
+        origin = np.array([axis[0] for axis in axes])
+        dimensions = [len(axis) for axis in axes]
+        grids.append(_Sampled(values, origin, step, band, covered_nodes(points, tets, origin, step, dimensions, 1e-9 * h),
+                              mine))
+    return grids
 
 
 def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
@@ -116,10 +154,7 @@ def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
     from .coverage import covered_nodes
 
     points = np.asarray(points, dtype=np.float64)
-    lower, upper = points.min(axis=0) - h, points.max(axis=0) + h
-    if model.bounds is not None:
-        lower = np.minimum(lower, np.asarray(model.bounds[0], float) - h)
-        upper = np.maximum(upper, np.asarray(model.bounds[1], float) + h)
+    lower, upper = _box(model, points, h)
     spacing = _SPACING * h
     extent = upper - lower
     count = np.prod(np.ceil(extent / spacing) + 1)
@@ -137,12 +172,14 @@ def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
 
 
 def material_checks(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> tuple[list[LostRegion], list[LostRegion]]:
-    """:func:`lost_material` and :func:`added_material` from one sampled grid."""
-    sampled = _sampled(model, points, tets, h)
-    return (
-        _uncovered_regions(model, points, tets, h, False, size, sampled),
-        _uncovered_regions(model, points, tets, h, True, size, sampled),
-    )
+    """:func:`lost_material` and :func:`added_material` from one sampled grid (a graded mesh's,
+    ``size`` given: one grid per octave of its sizes, each over the zones of that octave)."""
+    points = np.asarray(points, dtype=np.float64)
+    grids = None if size is None else _zone_grids(model, points, tets, h, size)
+    if grids is None:
+        grids = [_sampled(model, points, tets, h)]
+    return tuple(_significant([r for g in grids for r in _candidate_regions(model, h, outside, size, g)], points, tets, h)
+                 for outside in (False, True))
 
 
 def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None,
@@ -155,15 +192,27 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
 
     if sampled is None:
         sampled = _sampled(model, points, tets, h)
+    return _significant(_candidate_regions(model, h, outside, size, sampled), points, tets, h)
+
+
+def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) -> list[LostRegion]:
+    """The connected regions of one sampled grid with at least ``_MIN_NODES`` deep nodes wrong
+    at ``h / 4`` (on a coarser octave's grid, as many as hold the same volume, one at least)."""
+    from scipy import ndimage
+
     values, band, step, origin = sampled.values, sampled.band, sampled.step, sampled.origin
     sign = 1.0 if outside else -1.0
     depth = sign * values  # how far on the side looked at
     # the share of each node's cell of the grid on that side, from its distance
     spacing_mean = float(np.cbrt(np.prod(step)))
-    weight = np.clip(0.5 + depth / spacing_mean, 0.0, 1.0)
-    side = weight > 0.0
+    side = depth > -0.5 * spacing_mean  # a share above zero (below: 0.5 + depth / spacing_mean)
+    # only the nodes the mesh gets wrong can be reported (covered outside, uncovered inside): the
+    # depth tests below (the size at each node, the thin rays) run on those alone
+    wrong = side & (sampled.covered if outside else ~sampled.covered)
+    if sampled.mine is not None:
+        wrong &= sampled.mine
     factor = _OUTSIDE_DEPTH if outside else _DEPTH
-    deep = depth > factor * h
+    deep = wrong & (depth > factor * h)
     if size is not None and deep.any():
         k, j, i = np.nonzero(deep)
         local = np.maximum(np.asarray(size(origin + np.column_stack([i, j, k]) * step), dtype=np.float64), h)
@@ -171,21 +220,15 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
         deep[k[shallow], j[shallow], i[shallow]] = False
     if outside:
         deep &= depth < 0.999 * band  # beyond the band, values are a filler, not a distance
-    if not deep.any():
-        return []
-
-    def wrong(mask: np.ndarray) -> np.ndarray:
-        """The nodes of ``mask`` that are covered when they should not be, or the reverse."""
-        return mask & (sampled.covered if outside else ~sampled.covered)
-
     if not outside:
-        deep |= _thin(model, depth, side & ~deep, origin, step, h)
-    wrong_deep = wrong(deep)
-    if wrong_deep.sum() < _MIN_NODES:
+        deep |= _thin(model, depth, wrong & ~deep, origin, step, h)
+    wrong_deep = deep
+    least = max(1, int(np.ceil(_MIN_NODES * (_SPACING * h) ** 3 / float(np.prod(step)) - 1e-9)))
+    least = _MIN_NODES if sampled.mine is None else least  # one grid: as it always was (coarsened past _MAX_NODES)
+    if wrong_deep.sum() < least:
         return []
     # the shallow nodes next to the deep ones belong to the same region
-    near = ndimage.binary_dilation(wrong_deep, iterations=2) & side & ~deep
-    found = wrong_deep | (wrong(near) if near.any() else near)
+    found = wrong_deep | (ndimage.binary_dilation(wrong_deep, iterations=2) & wrong)
     labels, count = ndimage.label(found, structure=np.ones((3, 3, 3), bool))
     label = labels.ravel()
     picked = label > 0
@@ -195,17 +238,24 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
     deep_nodes = np.bincount(label, weights=wrong_deep.ravel()[picked], minlength=count + 1)
     centre = np.stack([np.bincount(label, weights=a, minlength=count + 1) for a in (i, j, k)], axis=1)
     centre = origin + centre / np.maximum(nodes, 1)[:, None] * step
-    volume = np.bincount(label, weights=weight.ravel()[picked], minlength=count + 1) * float(np.prod(step))
+    weight = np.clip(0.5 + depth.ravel()[picked] / spacing_mean, 0.0, 1.0)
+    volume = np.bincount(label, weights=weight, minlength=count + 1) * float(np.prod(step))
     deepest = np.zeros(count + 1)
     np.maximum.at(deepest, label, depth.ravel()[picked])
-    keep = np.flatnonzero(deep_nodes >= _MIN_NODES)
+    keep = np.flatnonzero(deep_nodes >= least)
+    return [LostRegion(tuple(float(c) for c in centre[r]), 2.0 * float(deepest[r]), float(volume[r])) for r in keep]
+
+
+def _significant(regions: list[LostRegion], points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+    """``regions`` largest first, or none when together they hold less than ``_MIN_VOLUME h^3``
+    and less than ``_MIN_SHARE`` of the mesh's volume."""
+    if not regions:
+        return []
     corners = points[np.asarray(tets, dtype=np.int64)]
     own = float(np.abs(np.linalg.det(corners[:, 1:] - corners[:, :1])).sum() / 6.0) if len(tets) else 0.0
-    if volume[keep].sum() < min(_MIN_VOLUME * h**3, _MIN_SHARE * own):
+    if sum(region.volume for region in regions) < min(_MIN_VOLUME * h**3, _MIN_SHARE * own):
         return []
-    regions = [LostRegion(tuple(float(c) for c in centre[r]), 2.0 * float(deepest[r]), float(volume[r])) for r in keep]
-    regions.sort(key=lambda region: -region.volume)
-    return regions
+    return sorted(regions, key=lambda region: -region.volume)
 
 
 def _thin(model, depth: np.ndarray, candidates: np.ndarray, origin: np.ndarray, step: np.ndarray, h: float) -> np.ndarray:

@@ -50,6 +50,7 @@ def features(
     bounds: Any = None,
     size: Callable[[np.ndarray], np.ndarray] | None = None,
     warn: bool = True,
+    creases: Any = None,
 ) -> Features:
     """Corners and feature curves of ``model``, with curve nodes about ``h`` apart.
 
@@ -74,6 +75,11 @@ def features(
         curve nodes are about ``h * size(x) / min(size)`` apart.
     warn : bool
         Warn with :class:`fepre.FeatureWarning` when features had to be skipped.
+    creases : optional
+        ``Features.creases`` of an earlier call: used instead of searching again when that
+        search was of this model (the same object) at the same grid spacing and ``angle`` over a
+        box holding ``bounds`` (the size field's search and the mesher's are one); its points in
+        ``bounds`` are taken. Otherwise ignored.
 
     Returns
     -------
@@ -108,7 +114,7 @@ def features(
     offset = local_offset(lower, upper)
     if offset.any():  # found near the origin, where Newton's tolerances can be met (fepre.placement)
         found = features(model.translate(-offset), h, angle=angle, spacing=spacing, bounds=(lower - offset, upper - offset),
-                         size=moved_size(size, -offset), warn=warn)
+                         size=moved_size(size, -offset), warn=warn)  # a new model: nothing to reuse
         return moved_features(found, offset)
     scale = float(np.max(upper - lower))
     spacing = h / 4.0 if spacing is None else positive_float(spacing, "spacing")
@@ -127,14 +133,18 @@ def features(
         )
         spacing = coarser
 
-    creases = find_creases(model, spacing, (lower, upper), angle, scale)
+    if creases is not None and creases.reusable(model, spacing, lower, upper, angle):
+        creases = creases.within(lower, upper, 1e-9 * scale)
+    else:
+        creases = find_creases(model, spacing, (lower, upper), angle, scale)
+        creases.source = (model, lower, upper, angle)
     local_h = _local_spacing(model, h, size, (lower, upper))
     curves = build_curves(model, creases, local_h, scale)
     corners, curves, conflicts = resolve_conflicts(creases.corners, curves, local_h, scale, angle)
     skipped.extend(conflicts)
     if skipped and warn:
         warn_user("fepre.features: " + "; ".join(skipped), FeatureWarning)
-    return Features(corners, tuple(curves), h, angle, spacing, tuple(skipped))
+    return Features(corners, tuple(curves), h, angle, spacing, tuple(skipped), creases)
 
 
 def _local_spacing(model: SDF, h: float, size: Callable | None, bounds) -> Callable[[np.ndarray], np.ndarray]:

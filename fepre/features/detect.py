@@ -13,7 +13,7 @@ pairs meet, or inside triangles whose corners carry three labels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,9 @@ class Creases:
     corner_labels : (C, 3) the three patch labels of each corner (-1 for a singular point)
     spacing : float
         Spacing of the fine grid the points came from.
+    source : tuple
+        ``(model, lower, upper, angle)`` of the search (set by :func:`fepre.features`): a later
+        search of the same model on the same grid takes these instead (:func:`reusable`).
     """
 
     points: np.ndarray
@@ -47,19 +50,49 @@ class Creases:
     corners: np.ndarray
     corner_labels: np.ndarray
     spacing: float
+    source: tuple = field(default=(), repr=False, compare=False)
+
+    def reusable(self, model, spacing: float, lower: np.ndarray, upper: np.ndarray, angle: float) -> bool:
+        """True when a search of ``model`` over ``lower``-``upper`` with this grid spacing and
+        crease angle may take these creases (:meth:`within`): the same model object, spacing and
+        angle, and a box that holds that one (the size field searches its box with a margin)."""
+        if not self.source:
+            return False
+        found_on, found_lower, found_upper, found_angle = self.source
+        return (found_on is model and spacing == self.spacing and angle == found_angle
+                and bool(np.all(found_lower <= lower)) and bool(np.all(found_upper >= upper)))
+
+    def within(self, lower: np.ndarray, upper: np.ndarray, tol: float) -> "Creases":
+        """The crease points and corners in the box (to ``tol``)."""
+        def inside(points: np.ndarray) -> np.ndarray:
+            return np.all((points >= lower - tol) & (points <= upper + tol), axis=1)
+
+        keep, corner = inside(self.points), inside(self.corners)
+        if keep.all() and corner.all():
+            return self
+        return Creases(self.points[keep], self.pairs[keep], self.angles[keep], self.corners[corner],
+                       self.corner_labels[corner], self.spacing, self.source)
 
 
 def fine_surface(model, spacing: float, bounds) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (V, 3) and triangles (T, 3) of the model's zero set sampled at ``spacing``."""
+    """Vertices (V, 3) and triangles (T, 3) of the model's zero set sampled at ``spacing``.
+
+    Sampled in a band of one cell diagonal (:mod:`fepre.sampling`): the same zero set as the
+    whole grid's (a cell with a node left out has all its corners on one side), from the nodes
+    near the surface only (a triangle-mesh model 1e4 from the origin, 36k cells at h = (1, 6):
+    32 s for the whole grid at 0.25, 12 s in the band, 27% of the nodes)."""
     import pyvista as pv
 
+    from ..config import config
+    from ..sampling import _sample_band
     from ..surface.flying_edges import flying_edges
 
     lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
     origin = lower - _GRID_SHIFT * spacing
     counts = np.ceil((upper - lower) / spacing + 2 * _GRID_SHIFT).astype(np.int64) + 1
     axes = [origin[k] + spacing * np.arange(counts[k]) for k in range(3)]
-    values = model.values_on_axes(*axes, dtype=np.float32)
+    step = np.full(3, float(spacing))
+    values, _ = _sample_band(model, axes, step, float(np.linalg.norm(step)), np.dtype(np.float32), config.resolve_workers(None))
     grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=(spacing,) * 3, origin=tuple(origin))
     grid.point_data["sdf"] = values.reshape(-1)
     points, triangles = flying_edges(grid, "sdf", 0.0)

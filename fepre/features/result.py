@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +31,9 @@ class Features:
         Spacing of the fine grid the features were found on.
     skipped : tuple of str
         What was found but not kept (features closer together than ``h/2``), in words.
+    creases : fepre.features.detect.Creases or None
+        The crease search they were built from; :func:`fepre.features` takes it (``creases=``)
+        instead of searching again when the model, grid and angle are the same.
 
     Examples
     --------
@@ -46,6 +50,7 @@ class Features:
     angle: float
     spacing: float
     skipped: tuple[str, ...] = field(default=())
+    creases: Any = field(default=None, repr=False, compare=False)
 
     def __bool__(self) -> bool:
         return len(self.corners) > 0 or len(self.curves) > 0

@@ -164,11 +164,12 @@ def size_field(
             raise ValueError("the model is empty inside the bounds: nothing to size (check the model's sign and the bounds)")
         return SizeField(lower, np.full(3, spacing), np.full(values.shape, hmax))
     seeds, normal = _surface_seeds(model, near, axes, counts, hmin)
-    points, wanted = _wanted_sizes(
-        model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, features, (lower, upper), spacing
-    )
+    # the mesher's feature search at h = hmin takes this one's creases (fepre.features, creases=)
+    found = _features(model, hmin, (lower, upper)) if features else None
+    points, wanted = _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, found, spacing)
     field = _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation)
     field.seconds = time.perf_counter() - start
+    field.creases = None if found is None else found.creases
     return field
 
 
@@ -297,7 +298,15 @@ def _warn_under_hmin(places: list[tuple], hmin: float) -> None:
     )
 
 
-def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, features, box, spacing):
+def _features(model: SDF, hmin: float, bounds):
+    """The model's features at ``hmin / 4`` over ``bounds`` (:func:`fepre.sizing.feature_gaps.search`)."""
+    from .feature_gaps import search
+
+    lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
+    return search(model, hmin, (lower, upper))
+
+
+def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, found, spacing):
     """Points and the edge length each wants (in ``[hmin, hmax]``): walls, gaps, curvature,
     facing feature curves and wall mid-surfaces; features that would need less than ``hmin``
     are named in a :class:`fepre.ResolutionWarning`."""
@@ -326,10 +335,10 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     narrow = gap < NAMED_BELOW * hmin
     places = _under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
     places += _under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
-    if features:
+    if found is not None:
         from .feature_gaps import feature_sizes
 
-        feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, box)
+        feature_seeds, feature_wanted = feature_sizes(model, hmin, hmax, None, found)
         points.append(feature_seeds)
         sizes_at.append(np.clip(feature_wanted, hmin, hmax))
         close = feature_wanted < NAMED_BELOW * hmin

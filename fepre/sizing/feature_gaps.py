@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["feature_sizes"]
+__all__ = ["feature_sizes", "search"]
 
 #: |cos| between the line joining two curve nodes and each curve's tangent, at most
 ACROSS = 0.5
@@ -35,8 +35,21 @@ def _tangents(points: np.ndarray, closed: bool) -> np.ndarray:
     return tangent / np.where(norm > 0, norm, 1.0)[:, None]
 
 
-def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, np.ndarray]:
+def search(model, hmin: float, bounds):
+    """The features :func:`feature_sizes` looks at: curves and the crease search at ``hmin / 4``
+    (features closer than half the sampling are merged, and a ledge a quarter of hmin wide must
+    still show as two curves). The mesher's search at ``h = hmin`` is on the same grid (its
+    default spacing ``h / 4``) over the same ``bounds``, so it reuses these creases."""
+    from ..features import features
+
+    return features(model, hmin / 4.0, spacing=hmin / 4.0, bounds=bounds, warn=False)
+
+
+def feature_sizes(model, hmin: float, hmax: float, bounds, found=None) -> tuple[np.ndarray, np.ndarray]:
     """Curve nodes and the distance to the nearest curve across from them (below ``hmax``).
+
+    ``found``: the model's features at ``hmin / 4`` over ``bounds`` (:func:`search`), when
+    already found.
 
     Examples
     --------
@@ -48,11 +61,7 @@ def feature_sizes(model, hmin: float, hmax: float, bounds) -> tuple[np.ndarray, 
     """
     from scipy.spatial import cKDTree
 
-    from ..features import features
-
-    # sampled at hmin / 4: features closer than half the sampling are merged, and a ledge a
-    # quarter of hmin wide must still show as two curves
-    found = features(model, hmin / 4.0, spacing=hmin / 4.0, bounds=bounds, warn=False)
+    found = search(model, hmin, bounds) if found is None else found
     if len(found.curves) < 2:
         return np.zeros((0, 3)), np.zeros(0)
     points = np.concatenate([c.points for c in found.curves])

@@ -63,6 +63,10 @@ class SizeField:
         self.seconds: float | None = None
         #: for a field from a background mesh, which points that mesh covers
         self.coverage: _Coverage | None = None
+        #: the crease search :func:`fepre.size_field` made (``Features.creases``): the mesher's
+        #: feature search on the same grid takes it instead of searching again (not carried
+        #: over to moved, clipped or combined fields)
+        self.creases = None
 
     # ------------------------------------------------------------------ the field
     @property
