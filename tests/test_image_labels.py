@@ -59,6 +59,29 @@ def test_voxel_planes_keep_sharp_edges(regions):
     assert matrix.volume == pytest.approx(1 - BALL_VOLUME, rel=0.003)  # measured +0.03%
 
 
+def test_creases_read_from_the_triangles(regions, monkeypatch):
+    # a label model's creases come from its triangles' edges between patches, not from a grid
+    # of h/4 (108 of 216 s of the 256^3 speed phantom): the same corners and curves as the grid
+    from fepre.features.mesh_creases import triangle_creases
+    from fepre.sdf.imagemodel.labelmodel import LabelModel
+
+    part, matrix = regions.part, regions["matrix"]
+    creases = triangle_creases(part, 0.025, part.bounds, 30.0)
+    assert np.allclose(np.abs(creases.corners), 0.5, atol=1e-12) and len(creases.corners) == 8
+    # every crease point on a cube edge (two coordinates at +-0.5), 90 degrees, points <= h/8 apart
+    assert (np.isclose(np.abs(creases.points), 0.5, atol=1e-12).sum(axis=1) >= 2).all()
+    assert np.allclose(creases.angles, 90.0)
+    assert len(creases.points) >= 12 * 1.0 / 0.0125
+    found = {name: fepre.features(model, h=0.1, angle=10.0) for name, model in (("part", part), ("matrix", matrix))}
+    monkeypatch.setattr(LabelModel, "creases_from_triangles", False)
+    grid = {name: fepre.features(model, h=0.1, angle=10.0) for name, model in (("part", part), ("matrix", matrix))}
+    for name in found:
+        assert len(found[name].corners) == len(grid[name].corners) == 8
+        assert len(found[name].curves) == len(grid[name].curves) == 12
+        assert np.abs(np.sort(found[name].corners, axis=0) - np.sort(grid[name].corners, axis=0)).max() < 1e-9
+        assert abs(len(found[name].nodes) - len(grid[name].nodes)) <= 4
+
+
 def test_sharp_planes_need_two_large_planes():
     from fepre.sdf.imagemodel.sharp import sharp_planes
 

@@ -21,6 +21,10 @@ class LabelModel(MeshModel):
     """One label's region (or the whole part) of a label image: the exact distance to its
     triangles of the shared interface surface, negative inside."""
 
+    #: its creases are the edges between its patches (voxel planes, the part's surface and the
+    #: interfaces): read from the triangles, not searched for on a grid of h/4
+    creases_from_triangles = True
+
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any,
                  other: np.ndarray | None = None, plane: np.ndarray | None = None) -> None:
         repaired = _closed_or_repaired(vertices, faces)
