@@ -98,6 +98,24 @@ def test_sharp_planes_need_two_large_planes():
     assert len(np.unique(surface.plane)) == 6 and (surface.plane >= 0).all()
 
 
+def test_staircase_terraces_are_not_planes():
+    # a voxelised cylinder of radius 32 voxels: the terraces next to its four widest ones are 3
+    # voxels wide and met its flat caps, so they were held flat a voxel below their neighbour (a
+    # 26 degree kink, cells of 22 degrees at 256^3); only the caps and the widest terraces stay
+    radius = 32
+    x = np.arange(2 * radius + 8) - (2 * radius + 7) / 2
+    X, Y, Z = np.meshgrid(x, x, np.arange(16), indexing="ij")
+    indices = ((X**2 + Y**2 <= radius**2) & (Z >= 3) & (Z <= 12)).astype(np.int16)
+    surface = label_surface(indices, 2, np.ones(3), np.zeros(3), 0.5, 0, 30)
+    planes = np.unique(surface.plane[surface.plane >= 0])
+    assert len(planes) == 6  # 14 before: the four widest terraces' eight neighbours too
+    flat = surface.vertices[np.unique(surface.faces[surface.plane >= 0])]
+    side = flat[(flat[:, 2] > 3) & (flat[:, 2] < 12)]
+    # the side's planes are the tangent terraces, half a voxel outside the outermost voxels' centres
+    extent = np.abs(side[:, :2] - (len(x) - 1) / 2).max(axis=1)
+    assert len(side) > 100 and np.allclose(extent, radius, atol=1e-9)
+
+
 def test_voxels_touching_along_an_edge_give_manifold_surfaces():
     from fepre.sdf.meshmodel.repair import _is_closed
 
