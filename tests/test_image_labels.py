@@ -229,6 +229,15 @@ def test_three_labels_and_the_border():
     shares = [float((regions[name](points) < 0).mean()) * 1.2**3 for name in regions]
     assert shares == pytest.approx([half, half, BALL_VOLUME], rel=0.03)
     assert volumes[2] == pytest.approx(BALL_VOLUME, rel=0.02)
+    # the regions run on two voxels beyond the border (copies of its voxels), so the box alone
+    # cuts them: closed on the border, the label part's surface lay on the box's faces (value 0
+    # there) and ran in and out of them where interfaces met them (slivers under h)
+    labelled, box = regions.part.children
+    rng = np.random.default_rng(2)
+    on_faces = np.column_stack([np.full(2000, 0.6), rng.uniform(-0.6, 0.6, (2000, 2))])
+    on_faces = np.concatenate([on_faces, -on_faces, on_faces[:, [1, 0, 2]], on_faces[:, [1, 2, 0]]])
+    assert np.abs(box(on_faces)).max() < 1e-12
+    assert labelled(on_faces).max() == pytest.approx(-2 * SPACING, abs=0.05 * SPACING)  # 0 before
 
 
 def test_surface_nets_on_one_voxel():
@@ -272,3 +281,30 @@ def test_background_kept_as_a_region():
     assert float((ball < 0).mean()) == pytest.approx(4 / 3 * np.pi * 0.4**3, rel=0.03)
     on = regions["ball"].vertices
     assert np.abs(regions["background"](on)).max() < 1e-12
+
+
+def test_junction_node_reaches_the_rims_at_a_crop_face(monkeypatch):
+    # three labels meeting along a slanted line cut by the image's top face: a node on the line
+    # under the face, moved onto the rim of regions 0 and 2, went by each region's own rim to
+    # where that region meets region 1, failed the check and stayed under the face (a 1 mm crop
+    # of the MNI brain: the final mesh had such a node on its boundary, 0.003 h inside the part)
+    import fepre.regions.interface as interface
+    from fepre.regions.partition import RegionSet
+
+    x = np.arange(21) - 10.0
+    X, Y, Z = np.meshgrid(x, x, np.arange(12.0), indexing="ij")
+    angle = np.degrees(np.arctan2(Y + 0.3 - 0.3 * Z, X + 0.2 - 0.4 * Z)) % 360
+    regions = sdf.labels((1 + (angle >= 110) + (angle >= 250)).astype(np.int16))
+    models = RegionSet(tuple(regions), tuple(regions.values()))
+    vertices = regions["label_1"].vertices
+    junction = vertices[(np.abs(models.values(vertices)) < 1e-12).all(axis=1)]
+    corner = junction[np.abs(junction[:, 2] - 11.5) < 1e-9]  # on the top face (the line runs on beyond it)
+    assert len(corner) == 1
+    corner = corner[0]
+    start = junction[np.abs(junction[:, 2] - 10.5) < 0.5][:1]
+    assert regions.part(start)[0] < -0.5
+    moved, reached = interface.onto_interface_rim(start.copy(), regions.part, models, (0, 2), 1.0)
+    assert reached.all() and np.abs(moved[0] - corner).max() < 1e-6
+    assert np.abs(models.values(moved)).max() < 1e-6 and abs(regions.part(moved)[0]) < 1e-6
+    monkeypatch.setattr(interface, "RIM_ALTERNATIONS", 0)  # each region's rim alone: not reached
+    assert not interface.onto_interface_rim(start.copy(), regions.part, models, (0, 2), 1.0)[1].any()

@@ -18,6 +18,8 @@ ON_INTERFACE = 1e-3
 RIM_ANGLE = 10.0
 #: Interface nodes this close (times h) under the part's surface are moved onto it.
 RIM_SNAP = 0.05
+#: Rounds of the projections onto the rims of a pair's two regions in turn (a junction node)
+RIM_ALTERNATIONS = 3
 
 
 def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False,
