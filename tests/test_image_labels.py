@@ -327,3 +327,20 @@ def test_rod_flush_with_the_block_faces_meshes():
     assert volumes == pytest.approx([1.6 * 1.2 * 1.2 - rod - ball, ball, rod], rel=0.02)
     for k in range(3):
         assert mesh["min_dihedral_angle"][ids == k].min() >= 25.0
+
+
+def test_label_regions_are_not_sampled_again(regions, monkeypatch):
+    # regions in their own part split it by construction: region_set takes their volumes as the
+    # shares instead of sampling the part and every region at h/2 (12 s of a 256^3 image)
+    from fepre.regions import partition
+
+    lower, upper = (np.asarray(b) for b in regions.part.bounds)
+    calls = []
+    original = partition.RegionSet.values
+    monkeypatch.setattr(partition.RegionSet, "values", lambda self, points: calls.append(len(points)) or original(self, points))
+    found = partition.region_set(regions, regions.part, 0.1, lower, upper)
+    volumes = np.array([regions[name].volume for name in regions])
+    assert found.shares == pytest.approx(volumes / volumes.sum(), rel=1e-12) and calls == []
+    # another model than their part: sampled and checked as any regions
+    partition.region_set(regions, regions.part & sdf.box(2.0), 0.1, lower, upper)
+    assert calls and calls[0] > 1000
