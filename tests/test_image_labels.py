@@ -344,3 +344,20 @@ def test_label_regions_are_not_sampled_again(regions, monkeypatch):
     # another model than their part: sampled and checked as any regions
     partition.region_set(regions, regions.part & sdf.box(2.0), 0.1, lower, upper)
     assert calls and calls[0] > 1000
+
+
+def test_creases_from_triangles_far_from_the_origin(monkeypatch):
+    # fepre.features moves a part far from the origin near it (an Affine of the label model):
+    # the creases still come from the triangles, moved, and match the part's own corners
+    from fepre.sdf.imagemodel.labelmodel import LabelModel
+
+    grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    values = np.asarray(grid.point_data[grid.point_data.keys()[0]]).reshape(grid.dimensions, order="F")
+    far = sdf.labels(values.astype(np.int16), spacing=(SPACING,) * 3, origin=(100.0, 200.0, 50.0)).part
+    shift = np.array([100.0, 200.0, 50.0]) - np.asarray(grid.origin)  # the cube's centre
+    found = fepre.features(far, h=0.1)
+    assert len(found.corners) == 8 and len(found.curves) == 12
+    assert np.abs(np.abs(found.corners - shift) - 0.5).max() < 1e-9
+    monkeypatch.setattr(LabelModel, "triangle_patches", None)  # the grid's path is not taken
+    with pytest.raises(TypeError):
+        fepre.features(far, h=0.1)

@@ -15,9 +15,38 @@ from __future__ import annotations
 import numpy as np
 
 from ..sdf.meshmodel.tables import edge_table, manifold_pairs
+from ..sdf.transforms import Affine
 from .detect import Creases
 
-__all__ = ["triangle_creases"]
+__all__ = ["triangle_creases", "from_triangles"]
+
+
+def _source(model):
+    """The model whose triangles hold the creases and the rigid map onto ``model`` ((4, 4) or
+    None), or None when the triangles cannot be read."""
+    if getattr(model, "creases_from_triangles", False):
+        return model, None
+    if isinstance(model, Affine) and getattr(model.children[0], "creases_from_triangles", False):
+        linear = model.matrix[:3, :3]
+        if np.allclose(linear @ linear.T, np.eye(3), rtol=0.0, atol=1e-12):
+            return model.children[0], model.matrix
+    return None
+
+
+def from_triangles(model) -> bool:
+    """True when ``model``'s creases are read from its triangles: a model that says so
+    (``creases_from_triangles``, a label image's region), or one moved rigidly (the local frame
+    :func:`fepre.features` moves a part far from the origin into)."""
+    return _source(model) is not None
+
+
+def _triangle_patches(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    source, matrix = _source(model)
+    vertices, faces, normals, patch = source.triangle_patches()
+    if matrix is not None:
+        vertices = vertices @ matrix[:3, :3].T + matrix[:3, 3]
+        normals = normals @ matrix[:3, :3].T
+    return vertices, faces, normals, patch
 
 
 def _points_along(vertices: np.ndarray, edges: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -54,8 +83,8 @@ def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     vertex where such edges of three or more patches meet. Only points within ``bounds`` (a
     spacing beyond) are kept, as on the grid of :func:`~fepre.features.detect.find_creases`.
 
-    ``model`` provides ``triangle_patches()``: vertices (V, 3), triangles (F, 3), unit normals
-    (F, 3) and the patch of each triangle (F,).
+    ``model`` (or the model it moves rigidly) provides ``triangle_patches()``: vertices (V, 3),
+    triangles (F, 3), unit normals (F, 3) and the patch of each triangle (F,).
 
     Examples
     --------
@@ -67,7 +96,7 @@ def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     >>> len(found.corners), sorted(set(found.angles.round(6).tolist()))
     (8, [90.0])
     """
-    vertices, faces, normals, patch = model.triangle_patches()
+    vertices, faces, normals, patch = _triangle_patches(model)
     edges, face_edge, forward = edge_table(faces)
     a, b, _, counts = manifold_pairs(face_edge, forward, len(edges))
     shared = edges[counts == 2]
