@@ -361,3 +361,23 @@ def test_creases_from_triangles_far_from_the_origin(monkeypatch):
     monkeypatch.setattr(LabelModel, "triangle_patches", None)  # the grid's path is not taken
     with pytest.raises(TypeError):
         fepre.features(far, h=0.1)
+
+
+def test_regions_own_meshes_keep_the_rim_creases(regions, monkeypatch):
+    # a region meshed on its own to lay its interfaces keeps as features the creases down to
+    # RIM_ANGLE (the nodes fixed on them come from that search): at 256^3 a rod's flat cap met
+    # its side at 18 degrees between triangles, and a free node sat 0.09 h under the cap there
+    from fepre.distmesh import mesher
+    from fepre.regions.interface import RIM_ANGLE
+
+    angles = []
+    original = mesher.distmesh
+
+    def recording(model, h, **kwargs):
+        angles.append(kwargs["options"].feature_angle if kwargs.get("options") is not None else None)
+        return original(model, h, **kwargs)
+
+    monkeypatch.setattr(mesher, "distmesh", recording)
+    mesh = fepre.distmesh(regions.part, 0.1, regions=regions, progress=False)
+    assert angles == [RIM_ANGLE]  # the inclusion's own mesh; the matrix is the whole mesh's rest
+    assert mesh["min_dihedral_angle"].min() >= 25.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import warnings
 
@@ -67,6 +68,12 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
     else:
         part_features = np.zeros((0, 3))
     order = regions.meshing_order()
+    # each region's own DistMesh keeps as features the creases down to RIM_ANGLE, as the nodes
+    # fixed on them above are: a label image's flat cap meets its rod's side at a crease of 18
+    # degrees between triangles (the rest of the 90 rounded over a voxel), and with the nodes
+    # on it fixed but no feature curve there, a free node sat on the rounding 0.09 h under the
+    # cap (256^3 speed phantom: the rod's worst angle 20.1 -> 22.5, the block's 25.3 -> 26.9)
+    own_options = dataclasses.replace(options, feature_angle=min(RIM_ANGLE, options.feature_angle))
     for position, i in enumerate(order[:-1].tolist()):
         later = order[position + 1:]
         found = np.concatenate(nodes)
@@ -97,7 +104,7 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
             warnings.simplefilter("ignore")  # the whole mesh reports on itself
             try:
                 mesh = distmesh(parts[i], h, bounds=bounds, fixed=fixed if len(fixed) else None,
-                                options=options, check_resolution=False)
+                                options=own_options, check_resolution=False)
             except (MeshingError, ValueError) as exc:
                 raise MeshingError(f"distmesh: region {regions.names[i]!r} could not be meshed to lay its interface nodes: {exc}") from exc
         points = np.array(mesh.points, dtype=np.float64)
