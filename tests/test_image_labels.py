@@ -59,6 +59,29 @@ def test_voxel_planes_keep_sharp_edges(regions):
     assert matrix.volume == pytest.approx(1 - BALL_VOLUME, rel=0.003)  # measured +0.03%
 
 
+def test_creases_read_from_the_triangles(regions, monkeypatch):
+    # a label model's creases come from its triangles' edges between patches, not from a grid
+    # of h/4 (108 of 216 s of the 256^3 speed phantom): the same corners and curves as the grid
+    from fepre.features.mesh_creases import triangle_creases
+    from fepre.sdf.imagemodel.labelmodel import LabelModel
+
+    part, matrix = regions.part, regions["matrix"]
+    creases = triangle_creases(part, 0.025, part.bounds, 30.0)
+    assert np.allclose(np.abs(creases.corners), 0.5, atol=1e-12) and len(creases.corners) == 8
+    # every crease point on a cube edge (two coordinates at +-0.5), 90 degrees, points <= h/8 apart
+    assert (np.isclose(np.abs(creases.points), 0.5, atol=1e-12).sum(axis=1) >= 2).all()
+    assert np.allclose(creases.angles, 90.0)
+    assert len(creases.points) >= 12 * 1.0 / 0.0125
+    found = {name: fepre.features(model, h=0.1, angle=10.0) for name, model in (("part", part), ("matrix", matrix))}
+    monkeypatch.setattr(LabelModel, "creases_from_triangles", False)
+    grid = {name: fepre.features(model, h=0.1, angle=10.0) for name, model in (("part", part), ("matrix", matrix))}
+    for name in found:
+        assert len(found[name].corners) == len(grid[name].corners) == 8
+        assert len(found[name].curves) == len(grid[name].curves) == 12
+        assert np.abs(np.sort(found[name].corners, axis=0) - np.sort(grid[name].corners, axis=0)).max() < 1e-9
+        assert abs(len(found[name].nodes) - len(grid[name].nodes)) <= 4
+
+
 def test_sharp_planes_need_two_large_planes():
     from fepre.sdf.imagemodel.sharp import sharp_planes
 
@@ -73,6 +96,24 @@ def test_sharp_planes_need_two_large_planes():
     block = sdf.box(6.0, center=(4.5, 4.5, 4.5))  # voxel centres 2..7
     assert np.abs(block(surface.vertices)).max() < 1e-9
     assert len(np.unique(surface.plane)) == 6 and (surface.plane >= 0).all()
+
+
+def test_staircase_terraces_are_not_planes():
+    # a voxelised cylinder of radius 32 voxels: the terraces next to its four widest ones are 3
+    # voxels wide and met its flat caps, so they were held flat a voxel below their neighbour (a
+    # 26 degree kink, cells of 22 degrees at 256^3); only the caps and the widest terraces stay
+    radius = 32
+    x = np.arange(2 * radius + 8) - (2 * radius + 7) / 2
+    X, Y, Z = np.meshgrid(x, x, np.arange(16), indexing="ij")
+    indices = ((X**2 + Y**2 <= radius**2) & (Z >= 3) & (Z <= 12)).astype(np.int16)
+    surface = label_surface(indices, 2, np.ones(3), np.zeros(3), 0.5, 0, 30)
+    planes = np.unique(surface.plane[surface.plane >= 0])
+    assert len(planes) == 6  # 14 before: the four widest terraces' eight neighbours too
+    flat = surface.vertices[np.unique(surface.faces[surface.plane >= 0])]
+    side = flat[(flat[:, 2] > 3) & (flat[:, 2] < 12)]
+    # the side's planes are the tangent terraces, half a voxel outside the outermost voxels' centres
+    extent = np.abs(side[:, :2] - (len(x) - 1) / 2).max(axis=1)
+    assert len(side) > 100 and np.allclose(extent, radius, atol=1e-9)
 
 
 def test_voxels_touching_along_an_edge_give_manifold_surfaces():
@@ -188,6 +229,15 @@ def test_three_labels_and_the_border():
     shares = [float((regions[name](points) < 0).mean()) * 1.2**3 for name in regions]
     assert shares == pytest.approx([half, half, BALL_VOLUME], rel=0.03)
     assert volumes[2] == pytest.approx(BALL_VOLUME, rel=0.02)
+    # the regions run on two voxels beyond the border (copies of its voxels), so the box alone
+    # cuts them: closed on the border, the label part's surface lay on the box's faces (value 0
+    # there) and ran in and out of them where interfaces met them (slivers under h)
+    labelled, box = regions.part.children
+    rng = np.random.default_rng(2)
+    on_faces = np.column_stack([np.full(2000, 0.6), rng.uniform(-0.6, 0.6, (2000, 2))])
+    on_faces = np.concatenate([on_faces, -on_faces, on_faces[:, [1, 0, 2]], on_faces[:, [1, 2, 0]]])
+    assert np.abs(box(on_faces)).max() < 1e-12
+    assert labelled(on_faces).max() == pytest.approx(-2 * SPACING, abs=0.05 * SPACING)  # 0 before
 
 
 def test_surface_nets_on_one_voxel():
@@ -231,3 +281,103 @@ def test_background_kept_as_a_region():
     assert float((ball < 0).mean()) == pytest.approx(4 / 3 * np.pi * 0.4**3, rel=0.03)
     on = regions["ball"].vertices
     assert np.abs(regions["background"](on)).max() < 1e-12
+
+
+def test_junction_node_reaches_the_rims_at_a_crop_face(monkeypatch):
+    # three labels meeting along a slanted line cut by the image's top face: a node on the line
+    # under the face, moved onto the rim of regions 0 and 2, went by each region's own rim to
+    # where that region meets region 1, failed the check and stayed under the face (a 1 mm crop
+    # of the MNI brain: the final mesh had such a node on its boundary, 0.003 h inside the part)
+    import fepre.regions.interface as interface
+    from fepre.regions.partition import RegionSet
+
+    x = np.arange(21) - 10.0
+    X, Y, Z = np.meshgrid(x, x, np.arange(12.0), indexing="ij")
+    angle = np.degrees(np.arctan2(Y + 0.3 - 0.3 * Z, X + 0.2 - 0.4 * Z)) % 360
+    regions = sdf.labels((1 + (angle >= 110) + (angle >= 250)).astype(np.int16))
+    models = RegionSet(tuple(regions), tuple(regions.values()))
+    vertices = regions["label_1"].vertices
+    junction = vertices[(np.abs(models.values(vertices)) < 1e-12).all(axis=1)]
+    corner = junction[np.abs(junction[:, 2] - 11.5) < 1e-9]  # on the top face (the line runs on beyond it)
+    assert len(corner) == 1
+    corner = corner[0]
+    start = junction[np.abs(junction[:, 2] - 10.5) < 0.5][:1]
+    assert regions.part(start)[0] < -0.5
+    moved, reached = interface.onto_interface_rim(start.copy(), regions.part, models, (0, 2), 1.0)
+    assert reached.all() and np.abs(moved[0] - corner).max() < 1e-6
+    assert np.abs(models.values(moved)).max() < 1e-6 and abs(regions.part(moved)[0]) < 1e-6
+    monkeypatch.setattr(interface, "RIM_ALTERNATIONS", 0)  # each region's rim alone: not reached
+    assert not interface.onto_interface_rim(start.copy(), regions.part, models, (0, 2), 1.0)[1].any()
+
+
+@pytest.mark.slow
+def test_rod_flush_with_the_block_faces_meshes():
+    # the speed phantom with its rod's caps on the block's faces, 160^3: its own DistMesh (to lay
+    # the interfaces) stopped with "1 boundary node off the zero set" until feature curve nodes
+    # were put on the model's zero set (commit 9f2c564; the rounded rims' patch planes cross off
+    # the label surface); measured 29.2, 33.1, 32.1 degrees, 125k cells in 15 s
+    models = [sdf.box((1.6, 1.2, 1.2)), sdf.sphere(0.4, center=(-0.35, 0, 0)),
+              sdf.cylinder(radius=0.25, height=1.2, center=(0.45, 0, 0))]
+    grid = label_image(models, (-1, -1, -1), (1, 1, 1), 2.0 / 160)
+    regions = sdf.labels(grid, names={1: "block", 2: "ball", 3: "rod"})
+    mesh = fepre.distmesh(regions.part, 0.0539, regions=regions, progress=False)
+    ids = np.asarray(mesh["region_id"])
+    volumes = np.bincount(ids, mesh["volume"])
+    rod, ball = np.pi * 0.25**2 * 1.2, 4 / 3 * np.pi * 0.4**3
+    assert volumes == pytest.approx([1.6 * 1.2 * 1.2 - rod - ball, ball, rod], rel=0.02)
+    for k in range(3):
+        assert mesh["min_dihedral_angle"][ids == k].min() >= 25.0
+
+
+def test_label_regions_are_not_sampled_again(regions, monkeypatch):
+    # regions in their own part split it by construction: region_set takes their volumes as the
+    # shares instead of sampling the part and every region at h/2 (12 s of a 256^3 image)
+    from fepre.regions import partition
+
+    lower, upper = (np.asarray(b) for b in regions.part.bounds)
+    calls = []
+    original = partition.RegionSet.values
+    monkeypatch.setattr(partition.RegionSet, "values", lambda self, points: calls.append(len(points)) or original(self, points))
+    found = partition.region_set(regions, regions.part, 0.1, lower, upper)
+    volumes = np.array([regions[name].volume for name in regions])
+    assert found.shares == pytest.approx(volumes / volumes.sum(), rel=1e-12) and calls == []
+    # another model than their part: sampled and checked as any regions
+    partition.region_set(regions, regions.part & sdf.box(2.0), 0.1, lower, upper)
+    assert calls and calls[0] > 1000
+
+
+def test_creases_from_triangles_far_from_the_origin(monkeypatch):
+    # fepre.features moves a part far from the origin near it (an Affine of the label model):
+    # the creases still come from the triangles, moved, and match the part's own corners
+    from fepre.sdf.imagemodel.labelmodel import LabelModel
+
+    grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, SPACING)
+    values = np.asarray(grid.point_data[grid.point_data.keys()[0]]).reshape(grid.dimensions, order="F")
+    far = sdf.labels(values.astype(np.int16), spacing=(SPACING,) * 3, origin=(100.0, 200.0, 50.0)).part
+    shift = np.array([100.0, 200.0, 50.0]) - np.asarray(grid.origin)  # the cube's centre
+    found = fepre.features(far, h=0.1)
+    assert len(found.corners) == 8 and len(found.curves) == 12
+    assert np.abs(np.abs(found.corners - shift) - 0.5).max() < 1e-9
+    monkeypatch.setattr(LabelModel, "triangle_patches", None)  # the grid's path is not taken
+    with pytest.raises(TypeError):
+        fepre.features(far, h=0.1)
+
+
+def test_regions_own_meshes_keep_the_rim_creases(regions, monkeypatch):
+    # a region meshed on its own to lay its interfaces keeps as features the creases down to
+    # RIM_ANGLE (the nodes fixed on them come from that search): at 256^3 a rod's flat cap met
+    # its side at 18 degrees between triangles, and a free node sat 0.09 h under the cap there
+    from fepre.distmesh import mesher
+    from fepre.regions.interface import RIM_ANGLE
+
+    angles = []
+    original = mesher.distmesh
+
+    def recording(model, h, **kwargs):
+        angles.append(kwargs["options"].feature_angle if kwargs.get("options") is not None else None)
+        return original(model, h, **kwargs)
+
+    monkeypatch.setattr(mesher, "distmesh", recording)
+    mesh = fepre.distmesh(regions.part, 0.1, regions=regions, progress=False)
+    assert angles == [RIM_ANGLE]  # the inclusion's own mesh; the matrix is the whole mesh's rest
+    assert mesh["min_dihedral_angle"].min() >= 25.0

@@ -243,3 +243,23 @@ def test_graded_mesh_with_regions():
     mesh = mesh_of(ball, (0.06, 0.25), regions)
     check_region_mesh(mesh, ball, regions, 0.06)
     assert region_volumes(mesh)[1] == pytest.approx(0.512, rel=1e-9)
+
+
+def test_interface_node_under_the_surface_goes_onto_the_rim(monkeypatch):
+    # an interface meeting the part's face at 10 degrees (a label meeting a crop's face): a node
+    # of it 0.07 h under the face goes onto the rim, 0.071 h away; at RIM_SNAP = 0.05 it stayed,
+    # and the whole mesh had it on its boundary, a fixed node off the zero set (MeshingError)
+    import fepre.regions.interface as interface
+    from fepre.regions.partition import RegionSet
+
+    box, h = sdf.box(1.0), 0.1
+    normal = np.array([0.0, np.sin(np.radians(80)), np.cos(np.radians(80))])
+    cut = sdf.plane(normal=tuple(normal), point=(0, 0, 0.5))
+    regions = RegionSet(("a", "b"), (box & cut, box - cut))
+    z = 0.5 - 0.07 * h
+    node = np.array([[0.1, -(z - 0.5) * normal[2] / normal[1], z]])
+    moved = interface.snap_to_rims(node.copy(), box, regions, (0, 1), h)
+    assert np.allclose(moved, [[0.1, 0.0, 0.5]], atol=1e-9)
+    assert np.linalg.norm(moved - node) / h == pytest.approx(0.0711, abs=1e-4)
+    monkeypatch.setattr(interface, "RIM_SNAP", 0.05)
+    assert np.array_equal(interface.snap_to_rims(node.copy(), box, regions, (0, 1), h), node)

@@ -140,7 +140,7 @@ def _labels(quick: bool) -> None:
               f"{off:9.3f} {str(closed):>6s} {worst:>16s} {mesh.n_cells:6d} {seconds:6.1f}")
 
 
-def _speed(size: int, cells: int, features: bool = True) -> None:
+def _speed(size: int, cells: int, features: bool = True, output: str | None = None) -> None:
     import fepre
     from .. import sdf
     from ..sdf.imagemodel.phantoms import label_image
@@ -165,6 +165,8 @@ def _speed(size: int, cells: int, features: bool = True) -> None:
     worst = " ".join(f"{_quality(mesh, ids == k)[0]:.1f}" for k in range(3))
     print(f"mesh at h = {h:.4f}: {mesh.n_cells} cells in {seconds:.1f} s (total with sdf.labels {seconds + labelled:.1f} s); "
           f"worst dihedral per region {worst}")
+    if output is not None:
+        mesh.save(output)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -176,9 +178,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-features", action="store_true",
                         help="with --speed: features=False (the fast path for smooth segmentations; the phantom's "
                              "block edges and rod caps are sharp voxel planes, which the features keep)")
+    parser.add_argument("-o", "--output", help="with --speed: write the mesh here (.vtu) to look at its worst cells")
     args = parser.parse_args(argv)
+    if args.output is not None and not args.output.endswith(".vtu"):
+        parser.error(f"--output must name a .vtu file; got {args.output!r}")
     if args.speed:
-        _speed(args.size, args.cells, not args.no_features)
+        _speed(args.size, args.cells, not args.no_features, args.output)
         return 0
     _grey(args.quick)
     _labels(args.quick)

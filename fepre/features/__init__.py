@@ -30,6 +30,7 @@ from ..sdf.core import SDF
 from .conflicts import resolve_conflicts
 from .curves import FeatureCurve, build_curves
 from .detect import find_creases
+from .mesh_creases import from_triangles, triangle_creases
 from .result import Features
 
 __all__ = ["features", "Features", "FeatureCurve", "DEFAULT_ANGLE", "MAX_GRID_NODES"]
@@ -125,6 +126,8 @@ def features(
     if model.patch_count == 1 and len(model.singular_points()) == 0:
         return empty
     nodes = np.prod((upper - lower) / spacing + 6.0)
+    if from_triangles(model):  # a label image's region: its triangles' edges, no grid
+        nodes = 0.0
     if nodes > MAX_GRID_NODES:
         coarser = spacing * float(nodes / MAX_GRID_NODES) ** (1.0 / 3.0)
         skipped.append(
@@ -135,6 +138,8 @@ def features(
 
     if creases is not None and creases.reusable(model, spacing, lower, upper, angle):
         creases = creases.within(lower, upper, 1e-9 * scale)
+    elif from_triangles(model):
+        creases = triangle_creases(model, spacing, (lower, upper), angle)
     else:
         creases = find_creases(model, spacing, (lower, upper), angle, scale)
         creases.source = (model, lower, upper, angle)

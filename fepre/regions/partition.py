@@ -82,6 +82,12 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
         if not isinstance(region, SDF) or region.dim != 3:
             raise TypeError(f"regions[{name!r}] must be a 3D fepre.sdf.SDF; got {type(region).__name__}")
     found = RegionSet(tuple(names), tuple(regions.values()))
+    if all(getattr(region, "within", None) is model for region in regions.values()):
+        # a label image's regions in their own part: one shared surface splits it, without gaps
+        # or overlaps, by construction (sdf.labels); sampling all of them at h/2 to check it was
+        # 12 of 75-110 s of a 256^3 image's mesh. The shares (the meshing order) are their volumes.
+        volumes = np.array([float(region.volume) for region in regions.values()])
+        return RegionSet(found.names, found.models, tuple((volumes / volumes.sum()).tolist()))
 
     extent = upper - lower
     spacing = max(0.5 * h, float((np.prod(extent) / CHECK_SAMPLES) ** (1 / 3)))

@@ -44,7 +44,52 @@ def _neighbours(used: np.ndarray, coords: np.ndarray, cells: tuple[int, ...]) ->
     return found
 
 
-def _planes(axes: np.ndarray, coords: np.ndarray, near: dict) -> tuple[np.ndarray, np.ndarray]:
+#: in-plane reach (cells) within which two planes of neighbouring slabs are steps of one staircase
+TERRACE_REACH = 2
+
+
+def _terraces(k: int, big: np.ndarray, component: np.ndarray, coords: np.ndarray, used: np.ndarray,
+              cells: tuple[int, ...]) -> np.ndarray:
+    """(components,) True for the planes of axis ``k`` that are a step of a staircase: a larger
+    plane lies in a neighbouring slab, within ``TERRACE_REACH`` cells in-plane, beside it (the
+    two do not overlap, as the faces of a plate one voxel thick do). A voxelised curved surface
+    is such a staircase: at 256^3 the terraces of a cylinder of 32 voxels next to its widest one
+    are 3 voxels wide, large planes that met its flat caps, so they were held flat a voxel
+    below their neighbour: a kink of 26 degrees, and the cells filling it were of 22 degrees."""
+    rows = np.flatnonzero(big)
+    count = int(component.max()) + 1
+    sizes = np.bincount(component[rows], minlength=count)
+    shape = np.array(cells)
+    pairs, overlaps = [], []
+    span = range(-TERRACE_REACH, TERRACE_REACH + 1)
+    for step in (-1, 1):
+        for du in span:
+            for dv in span:
+                other = coords[rows].copy()
+                other[:, k] += step
+                other[:, (k + 1) % 3] += du
+                other[:, (k + 2) % 3] += dv
+                inside = np.all((other >= 0) & (other < shape), axis=1)
+                flat = np.ravel_multi_index(tuple(np.clip(other, 0, shape - 1).T), cells)
+                position = np.minimum(np.searchsorted(used, flat), len(used) - 1)
+                hit = inside & (used[position] == flat)
+                hit[hit] = big[position[hit]]
+                pairs.append(np.column_stack([component[rows[hit]], component[position[hit]]]))
+                overlaps.append(np.full(int(hit.sum()), du == 0 and dv == 0))
+    pairs, overlaps = np.concatenate(pairs), np.concatenate(overlaps)
+    terrace = np.zeros(count, dtype=bool)
+    if len(pairs) == 0:
+        return terrace
+    keys, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    overlapping = np.zeros(len(keys), dtype=bool)
+    np.logical_or.at(overlapping, inverse.reshape(-1), overlaps)
+    beside = keys[~overlapping & (sizes[keys[:, 1]] > sizes[keys[:, 0]])]
+    terrace[beside[:, 0]] = True
+    return terrace
+
+
+def _planes(axes: np.ndarray, coords: np.ndarray, near: dict, used: np.ndarray,
+            cells: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     """Membership (U, 3) of the large planes (-1: none) and each plane's coordinate."""
     member = np.full((len(axes), 3), -1, dtype=np.int64)
     positions = []
@@ -74,6 +119,8 @@ def _planes(axes: np.ndarray, coords: np.ndarray, near: dict) -> tuple[np.ndarra
                     inner &= (other >= 0) & face[np.maximum(other, 0)]
         sizes = np.bincount(component[inner], minlength=component.max() + 1)
         big = face & (sizes[component] >= MIN_INNER_CELLS)
+        if big.any():
+            big &= ~_terraces(k, big, component, coords, used, cells)[component]
         if not big.any():
             continue
         kept, local = np.unique(component[big], return_inverse=True)
@@ -122,7 +169,7 @@ def sharp_planes(used: np.ndarray, axes: np.ndarray, raw: np.ndarray, cells: tup
         return raw.copy(), np.zeros(0, dtype=bool), np.full((0, 3), -1, dtype=np.int64)
     coords = np.column_stack(np.unravel_index(used, cells))
     near = _neighbours(used, coords, cells)
-    member, positions = _planes(axes, coords, near)
+    member, positions = _planes(axes, coords, near, used, cells)
     bits = np.stack([(axes >> k) & 1 for k in range(3)], axis=1).astype(bool)
     count = bits.sum(axis=1)
     snapped = np.zeros(len(axes), dtype=bool)

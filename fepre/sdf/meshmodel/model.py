@@ -131,6 +131,14 @@ class MeshModel(SDF):
         gradient = tuple(direction[:, k].reshape(shape) for k in range(3))
         return values.reshape(shape), gradient
 
+    #: :func:`fepre.features` reads this model's creases from its triangles' edges between
+    #: patches (:func:`fepre.features.mesh_creases.triangle_creases`) instead of a fine grid
+    creases_from_triangles = False
+
+    def triangle_patches(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Vertices (V, 3), triangles (F, 3), unit normals (F, 3) and each triangle's patch (F,)."""
+        return self.vertices, self.faces, self._distance.normals, self._face_patch
+
     @property
     def patch_count(self) -> int:
         return self._patch_count
