@@ -54,11 +54,14 @@ def manifold_pairs(face_edge: np.ndarray, forward: np.ndarray, edge_count: int):
 
 def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Generalised winding numbers of the triangles at ``points`` (libigl's fast approximation,
-    exact near the triangles)."""
+    exact near the triangles up to its single precision: taken about the triangles' centre, so
+    a part far from the origin loses nothing)."""
     import igl
 
     if len(points) == 0 or len(faces) == 0:
         return np.zeros(len(points))
-    return np.asarray(
-        igl.fast_winding_number(np.ascontiguousarray(vertices), np.ascontiguousarray(faces), np.ascontiguousarray(points))
-    )
+    vertices = np.asarray(vertices, dtype=np.float64)
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    return np.asarray(igl.fast_winding_number(
+        np.ascontiguousarray(vertices - centre), np.ascontiguousarray(faces),
+        np.ascontiguousarray(np.asarray(points, dtype=np.float64) - centre)))
