@@ -22,9 +22,9 @@ import numpy as np
 from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float, shown
 from .backends import provided
 from .config import config
-from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
+from .sdf.core import SDF, ScratchArenas, _far_for_single, give_scratch, take_scratch, thread_pool
 
-__all__ = ["sample", "grid_geometry"]
+__all__ = ["sample", "grid_geometry", "values_near_surface"]
 
 BLOCK = 8
 
@@ -156,9 +156,11 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     runs = list(zip(y_lo.tolist(), np.minimum(y_lo + wy, ny).tolist(), x_lo.tolist(), x_hi.tolist(), first_column.tolist()))
     block_z, block_y, block_x = np.nonzero(active)  # same order as the runs' blocks
     slab_blocks = np.searchsorted(block_z, np.arange(nblocks[2] + 1))
-    # axes extended to whole blocks, so every block is evaluated at full size
+    # axes extended to whole blocks, so every block is evaluated at full size; in float64 where
+    # float32 coordinates would move the nodes (a part placed at 1e4), as values_on_axes does
+    coordinates = np.float64 if np.dtype(dtype).itemsize < 8 and _far_for_single(axes) else dtype
     padded = [
-        (axis[0] + h * np.arange(b * w)).astype(dtype) for axis, h, b, w in zip(axes, step, nblocks, width)
+        (axis[0] + h * np.arange(b * w)).astype(coordinates) for axis, h, b, w in zip(axes, step, nblocks, width)
     ]
     local = [np.arange(w) for w in width]
     out = np.empty((nz, ny, nx), dtype=dtype)
@@ -202,6 +204,27 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     z_sizes, y_sizes = sizes[2][run_z], sizes[1][run_y]
     evaluated = centre_values.size + int(np.sum(z_sizes * y_sizes * (x_hi - x_lo)))
     return out, evaluated
+
+
+def values_near_surface(model: SDF, axes: list[np.ndarray], dtype: Any = "float32", workers: int | None = None) -> np.ndarray:
+    """The model's values on the tensor grid of ``axes`` (x, y, z, evenly spaced), evaluated only
+    in the blocks within one cell diagonal of the zero set and ``±`` that elsewhere: the level-0
+    surface is the dense grid's, at the cost of the blocks near it (:func:`sample`'s narrow band).
+
+    Returns an array of shape ``(nz, ny, nx)``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> t = np.linspace(-1.0, 1.0, 41)
+    >>> banded, dense = values_near_surface(sdf.sphere(0.5), [t, t, t]), sdf.sphere(0.5).values_on_axes(t, t, t)
+    >>> bool(np.array_equal(banded < 0, dense < 0))
+    True
+    """
+    step = np.array([float(a[1] - a[0]) if len(a) > 1 else 1.0 for a in axes])
+    band = float(np.linalg.norm(step))
+    return _sample_band(model, [np.asarray(a, np.float64) for a in axes], step, band, np.dtype(dtype),
+                        config.resolve_workers(workers))[0]
 
 
 def sample(
