@@ -24,7 +24,7 @@ from .backends import provided
 from .config import config
 from .sdf.core import SDF, ScratchArenas, _far_for_single, give_scratch, take_scratch, thread_pool
 
-__all__ = ["sample", "grid_geometry", "values_near_surface"]
+__all__ = ["sample", "grid_geometry"]
 
 BLOCK = 8
 
@@ -204,27 +204,6 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     z_sizes, y_sizes = sizes[2][run_z], sizes[1][run_y]
     evaluated = centre_values.size + int(np.sum(z_sizes * y_sizes * (x_hi - x_lo)))
     return out, evaluated
-
-
-def values_near_surface(model: SDF, axes: list[np.ndarray], dtype: Any = "float32", workers: int | None = None) -> np.ndarray:
-    """The model's values on the tensor grid of ``axes`` (x, y, z, evenly spaced), evaluated only
-    in the blocks within one cell diagonal of the zero set and ``±`` that elsewhere: the level-0
-    surface is the dense grid's, at the cost of the blocks near it (:func:`sample`'s narrow band).
-
-    Returns an array of shape ``(nz, ny, nx)``.
-
-    Examples
-    --------
-    >>> from fepre import sdf
-    >>> t = np.linspace(-1.0, 1.0, 41)
-    >>> banded, dense = values_near_surface(sdf.sphere(0.5), [t, t, t]), sdf.sphere(0.5).values_on_axes(t, t, t)
-    >>> bool(np.array_equal(banded < 0, dense < 0))
-    True
-    """
-    step = np.array([float(a[1] - a[0]) if len(a) > 1 else 1.0 for a in axes])
-    band = float(np.linalg.norm(step))
-    return _sample_band(model, [np.asarray(a, np.float64) for a in axes], step, band, np.dtype(dtype),
-                        config.resolve_workers(workers))[0]
 
 
 def sample(

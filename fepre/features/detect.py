@@ -53,14 +53,13 @@ def fine_surface(model, spacing: float, bounds) -> tuple[np.ndarray, np.ndarray]
     """Vertices (V, 3) and triangles (T, 3) of the model's zero set sampled at ``spacing``."""
     import pyvista as pv
 
-    from ..sampling import values_near_surface
     from ..surface.flying_edges import flying_edges
 
     lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
     origin = lower - _GRID_SHIFT * spacing
     counts = np.ceil((upper - lower) / spacing + 2 * _GRID_SHIFT).astype(np.int64) + 1
     axes = [origin[k] + spacing * np.arange(counts[k]) for k in range(3)]
-    values = values_near_surface(model, axes, dtype=np.float32)
+    values = model.values_on_axes(*axes, dtype=np.float32)
     grid = pv.ImageData(dimensions=tuple(int(c) for c in counts), spacing=(spacing,) * 3, origin=tuple(origin))
     grid.point_data["sdf"] = values.reshape(-1)
     points, triangles = flying_edges(grid, "sdf", 0.0)
