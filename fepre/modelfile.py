@@ -34,7 +34,7 @@ from .sdf import SDF
 __all__ = ["ModelFile", "ModelFileError", "load_model", "MESH_SUFFIXES"]
 
 #: Surface mesh files taken as models directly: ``fepre mesh part.stl`` meshes ``sdf.mesh("part.stl")``.
-MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk")
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh", ".msh", ".inp")
 
 
 class ModelFileError(ValueError):
@@ -142,7 +142,8 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     ----------
     path : str or path-like
         A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; a
-        surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK), whose model is
+        surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK) or a volume mesh file
+        (VTU, Medit MESH, gmsh MSH, Abaqus/CalculiX INP: its boundary), whose model is
         :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``),
         whose model is :func:`fepre.sdf.image` of it with the options ``image``.
     image : dict, optional

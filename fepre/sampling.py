@@ -22,7 +22,7 @@ import numpy as np
 from .arguments import as_bounds, as_vector, domain_bounds, int_triple, nonnegative_float, shown
 from .backends import provided
 from .config import config
-from .sdf.core import SDF, ScratchArenas, give_scratch, take_scratch, thread_pool
+from .sdf.core import SDF, ScratchArenas, _far_for_single, give_scratch, take_scratch, thread_pool
 
 __all__ = ["sample", "grid_geometry"]
 
@@ -162,9 +162,11 @@ def _sample_band(model: SDF, axes: list[np.ndarray], step: np.ndarray, band: flo
     runs = list(zip(y_lo.tolist(), np.minimum(y_lo + wy, ny).tolist(), x_lo.tolist(), x_hi.tolist(), first_column.tolist()))
     block_z, block_y, block_x = np.nonzero(active)  # same order as the runs' blocks
     slab_blocks = np.searchsorted(block_z, np.arange(nblocks[2] + 1))
-    # axes extended to whole blocks, so every block is evaluated at full size
+    # axes extended to whole blocks, so every block is evaluated at full size; in float64 where
+    # float32 coordinates would move the nodes (a part placed at 1e4), as values_on_axes does
+    coordinates = np.float64 if np.dtype(dtype).itemsize < 8 and _far_for_single(axes) else dtype
     padded = [
-        (axis[0] + h * np.arange(b * w)).astype(dtype) for axis, h, b, w in zip(axes, step, nblocks, width)
+        (axis[0] + h * np.arange(b * w)).astype(coordinates) for axis, h, b, w in zip(axes, step, nblocks, width)
     ]
     local = [np.arange(w) for w in width]
     out = np.empty((nz, ny, nx), dtype=dtype)

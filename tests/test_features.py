@@ -245,9 +245,10 @@ def test_a_rotated_block_on_a_plate_has_the_corners_and_curves_of_the_upright_on
 
 
 def test_nodes_of_one_curve_closer_than_half_h_are_not_both_kept():
-    """A curve that doubles back (a hairpin 0.2 h wide) or is shorter than h/2 (two nodes 0.024 h
-    apart, as on truck.obj at D/50) put two fixed nodes closer than any element can join: cells of
-    0.0 degrees. Of such a pair the later node goes, and the count joins the warning."""
+    """A curve that doubles back within h/4 (a hairpin 0.2 h wide) or is shorter than h/2 (two
+    nodes 0.024 h apart, as on truck.obj at D/50) put two fixed nodes closer than any element can
+    join: cells of 0.0 degrees. Of such a pair the later node goes, and the count joins the
+    warning."""
     from fepre.features.conflicts import resolve_conflicts
     from fepre.features.curves import FeatureCurve
 
@@ -284,3 +285,17 @@ def test_the_crease_search_samples_a_band_and_finds_the_whole_grids_surface():
     assert len(triangles) > 10_000
     assert np.array_equal(vertices, np.asarray(whole_vertices, np.float64))
     assert np.array_equal(triangles, np.asarray(whole_triangles, np.int64))
+
+
+def test_a_hairpin_wider_than_a_quarter_h_is_kept_whole():
+    """A crease that doubles back 0.3 h wide (bunny_small.off at h = (D/50, D/12) has one 0.28-0.5 h
+    wide): cutting it at its turn left an 11.0 deg cell at the cut, kept whole the mesh reaches
+    26.1 deg. All its nodes stay, in one curve."""
+    from fepre.features.conflicts import resolve_conflicts
+    from fepre.features.curves import FeatureCurve
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [2.6, 0.15, 0], [2, 0.3, 0], [1, 0.3, 0], [0, 0.3, 0]], float)
+    hairpin = FeatureCurve(points, (0, 1), False, 90.0)
+    corners, curves, skipped = resolve_conflicts(np.zeros((0, 3)), [hairpin], lambda p: np.ones(len(p)), 10.0, 30.0)
+    assert len(curves) == 1 and not skipped
+    np.testing.assert_array_equal(curves[0].points, points)

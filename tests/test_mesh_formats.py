@@ -1,7 +1,8 @@
 """Triangle-mesh models from the files users have: STL (ASCII and binary, several solids), OBJ
 (polygons, negative indices, groups), PLY (ASCII and binary, faces or triangle strips,
 ``vertex_indices`` or ``vertex_index``, extra properties), OFF and VTK formats. Every file here
-holds the unit cube, so each reads to volume 1 and the unit box."""
+holds the unit cube, so each reads to volume 1 and the unit box; so do volume meshes of it
+(Medit, gmsh, Abaqus/CalculiX, VTU), whose boundary is the model."""
 
 from __future__ import annotations
 
@@ -88,6 +89,22 @@ def write_stl_two_solids(path):
     path.write_text("\n".join(rows) + "\n")
 
 
+KUHN = np.array([[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]])  # positive
+
+
+def write_volume(path, kind="tetra", file_format=None):
+    """The unit cube as a volume mesh: six tetrahedra (with its boundary triangles and an inner
+    triangle tagged, as Medit and gmsh files carry them) or one hexahedron."""
+    import meshio
+
+    if kind == "tetra":
+        inner = np.array([[0, 2, 6]])  # a tagged face inside the part: must not become a sheet
+        cells = [("tetra", KUHN), ("triangle", np.concatenate([np.array(TRIANGLES), inner]))]
+    else:
+        cells = [("hexahedron", np.array([[0, 1, 2, 3, 4, 5, 6, 7]]))]
+    meshio.write(path, meshio.Mesh(VERTICES, cells), file_format=file_format)
+
+
 WRITERS = {
     "ascii.ply": write_ply_ascii,
     "vertex_index.ply": lambda p: write_ply_ascii(p, key="vertex_index"),
@@ -100,6 +117,10 @@ WRITERS = {
     "colours.off": lambda p: write_off(p, "COFF"),
     "binary.stl": lambda p: pv.PolyData.from_regular_faces(VERTICES, np.array(TRIANGLES)).save(p, binary=True),
     "cube.vtp": lambda p: pv.PolyData.from_regular_faces(VERTICES, np.array(TRIANGLES)).strip().save(p),
+    "tets.mesh": write_volume,
+    "tets.msh": lambda p: write_volume(p, file_format="gmsh22"),
+    "tets.inp": lambda p: write_volume(p, file_format="abaqus"),
+    "hexahedron.vtu": lambda p: write_volume(p, kind="hexahedron"),
 }
 
 
@@ -154,3 +175,14 @@ def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
                                "-o", str(out), "--quiet"], capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
         assert pv.read(out).volume == pytest.approx(1.0, rel=1e-3)
+
+
+def test_the_cli_remeshes_its_own_calculix_file(tmp_path):
+    """A volume mesh fepre wrote (CalculiX .inp) is a model again: its boundary, remeshed."""
+    write_volume(tmp_path / "cube.mesh")
+    first, second = tmp_path / "cube.inp", tmp_path / "again.vtu"
+    for source, out, h in ((tmp_path / "cube.mesh", first, "0.25"), (first, second, "0.2")):
+        done = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(source), "--h", h, "-o", str(out), "--quiet"],
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+    assert pv.read(second).volume == pytest.approx(1.0, rel=1e-3)

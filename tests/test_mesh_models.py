@@ -462,3 +462,16 @@ def test_hole_across_a_sharp_edge_keeps_the_edge():
     nodes = fepre.features(model, 0.1).nodes
     on_edge = nodes[np.linalg.norm(nodes[:, :2] - 0.5, axis=1) < 1e-6, 2]
     assert ((on_edge > 0.25) & (on_edge < 0.45)).any() and ((on_edge > -0.45) & (on_edge < -0.25)).any()
+
+
+def test_a_small_part_far_from_the_origin_has_its_volume_and_its_inside():
+    """The enclosed volume summed terms of 1e12 for a part 0.2 across at 1e4: libigl's
+    bunny_small moved there was refused as enclosing -0.002. Taken about the part's centre."""
+    import pyvista as pv
+
+    ball = pv.Sphere(radius=0.1, theta_resolution=32, phi_resolution=32).triangulate()
+    points, faces = np.asarray(ball.points, dtype=np.float64), ball.faces.reshape(-1, 4)[:, 1:]
+    near = sdf.mesh(pv.PolyData.from_regular_faces(points, faces))
+    far = sdf.mesh(pv.PolyData.from_regular_faces(points + [1e4, -1e4, 1e4], faces))
+    assert far.volume == pytest.approx(near.volume, rel=1e-9)
+    assert far([[1e4, -1e4, 1e4]])[0] == pytest.approx(near([[0.0, 0.0, 0.0]])[0], abs=1e-9)

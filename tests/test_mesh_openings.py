@@ -208,3 +208,24 @@ def test_distmesh_of_the_open_tube_meets_the_targets():
     assert check.min_dihedral >= 25.0 and check.max_dihedral <= 150.0 and check.min_radius_ratio >= 0.25
     reference, reference_error = winding_volume(vertices, faces, 400_000)
     assert check.volume == pytest.approx(reference, rel=0.01)
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e4])
+def test_the_side_of_points_next_to_an_open_surface_is_exact_anywhere(shift):
+    """libigl's fast winding number is single precision: at 1e-9 off the sheet of a dome, half
+    the points took the wrong side (and the gradient pointed in), and 1e4 from the origin the
+    points 1e-3 off did, so the spanning surface itself came out wrong. Points closer than 1e-5
+    of the surface's radius take the side of a point that far off along their normal, and the
+    winding numbers are taken about the surface's centre (at 1e4 the dome had "no inside")."""
+    bowl = pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=48).clip(normal="-z", origin=(0, 0, 0))
+    cap = sdf.mesh(bowl.translate((shift,) * 3), inside="winding")
+    dome = np.flatnonzero(np.asarray(cap.vertices)[cap.faces].mean(axis=1)[:, 2] > shift + 0.05)[::7]
+    centres = np.asarray(cap.vertices)[cap.faces[dome]].mean(axis=1)
+    normals = np.cross(*(np.asarray(cap.vertices)[cap.faces[dome, k]] - np.asarray(cap.vertices)[cap.faces[dome, 0]] for k in (1, 2)))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    vertices = np.asarray(cap.vertices) - shift
+    volume = np.einsum("ij,ij->i", vertices[cap.faces[:, 0]], np.cross(vertices[cap.faces[:, 1]], vertices[cap.faces[:, 2]])).sum() / 6
+    assert volume == pytest.approx(2 * np.pi / 3, rel=5e-3)  # at 1e4 it was "no inside: a volume of -8.96e+03"
+    for offset in (1e-9, 1e-7, 1e-3):
+        assert (cap(centres - offset * normals) < 0).all() and (cap(centres + offset * normals) > 0).all()
+        assert (np.einsum("ij,ij->i", cap.gradient(centres - offset * normals), normals) > 0.99).all()

@@ -117,3 +117,16 @@ def test_bad_arguments_name_the_parameter(kwargs, message):
 def test_model_must_be_an_sdf():
     with pytest.raises(TypeError, match="model must be"):
         fepre.sample(np.zeros(3), spacing=0.1)
+
+
+def test_a_banded_grid_far_from_the_origin_has_the_dense_grids_values():
+    """Banded blocks were evaluated on float32 coordinates: 1e4 from the origin those keep three
+    decimals, and the values near the surface were off by 1e-3 (a tenth of this grid's spacing)."""
+    from fepre.sampling import sample
+
+    part = sdf.sphere(0.3).translate((1e4, -2e4, 5e3))
+    banded = np.asarray(sample(part, spacing=0.01, band=0.05).point_data["sdf"])
+    dense = np.asarray(sample(part, spacing=0.01).point_data["sdf"])
+    near = np.abs(dense) < 0.02
+    assert near.sum() > 1000
+    np.testing.assert_array_equal(banded[near], dense[near])

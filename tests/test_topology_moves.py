@@ -145,10 +145,12 @@ def test_a_thin_wedge_is_meshed_valid_and_whole():
     assert grid.cell_data["min_dihedral_angle"].min() > 5.0  # the quality stage's mesh, not DistMesh's
 
 
-def test_a_knife_edge_is_named_as_the_reason_and_not_chased():
+@pytest.mark.parametrize("h", [0.25, pytest.param(0.15, marks=pytest.mark.slow)])
+def test_a_knife_edge_is_named_as_the_reason_and_not_chased(h):
     # libigl's extrusion.obj: a prism whose section has a 14 deg corner; no cell on that edge can
     # have a larger angle, so no vertex is inserted (six futile rounds took 380 s at h = 0.1)
-    # and the warning names the edge and its angle
+    # and the warning names the edge and its angle. At h = 0.15 an edge collapse on the knife
+    # pinched a boundary vertex, and the whole stage was dropped for DistMesh's 0.5 deg mesh.
     import pyvista as pv
 
     vertices = np.array([[2.75032, 6, 5], [1.91591, 8, 4.5], [1.91591, 8, 5], [-9.439858, 6, 5],
@@ -157,7 +159,7 @@ def test_a_knife_edge_is_named_as_the_reason_and_not_chased():
     model = sdf.mesh(pv.PolyData(vertices, np.hstack([np.full((8, 1), 3), faces]).ravel()))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        grid = fepre.distmesh(model, h=0.25)
+        grid = fepre.distmesh(model, h=h)
     messages = [str(w.message) for w in caught if issubclass(w.category, fepre.ConvergenceWarning)]
     assert len(messages) == 1 and "knife edge" in messages[0]
     angle = float(messages[0].split("meet at ")[1].split(" deg")[0])
@@ -165,3 +167,39 @@ def test_a_knife_edge_is_named_as_the_reason_and_not_chased():
     assert grid.field_data["distmesh_inserted_nodes"][0] == 0
     assert grid.cell_data["min_dihedral_angle"].min() == pytest.approx(angle, abs=0.5)
     assert abs(grid.volume / model.volume - 1) < 0.005
+
+
+class _ProjectsUp:
+    """A stand-in model whose zero set lies 0.3 above every point (as across a thin gap)."""
+
+    def __call__(self, points):
+        return np.zeros(len(np.atleast_2d(points)))
+
+    def project(self, points, **_):
+        return np.asarray(points, float) + [0.0, 0.0, 0.3]
+
+
+def _kuhn_cube(z0: float):
+    corners = np.array([[x, y, z + z0] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    tets = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
+    flip = signed_volume(corners[tets]) < 0
+    tets[flip] = tets[flip][:, [1, 0, 2, 3]]
+    return corners, tets
+
+
+def test_a_boundary_split_whose_faces_would_cross_the_boundary_is_refused():
+    """The top diagonal of a unit cube split at its midpoint projected 0.3 up, into the bottom
+    face of a second cube 0.2 above: its new faces would cross that face (as a midpoint
+    projected across a thin wall did on libigl's halftunnel.off), so the split is refused; with
+    the second cube 0.5 above it is made."""
+    from fepre.distmesh.surface_refine import split_edges
+
+    for gap, made in ((0.2, 0), (0.5, 1)):
+        lower, lower_tets = _kuhn_cube(0.0)
+        upper, upper_tets = _kuhn_cube(1.0 + gap)
+        points, tets = np.concatenate([lower, upper]), np.concatenate([lower_tets, upper_tets + 8])
+        new_points, new_tets, split = split_edges(points, tets, _ProjectsUp(), 1.0, np.array([[4, 7]]))
+        assert split == made and len(new_points) == 16 + made
+        if made:
+            np.testing.assert_allclose(new_points[-1], [0.5, 0.5, 1.3])
+            assert (signed_volume(new_points[new_tets]) > 0).all()

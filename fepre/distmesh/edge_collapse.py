@@ -27,6 +27,7 @@ import numpy as np
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
 from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted
+from .topology import nonmanifold_items
 
 __all__ = ["collapse_round", "SHORT_EDGE"]
 
@@ -104,8 +105,8 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
 
 def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
     """Removing the cells of ``v`` when each holds ``u`` too: allowed when the faces it exposes
-    (those opposite ``v``) are inner faces now, lie on the surface, and every edge of theirs
-    ends up on exactly two boundary faces."""
+    (those opposite ``v``) are inner faces now, lie on the surface, every edge of theirs ends up
+    on exactly two boundary faces and no vertex of the cells is pinched."""
     n = points.shape[0]
     cells = tets[removed]
     local = np.argmax(cells == v, axis=1)
@@ -125,6 +126,10 @@ def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
     wanted = np.sort(exposed[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     wanted = wanted[:, 0] * n + wanted[:, 1]
     if not in_sorted(wanted, codes).all() or (uses[np.searchsorted(codes, wanted)] != 2).any():
+        return None
+    # no vertex of the removed cells is left with two fans of boundary faces (a pinch: on a 14
+    # deg prism's knife edge, u took the fan of v on the other face of the knife)
+    if np.isin(nonmanifold_items(surface, n)[1], cells).any():
         return None
     return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0), gone, exposed
 

@@ -195,7 +195,11 @@ def span_openings(vertices: np.ndarray, faces: np.ndarray, cells: int = OPENING_
     >>> solid.holes, round(solid.hole_area / (np.pi * 0.25), 2)    # one flat disc across the rim
     (1, 1.0)
     """
+    # about the surface's centre: the grid, VTK's contour (single precision) and the winding
+    # numbers then give the same spans wherever the part is placed
     vertices = np.asarray(vertices, dtype=np.float64)
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0)) if len(vertices) else np.zeros(3)
+    vertices = vertices - centre
     faces = np.asarray(faces, dtype=np.int64)
     vertices, faces, merged = _merge_vertices(vertices, faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
@@ -219,7 +223,7 @@ def span_openings(vertices: np.ndarray, faces: np.ndarray, cells: int = OPENING_
         owners = np.repeat(np.arange(len(triangles)), 3)
         incidence = sparse.coo_matrix((np.ones(len(owners)), (owners, triangles.reshape(-1))), shape=(len(triangles), len(points)))
         pieces = int(csgraph.connected_components((incidence @ incidence.T).tocsr(), directed=False)[0])
-    all_vertices = np.concatenate([sheet_vertices, points])
+    all_vertices = np.concatenate([sheet_vertices, points]) + centre
     all_faces = np.concatenate([sheet_faces, triangles + len(sheet_vertices)])
     filled = np.arange(len(all_faces)) >= len(sheet_faces)
     return Repair(

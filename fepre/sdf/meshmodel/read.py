@@ -54,18 +54,22 @@ def _as_polydata(source: Any, name: str):
     if isinstance(data, pv.MultiBlock):
         data = data.combine()
     if not isinstance(data, pv.PolyData):
-        data = data.extract_surface()
+        data = data.extract_surface(algorithm="dataset_surface")
     return data
 
 
 def _read_own_format(path: Path):
-    """The PolyData of an OFF file or a PLY file of triangle strips (formats VTK misses), else None."""
+    """The PolyData of an OFF file, a PLY file of triangle strips (formats VTK misses) or the
+    boundary of a volume mesh file, else None."""
     import pyvista as pv
 
     from .formats import ply_has_strips, read_off, read_ply_strips
+    from .volume_files import VOLUME_SUFFIXES, read_volume_boundary
 
     suffix = path.suffix.lower()
     try:
+        if suffix in VOLUME_SUFFIXES:
+            return read_volume_boundary(path)
         if suffix == ".off":
             vertices, polygons = read_off(path)
             faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons]) if polygons else np.zeros(0, np.int64)

@@ -28,7 +28,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .hole_fill import fill_holes
-from .tables import edge_table, face_normals, manifold_pairs, winding_numbers
+from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, winding_numbers
 
 __all__ = ["Repair", "repair"]
 
@@ -187,8 +187,8 @@ def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
     orientation most of their triangles had.
     """
     normals, areas = face_normals(vertices, faces)
-    a3, b3, c3 = (vertices[faces[:, k]] for k in range(3))
-    volume = np.bincount(label, weights=np.einsum("ij,ij->i", a3, np.cross(b3, c3)) / 6.0, minlength=pieces)
+    volume = enclosed_volume(vertices, faces, label, pieces)
+    centroid = vertices[faces].mean(axis=1)
     edges, face_edge, _ = edge_table(faces)
     unbranched = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) <= 2)[face_edge].all(axis=1)
     closed = np.bincount(label, weights=~unbranched, minlength=pieces) == 0
@@ -203,11 +203,10 @@ def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
         largest[label[order]] = order  # the last write per label is its largest triangle
         probe = largest[negative]
         step = 1e-3 * np.sqrt(np.maximum(areas[probe], 1e-300))
-        behind = (a3[probe] + b3[probe] + c3[probe]) / 3.0 - step[:, None] * normals[probe]
+        behind = centroid[probe] - step[:, None] * normals[probe]
         inside_out = winding_numbers(vertices, faces, behind) < 0.5
         return np.isin(label, negative[inside_out])
     rng = np.random.default_rng(0)
-    centroid = (a3 + b3 + c3) / 3.0
     samples, owner = [], []
     for piece in range(pieces):  # one query per pair of pieces, not per triangle
         members = np.flatnonzero(label == piece)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["face_normals", "edge_table", "manifold_pairs", "winding_numbers"]
+__all__ = ["face_normals", "edge_table", "manifold_pairs", "winding_numbers", "enclosed_volume"]
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -54,11 +54,40 @@ def manifold_pairs(face_edge: np.ndarray, forward: np.ndarray, edge_count: int):
 
 def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Generalised winding numbers of the triangles at ``points`` (libigl's fast approximation,
-    exact near the triangles)."""
+    exact near the triangles up to its single precision: taken about the triangles' centre, so
+    a part far from the origin loses nothing)."""
     import igl
 
     if len(points) == 0 or len(faces) == 0:
         return np.zeros(len(points))
-    return np.asarray(
-        igl.fast_winding_number(np.ascontiguousarray(vertices), np.ascontiguousarray(faces), np.ascontiguousarray(points))
-    )
+    vertices = np.asarray(vertices, dtype=np.float64)
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    return np.asarray(igl.fast_winding_number(
+        np.ascontiguousarray(vertices - centre), np.ascontiguousarray(faces),
+        np.ascontiguousarray(np.asarray(points, dtype=np.float64) - centre)))
+
+
+def enclosed_volume(vertices: np.ndarray, faces: np.ndarray, label: np.ndarray | None = None, pieces: int = 0):
+    """The volume a closed, outward surface encloses (divergence theorem), taken about the
+    vertices' centre: about the origin, a part placed at 1e4 sums terms of 1e12 to a volume of
+    1e-3 (a bunny of 0.15 read as enclosing -0.002). With ``label`` (F,), the (pieces,) volumes
+    of the pieces the faces are labelled with.
+
+    Examples
+    --------
+    >>> cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]) + 1e4
+    >>> quads = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [1, 2, 6, 5], [3, 0, 4, 7]]
+    >>> faces = np.array([t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
+    >>> round(enclosed_volume(cube, faces), 12)
+    1.0
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if len(faces) == 0:
+        return 0.0 if label is None else np.zeros(pieces)
+    used = vertices[np.unique(faces)]
+    centre = 0.5 * (used.min(axis=0) + used.max(axis=0))
+    a, b, c = (vertices[faces[:, k]] - centre for k in range(3))
+    terms = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    if label is None:
+        return float(terms.sum())
+    return np.bincount(label, weights=terms, minlength=pieces)
