@@ -74,6 +74,35 @@ def _corners(edges: np.ndarray, pairs: np.ndarray, vertex_count: int) -> tuple[n
     return corner, triple.astype(np.int64)
 
 
+def _merge_folds(vertices, faces, normals, patch, edges, a, b, cosine) -> np.ndarray:
+    """Patch labels with patches that meet only folded flat (a triangle turned over in its
+    neighbour's plane, normals opposite) made one, the smallest label: their functions (the
+    planes) agree on the surface, so the grid search sees one surface there
+    (:func:`~fepre.features.detect.coincident_patches`), and a label change along a real crease
+    would otherwise make a corner in its middle."""
+    if len(edges) == 0:
+        return patch
+    extent = float(np.ptp(vertices[faces.reshape(-1)], axis=0).max())
+    opposite = faces[b].sum(axis=1) - edges.sum(axis=1)  # b's vertex off the shared edge
+    height = np.einsum("ij,ij->i", vertices[opposite] - vertices[edges[:, 0]], normals[a])
+    folded = (cosine < 0.0) & (np.abs(height) <= 1e-9 * extent)
+    count = int(patch.max()) + 1
+    keys = np.sort(np.column_stack([patch[a], patch[b]]), axis=1)
+    keys = keys[:, 0] * count + keys[:, 1]
+    unfolded = np.unique(keys[~folded])
+    merge = np.unique(keys[folded & ~np.isin(keys, unfolded)])  # every edge of the pair folded
+    if len(merge) == 0:
+        return patch
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(merge)), (merge // count, merge % count)), shape=(count, count))
+    _, group = connected_components(graph, directed=False)
+    smallest = np.full(group.max() + 1, count)
+    np.minimum.at(smallest, group, np.arange(count))
+    return smallest[group][patch]
+
+
 def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     """The creases and corners of a triangle-surface model with patch labels, from its edges.
 
@@ -100,9 +129,10 @@ def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     edges, face_edge, forward = edge_table(faces)
     a, b, _, counts = manifold_pairs(face_edge, forward, len(edges))
     shared = edges[counts == 2]
-    across = patch[a] != patch[b]
     cosine = np.clip(np.einsum("ij,ij->i", normals[a], normals[b]), -1.0, 1.0)
-    sharp = across & (np.degrees(np.arccos(cosine)) > angle)
+    sharp = np.degrees(np.arccos(cosine)) > angle
+    patch = _merge_folds(vertices, faces, normals, patch, shared[sharp], a[sharp], b[sharp], cosine[sharp])
+    sharp &= patch[a] != patch[b]
     edges = shared[sharp]
     pairs = np.sort(np.column_stack([patch[a[sharp]], patch[b[sharp]]]), axis=1).astype(np.int64)
     angles = np.degrees(np.arccos(cosine[sharp]))
