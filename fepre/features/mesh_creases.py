@@ -19,6 +19,7 @@ import numpy as np
 from ..sdf.meshmodel.tables import edge_table, manifold_pairs
 from ..sdf.transforms import Affine
 from .detect import Creases
+from .newton import crease_angles
 
 __all__ = ["triangle_creases", "from_triangles"]
 
@@ -145,6 +146,22 @@ def _absorb_unseen(vertices, faces, patch, a, b, cosine, spacing: float) -> np.n
     return order[last][group][patch]
 
 
+def _sharp_corners(model, corners: np.ndarray, labels: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """The corners of three patches kept where, as in the grid search, each two of them meet at
+    more than ``angle`` and less than ``180 - angle`` degrees there (by the patches' functions:
+    a knife edge, whose curve is dropped, makes no corner on it); those of more patches kept."""
+    three = np.flatnonzero((labels >= 0).all(axis=1))
+    if len(three) == 0:
+        return corners, labels
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in model.bounds)
+    step = 1e-6 * float(np.max(upper - lower))
+    pair = np.stack([crease_angles(model, labels[three][:, [i, j]], corners[three], step)
+                     for i, j in ((0, 1), (1, 2), (0, 2))], axis=1)
+    keep = np.ones(len(corners), dtype=bool)
+    keep[three] = ((pair > angle) & (pair < 180.0 - angle)).all(axis=1)
+    return corners[keep], labels[keep]
+
+
 def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     """The creases and corners of a triangle-surface model with patch labels, from its edges.
 
@@ -186,7 +203,7 @@ def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
     first = np.sort(first)
     points, owner = points[first], owner[first]
     corner, corner_labels = _corners(edges, pairs, len(vertices))
-    corners = vertices[corner]
+    corners, corner_labels = _sharp_corners(model, vertices[corner], corner_labels, angle)
     lower, upper = (np.asarray(v, dtype=np.float64) for v in bounds)
     inside = np.all((points >= lower - spacing) & (points <= upper + spacing), axis=1)
     kept = np.all((corners >= lower - spacing) & (corners <= upper + spacing), axis=1)
