@@ -167,10 +167,12 @@ def triangle_creases(model, spacing: float, bounds, angle: float) -> Creases:
 
     A crease point lies on an edge shared by two triangles of different patches whose normals
     differ by more than ``angle`` degrees (patches too small for the grid search of this
-    ``spacing`` to see, and patches folded flat onto each other, are one with their neighbour); the edges' points are no more than ``spacing / 2``
-    apart (their ends, the triangles' vertices, are exactly on both patches). A corner is a
-    vertex where such edges of three or more patches meet. Only points within ``bounds`` (a
-    spacing beyond) are kept, as on the grid of :func:`~fepre.features.detect.find_creases`.
+    ``spacing`` to see, and patches folded flat onto each other, are one with their neighbour);
+    the edges' points are no more than ``spacing / 2`` apart (their ends, the triangles'
+    vertices, are exactly on both patches). A corner is a vertex where such edges of three or
+    more patches meet (of three, each two at more than ``angle`` and less than ``180 - angle``
+    degrees there). Only points within ``bounds`` (a spacing beyond) are kept, as on the grid of
+    :func:`~fepre.features.detect.find_creases`.
 
     ``model`` (or the model it moves rigidly) provides ``triangle_patches()``: vertices (V, 3),
     triangles (F, 3), unit normals (F, 3) and the patch of each triangle (F,).
