@@ -115,8 +115,14 @@ def pedestal(resolution: int = 32):
 
 
 @pytest.mark.slow
-def test_vertices_inserted_where_the_surface_bends_at_the_scale_of_h():
-    # without the insertions: worst dihedral 15.4 deg, largest 152.4, radius ratio 0.15
+def test_vertices_inserted_where_the_surface_bends_at_the_scale_of_h(monkeypatch):
+    # without the insertions: worst dihedral 15.4 deg, largest 152.4, radius ratio 0.15. The
+    # features as the grid search finds them, whose mesh needs the insertions: read from the
+    # triangles (the same 8 corners and 13 curves, split a little differently along the
+    # chamfered plinth) the mesh meets these targets with none (26.4 deg, 138.5, 0.26, -0.98%)
+    from fepre.sdf.meshmodel.model import MeshModel
+
+    monkeypatch.setattr(MeshModel, "creases_from_triangles", False)
     model = sdf.mesh(pedestal())
     h = float(np.linalg.norm(np.subtract(model.bounds[1], model.bounds[0]))) / 25
     with warnings.catch_warnings():

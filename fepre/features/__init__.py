@@ -126,7 +126,7 @@ def features(
     if model.patch_count == 1 and len(model.singular_points()) == 0:
         return empty
     nodes = np.prod((upper - lower) / spacing + 6.0)
-    if from_triangles(model):  # a label image's region: its triangles' edges, no grid
+    if from_triangles(model):  # a label image's region, a closed STL: its triangles' edges, no grid
         nodes = 0.0
     if nodes > MAX_GRID_NODES:
         coarser = spacing * float(nodes / MAX_GRID_NODES) ** (1.0 / 3.0)

@@ -133,9 +133,14 @@ class MeshModel(SDF):
         gradient = tuple(direction[:, k].reshape(shape) for k in range(3))
         return values.reshape(shape), gradient
 
-    #: :func:`fepre.features` reads this model's creases from its triangles' edges between
-    #: patches (:func:`fepre.features.mesh_creases.triangle_creases`) instead of a fine grid
-    creases_from_triangles = False
+    @property
+    def creases_from_triangles(self) -> bool:
+        """:func:`fepre.features` reads this model's creases from its triangles' edges between
+        patches (:func:`fepre.features.mesh_creases.triangle_creases`) instead of searching a
+        fine grid: when the repaired surface is closed, every edge shared by two triangles.
+        The spans of ``inside="winding"`` meet their rims without shared edges (so do
+        non-manifold seams), and the creases there are found on the grid."""
+        return self.inside == "closed" and self.repaired.closed
 
     def triangle_patches(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Vertices (V, 3), triangles (F, 3), unit normals (F, 3) and each triangle's patch (F,)."""
