@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sdf.meshmodel.tables import edge_table, manifold_pairs
+from ..sdf.meshmodel.patches import flattest_neighbour_groups
+from ..sdf.meshmodel.tables import edge_table, face_normals, manifold_pairs
 from ..sdf.transforms import Affine
 from .detect import Creases
 from .newton import crease_angles
@@ -119,28 +120,10 @@ def _absorb_unseen(vertices, faces, patch, a, b, cosine, spacing: float) -> np.n
     at D/50 its worst dihedral (8.7 deg, 25.2 with the grid's features). Specks that meet only
     specks join the largest of them."""
     count = int(patch.max()) + 1
-    areas = 0.5 * np.linalg.norm(np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
-                                          vertices[faces[:, 2]] - vertices[faces[:, 0]]), axis=1)
-    area = np.bincount(patch, weights=areas, minlength=count)
-    small = area < (UNSEEN_PATCH * spacing) ** 2
-    pa, pb = patch[a], patch[b]
-    across = pa != pb
-    own = np.concatenate([pa[across], pb[across]])
-    other = np.concatenate([pb[across], pa[across]])
-    flat = np.concatenate([cosine[across], cosine[across]])
-    pick = small[own]
-    own, other, flat = own[pick], other[pick], flat[pick]
-    if len(own) == 0:
+    area = np.bincount(patch, weights=face_normals(vertices, faces)[1], minlength=count)
+    group = flattest_neighbour_groups(patch, count, area < (UNSEEN_PATCH * spacing) ** 2, a, b, cosine)
+    if group is None:
         return patch
-    order = np.lexsort((-flat, own))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = own[order][1:] != own[order][:-1]
-    chosen = order[first]
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    links = coo_matrix((np.ones(len(chosen)), (own[chosen], other[chosen])), shape=(count, count))
-    _, group = connected_components(links, directed=False)
     order = np.lexsort((area, group))  # by group, then area: each group's largest is its last
     last = np.flatnonzero(np.append(group[order][1:] != group[order][:-1], True))
     return order[last][group][patch]

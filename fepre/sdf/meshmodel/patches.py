@@ -83,6 +83,17 @@ def _absorb_small(labels, patches, a, b, cosine, areas):
     sizes = np.bincount(labels, minlength=patches)
     patch_area = np.bincount(labels, weights=areas, minlength=patches)
     small = (sizes < SMALL_PATCH_TRIANGLES) & (patch_area < SMALL_PATCH_AREA * areas.sum())
+    group = flattest_neighbour_groups(labels, patches, small, a, b, cosine)
+    if group is None:
+        return labels, patches
+    return group[labels], int(group.max()) + 1
+
+
+def flattest_neighbour_groups(labels: np.ndarray, patches: int, small: np.ndarray, a: np.ndarray, b: np.ndarray,
+                              cosine: np.ndarray) -> np.ndarray | None:
+    """Groups (patches,) of the patches when each ``small`` one is linked to the neighbour it
+    meets across its flattest edge (``a``-``b``: the triangles across each manifold edge,
+    ``cosine`` of their normals), numbered from 0; None when no small patch has a neighbour."""
     la, lb = labels[a], labels[b]
     across = la != lb
     # each crossing edge seen from both sides: (patch, neighbour, cosine)
@@ -92,14 +103,13 @@ def _absorb_small(labels, patches, a, b, cosine, areas):
     pick = small[own]
     own, other, flat = own[pick], other[pick], flat[pick]
     if len(own) == 0:
-        return labels, patches
+        return None
     order = np.lexsort((-flat, own))
     first = np.ones(len(order), dtype=bool)
     first[1:] = own[order][1:] != own[order][:-1]
     chosen = order[first]
     links = sparse.coo_matrix((np.ones(len(chosen)), (own[chosen], other[chosen])), shape=(patches, patches))
-    merged, group = csgraph.connected_components(links.tocsr(), directed=False)
-    return group[labels], int(merged)
+    return csgraph.connected_components(links.tocsr(), directed=False)[1]
 
 
 class PatchPlanes:
