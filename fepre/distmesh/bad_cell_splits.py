@@ -29,15 +29,25 @@ from .tet_topology import EDGE_OF_TET, face_keys, face_neighbours, faces_on_boun
 
 __all__ = ["split_bad_cells", "split_candidates", "knife_edge"]
 
+#: An edge between two surface vertices whose midpoint lies farther than this (times h) off the
+#: zero set is split first: the surface bends between its ends at the scale of h.
+OFF_SURFACE = 0.1
+#: A vertex within this (times h) of the zero set counts as on it.
+SURFACE_NODE = 1e-3
+
 #: The local faces of a cell, each opposite the vertex of the same index.
 _FACE_OPPOSITE = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 
 
-def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_points: int) -> np.ndarray:
+def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_points: int,
+                     off_surface: np.ndarray | None = None) -> np.ndarray:
     """The edges to try splitting for ``cells`` (worst first), in priority order, (E, 2).
 
-    A cell's choices in order: its inner edge when it holds two boundary faces (the edge joining
-    the two vertices off their common edge), then its six edges longest first. The list runs
+    A cell's choices in order: its edge whose midpoint lies farthest off the surface when
+    ``off_surface`` (C, 6) marks one (in the order of ``EDGE_OF_TET``; an edge bridging a
+    valley or cutting a ridge at the scale of h), else its inner edge when it holds two boundary
+    faces (the edge joining the two vertices off their common edge); then its six edges longest
+    first. The list runs
     through every cell's first choice before any second choice, so a cell's fall-back never
     takes the cells another's first choice needs; repeated edges keep their first place.
     """
@@ -54,6 +64,9 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     wedge = on_boundary.sum(axis=1) == 2
     opposite = np.sort(np.where(on_boundary, corners, -1), axis=1)[:, 2:]
     first = np.where(wedge[:, None], opposite, by_length[:, 0])
+    if off_surface is not None:
+        far = off_surface.max(axis=1) > 0
+        first[far] = edges[far, np.argmax(off_surface[far], axis=1)]
     choices = np.concatenate([first[:, None], by_length], axis=1)  # (C, 7, 2)
     ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
     _, index = np.unique(ordered, axis=0, return_index=True)
@@ -66,6 +79,7 @@ def split_bad_cells(
     model,
     h: float,
     targets: ShapeTargets | None = None,
+    off_surface_first: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Split one edge of every cell whose score is below ``targets`` (see :func:`split_candidates`).
 
@@ -79,6 +93,9 @@ def split_bad_cells(
         The edge length (sets the projection's tolerance).
     targets : ShapeTargets, optional
         The quality stage's targets (25 deg, 150 deg, 0.25 by default).
+    off_surface_first : bool
+        Split first a cell's edge between two surface vertices whose midpoint lies more than
+        ``OFF_SURFACE`` h off the zero set (a chord across a valley or through a ridge).
 
     Returns
     -------
@@ -107,8 +124,20 @@ def split_bad_cells(
     score = targets.score(points[tets])
     bad = np.flatnonzero(score < targets.min_dihedral)
     bad = bad[np.argsort(score[bad], kind="stable")]
-    edges = split_candidates(points, tets, bad, points.shape[0])
+    off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
+    edges = split_candidates(points, tets, bad, points.shape[0], off)
     return split_edges(points, tets, model, h, edges)
+
+
+def _off_surface(points: np.ndarray, corners: np.ndarray, model, h: float) -> np.ndarray:
+    """How far each edge's midpoint of the cells ``corners`` (C, 4) lies off the model's zero
+    set, where more than ``OFF_SURFACE`` h and both ends are on it (else 0), (C, 6)."""
+    ends = points[corners[:, EDGE_OF_TET]]  # (C, 6, 2, 3)
+    values = model(np.concatenate([points[corners].reshape(-1, 3), ends.mean(axis=2).reshape(-1, 3)]))
+    at_node = np.abs(values[: corners.size].reshape(-1, 4)) <= SURFACE_NODE * h
+    both = at_node[:, EDGE_OF_TET].all(axis=2)
+    off = np.abs(values[corners.size:].reshape(-1, 6))
+    return np.where(both & (off > OFF_SURFACE * h), off, 0.0)
 
 
 def knife_edge(points: np.ndarray, tets: np.ndarray, model, cell: int) -> tuple[float, np.ndarray] | None:

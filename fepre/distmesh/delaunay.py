@@ -107,8 +107,9 @@ def _gmsh(points: np.ndarray, threads: int | None = None) -> np.ndarray:
         initialize_gmsh(readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
     saved = [gmsh.option.getNumber(name) for name in _GMSH_OPTIONS]
+    points, kept = _distinct(np.asarray(points, dtype=np.float64))
     n = len(points)
-    boxed = np.concatenate([np.asarray(points, dtype=np.float64), _box_corners(points)])
+    boxed = np.concatenate([points, _box_corners(points)])
     omp_threads = _OpenMPThreads(gmsh, threads or _cores())
     try:
         gmsh.option.setNumber("Mesh.Algorithm3D", 10)
@@ -127,6 +128,8 @@ def _gmsh(points: np.ndarray, threads: int | None = None) -> np.ndarray:
             gmsh.finalize()
     tets = tets.reshape(-1, 4) - 1
     tets = tets[(tets < n).all(axis=1)]
+    if kept is not None:
+        tets = kept[tets]
     if len(tets) == 0 and n >= 4:
         # nothing but box cells: (nearly) coplanar input; Qhull says why
         return _scipy(points)
@@ -156,6 +159,31 @@ class _OpenMPThreads:
     def __exit__(self, *exc) -> None:
         if self.library is not None and self.previous is not None:
             self.library.omp_set_num_threads(self.previous)
+
+
+def _distinct(points: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``points`` without exact repeats (each kept once, at its first index) and the indices kept
+    (None when there is no repeat).
+
+    HXT skips a repeated point itself but prints a line for it on the terminal (a DistMesh
+    boundary point projected onto a triangle-mesh model's vertex lands on the feature corner
+    there, bit for bit); the repeat is in no cell either way. Repeats share their x, so only
+    the runs of equal x in one sort are compared (30-45 ms for 1M random points, HXT 11 s).
+    """
+    order = np.argsort(points[:, 0])
+    x = points[order, 0]
+    same_x = np.flatnonzero(x[1:] == x[:-1])
+    if same_x.size == 0:
+        return points, None
+    repeated = np.zeros(len(points), dtype=bool)
+    candidates = np.unique(np.concatenate([order[same_x], order[same_x + 1]]))
+    _, first = np.unique(points[candidates], axis=0, return_index=True)
+    repeated[candidates] = True
+    repeated[candidates[first]] = False
+    if not repeated.any():
+        return points, None
+    kept = np.flatnonzero(~repeated)
+    return points[kept], kept
 
 
 def _box_corners(points: np.ndarray) -> np.ndarray:

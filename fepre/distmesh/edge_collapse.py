@@ -37,16 +37,18 @@ SHORT_EDGE = 0.4
 MIN_GAIN = 1e-3
 
 
-def _short_edges(points, tets, quality, threshold, on_boundary) -> np.ndarray:
-    """The short boundary-vertex edges (K, 2) of the bad cells, shortest relative edge first."""
+def _short_edges(points, tets, quality, threshold, on_boundary, inner: bool) -> np.ndarray:
+    """The short edges (K, 2) of the bad cells, shortest relative edge first: between two
+    boundary vertices, and with ``inner`` those with an inner vertex at one end at least."""
     bad = np.flatnonzero(quality < threshold)
-    bad = bad[on_boundary[tets[bad]].sum(axis=1) >= 2]
     if bad.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
     pairs = tets[bad][:, EDGE_OF_TET]  # (B, 6, 2)
     length = np.linalg.norm(points[pairs[..., 0]] - points[pairs[..., 1]], axis=2)
     relative = length / length.max(axis=1, keepdims=True)
-    short = (relative < SHORT_EDGE) & on_boundary[pairs].all(axis=2)
+    # a boundary edge of a cell with only two boundary vertices is an inner cell's: left alone
+    both = on_boundary[pairs].all(axis=2) & (on_boundary[tets[bad]].sum(axis=1) >= 2)[:, None]
+    short = (relative < SHORT_EDGE) & (both | (inner & ~on_boundary[pairs].all(axis=2)))
     edges, relative = np.sort(pairs[short], axis=1), relative[short]
     edges, first = np.unique(edges, axis=0, return_index=True)
     return edges[np.argsort(relative[first], kind="stable")]
@@ -80,6 +82,8 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
     new_quality = targets.score(points[new])
     if new_quality.min() <= quality[star_v].min() + MIN_GAIN:
         return None
+    if not (faces == v).any():
+        return _inner_collapse(tets, star_u, star_v, removed, changed, new, new_quality, n)
     # the link condition on the surface: u and v share exactly the apexes of the two faces on uv
     on_uv = faces[((faces == u) | (faces == v)).sum(axis=1) == 2]
     if on_uv.shape[0] != 2:
@@ -101,6 +105,28 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
         return None
     gone = faces[(faces == v).any(axis=1)]
     return removed, changed, new, new_quality, gone, after
+
+
+def _inner_collapse(tets, star_u, star_v, removed, changed, new, new_quality, n: int):
+    """The collapse of an inner vertex ``v`` (on no boundary face) into ``u``: allowed when the
+    cells around ``u`` afterwards fill exactly the region the stars of ``u`` and ``v`` filled
+    (the same faces on its shell, each inner face used twice, no cell twice), so the boundary and
+    every other cell stay as they were."""
+    keep_u = np.setdiff1d(star_u, removed)
+    around = np.concatenate([tets[keep_u], new])
+    if np.unique(np.sort(around, axis=1), axis=0).shape[0] != around.shape[0]:
+        return None
+    before = tets[np.union1d(star_u, star_v)]
+    shell = []
+    for cells in (before, around):
+        codes, uses = np.unique(face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
+        if uses.max() > 2:
+            return None
+        shell.append(codes[uses == 1])
+    if shell[0].shape != shell[1].shape or (shell[0] != shell[1]).any():
+        return None
+    empty = np.zeros((0, 3), dtype=tets.dtype)
+    return removed, changed, new, new_quality, empty, empty
 
 
 def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
@@ -148,6 +174,7 @@ def collapse_round(
     targets: ShapeTargets,
     guard: SurfaceGuard,
     locked: np.ndarray | None = None,
+    inner: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
     """One round of edge collapses on the short boundary edges of the bad cells.
 
@@ -166,6 +193,9 @@ def collapse_round(
     guard : SurfaceGuard
     locked : (N,) bool, optional
         Vertices that are never removed.
+    inner : bool
+        Also collapse the short edges with an inner vertex at one end, removing the inner one
+        (a vertex crowding another, which no move of the stage pushed away).
 
     Returns
     -------
@@ -205,9 +235,11 @@ def collapse_round(
     n = points.shape[0]
     touched = np.zeros(n, dtype=bool)
     done = 0
-    for u, v in _short_edges(points, tets, quality, threshold, on_boundary):
+    for u, v in _short_edges(points, tets, quality, threshold, on_boundary, inner):
         for keep, gone in ((u, v), (v, u)):
-            if not removable[gone] or (locked is not None and locked[gone]) or not on_boundary[keep]:
+            if not removable[gone] or (locked is not None and locked[gone]):
+                continue
+            if on_boundary[gone] and not on_boundary[keep]:
                 continue
             if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
                 continue

@@ -166,6 +166,7 @@ def improve_arrays(
     collapse: np.ndarray | None = None,
     local_size: Callable | None = None,
     bad_cells_only: bool = False,
+    inner_collapses: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Remove slivers and improve cell shapes of a tetrahedral mesh given as arrays.
 
@@ -213,6 +214,8 @@ def improve_arrays(
     bad_cells_only : bool
         Only work on the cells under the targets, without the passes over the whole mesh (for
         a mesh the stage improved before that changed in a few places since).
+    inner_collapses : bool
+        With ``collapse``: also remove inner vertices crowding another (a bad cell's short edge).
 
     Returns
     -------
@@ -252,10 +255,7 @@ def improve_arrays(
         if not callable(local_size):
             raise TypeError(f"local_size must be a callable (K, 3) -> (K,) or None; got {type(local_size).__name__}")
         stage.guard.local_size = local_size
-    if collapse is not None:
-        stage.removable = np.asarray(collapse, dtype=bool).copy()
-        if stage.removable.shape != (points.shape[0],):
-            raise ValueError(f"collapse must be a bool array of shape ({points.shape[0]},); got {stage.removable.shape}")
+    _set_collapses(stage, collapse, inner_collapses)
     volume_before = float(volumes.sum())
     before = _extremes(stage.points, stage.tets)
     if not bad_cells_only:
@@ -266,6 +266,17 @@ def improve_arrays(
     _verify(stage.points, stage.tets, stage.quality, model, stage.on_boundary, fixed_mask, h, volume_before,
             stage.boundary_face_keys)
     return stage.points, stage.tets, _report(stage, before, rounds, maxiter, start)
+
+
+def _set_collapses(stage, collapse: Any, inner_collapses: bool) -> None:
+    """The stage's removable vertices (``improve_arrays(collapse=...)``) checked and set."""
+    if collapse is None:
+        return
+    stage.removable = np.asarray(collapse, dtype=bool).copy()
+    if stage.removable.shape != (stage.points.shape[0],):
+        raise ValueError(f"collapse must be a bool array of shape ({stage.points.shape[0]},); "
+                         f"got {stage.removable.shape}")
+    stage.inner_collapses = bool(inner_collapses)
 
 
 def _check_masks(points: np.ndarray, tets: np.ndarray, size: Any, locked: Any, labels: Any):
@@ -343,6 +354,7 @@ class _SliverStage:
         self.timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
         self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0, "collapses": 0}
         self.removable = None  # the vertices edge collapses may remove (improve_arrays(collapse=...))
+        self.inner_collapses = False  # collapses may remove inner vertices too
 
     def timed(self, kind: str, function, *args, **kwargs):
         t0 = time.perf_counter()
@@ -443,7 +455,7 @@ class _SliverStage:
         self.tets, self.quality, collapses, self.boundary_face_keys, self.boundary_edges, collapsed = self.timed(
             "flip", collapse_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
             self.movable, self.removable, self.boundary_face_keys, self.boundary_edges, targets=self.targets,
-            guard=self.guard, locked=self.locked)
+            guard=self.guard, locked=self.locked, inner=self.inner_collapses)
         self.counts["collapses"] += collapses
         return flips + collapses, touched | collapsed
 

@@ -22,7 +22,7 @@ from typing import Callable
 
 import numpy as np
 
-from .tet_shape import signed_volume
+from .tet_shape import ShapeTargets, signed_volume
 from .tet_topology import EDGE_OF_TET, edge_keys, face_neighbours, faces_on_boundary
 
 __all__ = ["split_long_boundary_edges", "split_edges", "LONG_EDGE"]
@@ -190,7 +190,10 @@ def _split_chosen(points, tets, model, h: float, edges: np.ndarray, allowed: np.
     first[rows, local_edge[:, 0]] = index
     second[rows, local_edge[:, 1]] = index
     all_points = np.concatenate([points, new])
-    positive = (signed_volume(all_points[first]) > 0) & (signed_volume(all_points[second]) > 0)
+    # a cell of zero score (flat to rounding) is refused too: the quality stage cannot start from it
+    scores = ShapeTargets()
+    positive = ((signed_volume(all_points[first]) > 0) & (signed_volume(all_points[second]) > 0)
+                & (scores.score(all_points[first]) > 0) & (scores.score(all_points[second]) > 0))
     fine = np.ones(edges.shape[0], dtype=bool)
     np.logical_and.at(fine, owner, positive)
     chosen = _disjoint(cells, owner, fine, tets.shape[0])

@@ -1,0 +1,93 @@
+"""The quality stage's second series of insertions: inner vertices crowding another collapsed,
+chords off the surface split first; and Delaunay's repeated points."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from fepre import sdf
+from fepre.distmesh import delaunay
+from fepre.distmesh.bad_cell_splits import split_candidates
+from fepre.distmesh.edge_collapse import collapse_round
+from fepre.distmesh.surface_guard import SurfaceGuard
+from fepre.distmesh.tet_shape import ShapeTargets, signed_volume
+from fepre.distmesh.tet_topology import edge_keys, face_keys, face_neighbours, faces_on_boundary
+
+
+def _crowded_ball():
+    """The unit ball as the Delaunay cells of 150 surface points (a Fibonacci spiral) and 40
+    inner ones at least 0.25 apart, with one more 0.05 from inner vertex 150 (the crowder,
+    the last)."""
+    k = np.arange(150) + 0.5
+    polar, azimuth = np.arccos(1 - 2 * k / 150), np.pi * (1 + 5**0.5) * k
+    surface = np.stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)], 1)
+    rng, inner = np.random.default_rng(5), []
+    while len(inner) < 40:
+        p = rng.uniform(-0.7, 0.7, 3)
+        if np.linalg.norm(p) < 0.7 and all(np.linalg.norm(p - q) > 0.25 for q in inner):
+            inner.append(p)
+    points = np.vstack([surface, inner, inner[0] + np.array([0.03, 0.03, 0.025])])
+    tets = Delaunay(points).simplices
+    flipped = signed_volume(points[tets]) < 0
+    tets[flipped] = tets[flipped][:, [1, 0, 2, 3]]
+    return points, tets
+
+
+def _collapse(points, tets, inner: bool):
+    n = len(points)
+    on_boundary = np.arange(n) < 150
+    targets = ShapeTargets()
+    quality = targets.score(points[tets])
+    faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    keys = np.sort(face_keys(faces, n))
+    edges = np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
+    movable, removable = np.ones(n, bool), np.ones(n, bool)
+    guard = SurfaceGuard(sdf.sphere(1.0), 0.3, points, on_boundary)
+    return keys, collapse_round(points, tets, quality, 25.0, on_boundary.copy(), movable, removable, keys, edges,
+                                targets=targets, guard=guard, inner=inner)
+
+
+def test_an_inner_vertex_crowding_another_is_collapsed_into_it():
+    points, tets = _crowded_ball()
+    crowded = (tets == 150).any(axis=1) & (tets == 190).any(axis=1)
+    assert ShapeTargets().score(points[tets[crowded]]).max() < 25.0  # every cell on the short edge is bad
+    keys, (new_tets, _, done, _, _, _) = _collapse(points, tets, inner=False)
+    assert done == 0  # boundary edges only: the pair stays
+    keys, (new_tets, new_quality, done, new_keys, _, _) = _collapse(points, tets, inner=True)
+    assert done >= 1
+    left = set(np.unique(new_tets).tolist())
+    assert len({150, 190} & left) == 1  # one of the pair went into the other
+    assert set(range(150)) <= left  # no boundary vertex went
+    volumes = signed_volume(points[new_tets])
+    assert (volumes > 0).all() and np.isclose(volumes.sum(), signed_volume(points[tets]).sum())
+    np.testing.assert_allclose(new_quality, ShapeTargets().score(points[new_tets]))
+    assert np.array_equal(new_keys, keys)  # the boundary is unchanged
+    faces = faces_on_boundary(new_tets, face_neighbours(new_tets, len(points)))
+    assert np.array_equal(np.sort(face_keys(faces, len(points))), keys)
+
+
+def test_a_chord_off_the_surface_is_split_first():
+    # an octahedron as four cells around its axis; marked, the equator edge (2, 3) goes first
+    ring = [[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]]
+    points = np.array([[0, 0, 1.0], [0, 0, -1.0]] + ring, dtype=float)
+    tets = np.array([[0, 1, 2 + i, 2 + (i + 1) % 4] for i in range(4)])
+    tets[signed_volume(points[tets]) < 0] = tets[signed_volume(points[tets]) < 0][:, [0, 1, 3, 2]]
+    off = np.zeros((4, 6))
+    cell = int(np.flatnonzero((np.sort(tets, axis=1)[:, 2:] == [2, 3]).all(axis=1))[0])
+    local = [sorted(tets[cell][list(e)]) for e in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))]
+    off[cell, local.index([2, 3])] = 0.3
+    candidates = split_candidates(points, tets, np.array([cell, *np.setdiff1d(np.arange(4), [cell])]),
+                                  len(points), off)
+    assert candidates[0].tolist() == [2, 3]
+    assert candidates[1].tolist() == [0, 1]  # the other wedges' inner edge, as without marks
+
+
+def test_repeated_points_are_triangulated_once_and_silently(capfd):
+    points = np.random.default_rng(3).random((300, 3))
+    points = np.vstack([points, points[[7, 42]], points[[7]]])
+    tets = delaunay._gmsh(points, threads=1)
+    out, err = capfd.readouterr()
+    assert "duplicate" not in out + err
+    alone = delaunay._gmsh(points[:300], threads=1)
+    assert np.array_equal(np.sort(np.sort(tets, axis=1), axis=0), np.sort(np.sort(alone, axis=1), axis=0))
