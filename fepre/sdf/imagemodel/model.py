@@ -9,7 +9,8 @@ import numpy as np
 from ...arguments import finite_float, nonnegative_float, shown
 from ..meshmodel.model import MeshModel
 from ..meshmodel.repair import repair
-from .levelset import auto_refine, level_surface, prepared_values
+from .levelset import (auto_refine, border_depth, border_slab_ranges, level_surface, needs_padding, outside_value,
+                       prepared_values)
 from .read import Image, ImageInputError, read_image
 
 __all__ = ["ImageModel", "image", "INSIDE"]
@@ -152,7 +153,11 @@ def image(
             f"{data.name}: after smoothing by {shown(smoothing)} voxels no sample is on both sides of level "
             f"{shown(level)}; give less smoothing or another level"
         )
-    vertices, faces, touches = level_surface(field, fine_spacing, data.origin)
+    low, high = float(data.values.min()), float(data.values.max())
+    pad = needs_padding(border_slab_ranges(data.values, border_depth(data.spacing, smoothing, refine)), level, inside,
+                        refine, low, high)
+    vertices, faces, touches = level_surface(field, fine_spacing, data.origin, pad=pad,
+                                             outside=outside_value(low, high, level))
     model = ImageModel(vertices, faces, data, level=level, inside=inside, smoothing=smoothing, refine=refine,
                        features=features)
     if not touches:
