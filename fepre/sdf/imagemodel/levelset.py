@@ -21,7 +21,11 @@ import numpy as np
 from .bspline import PAD, SPLINE_HALO, certainly_one_side, refined_count, refined_nodes, spline_coefficients
 from .read import Image
 
-__all__ = ["prepared_values", "level_surface", "needs_padding", "outside_value", "smoothing_radius", "AUTO_REFINE_POINTS"]
+__all__ = ["prepared_values", "level_surface", "needs_padding", "outside_value", "smoothing_radius", "AUTO_REFINE_POINTS", "BORDER_PAD"]
+
+#: nodes added beyond each face when the solid may reach it: a copy of the border, then an
+#: outside node
+BORDER_PAD = 2
 
 #: ``refine=None`` refines twice when the refined grid holds at most this many samples, else once.
 AUTO_REFINE_POINTS = 40_000_000
@@ -164,14 +168,14 @@ def level_surface(field: np.ndarray, spacing: np.ndarray, origin: np.ndarray, *,
     """Vertices (V, 3), triangles (F, 3) of the zero set of ``field`` (negative inside) and
     whether the solid reaches the grid's border.
 
-    With ``pad`` (:func:`needs_padding`) the field is padded by two samples on every side: the
-    first copies the border, the second is ``outside``, so that a solid reaching the border
-    closes between one and two samples beyond it (the caller cuts it with the voxels' box).
+    With ``pad`` (:func:`needs_padding`) the field is padded by ``BORDER_PAD`` samples on every
+    side: the first copies the border, the others are ``outside``, so that a solid reaching the
+    border closes between one and two samples beyond it (the caller cuts it with the voxels' box).
     """
     touches = bool((_border(field) < 0).any())
     if pad or touches:
-        field = np.pad(np.pad(field, 1, mode="edge"), 1, constant_values=np.float32(outside))
-        origin = origin - 2 * spacing
+        field = np.pad(np.pad(field, 1, mode="edge"), BORDER_PAD - 1, constant_values=np.float32(outside))
+        origin = origin - BORDER_PAD * spacing
     vertices, faces = contour(field, spacing, origin)
     return vertices, faces, touches
 
