@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import shown
-from ..sdf.imagemodel.bspline import PAD, SPLINE_HALO, refined_count, refined_nodes, spline_coefficients
+from ..sdf.imagemodel.bspline import SPLINE_HALO, refine_samples, refined_count
 from ..sdf.imagemodel.levelset import (BORDER_PAD, border_depth, field_tolerance, needs_padding, outside_value, side_of,
                                        signed_field, smoothed, smoothing_radius)
 from ..sdf.imagemodel.model import checked_level, image_model
@@ -206,14 +206,16 @@ def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Pla
     low_side, high_side = read_lo < plan.pad, read_hi > plan.counts + plan.pad
     on_border = bool(((q_lo == 0) | (q_hi == plan.counts)).any())
     raw = np.asarray(samples, dtype=np.float32)
+    del samples
     field_range = np.array([plan.level - raw.max(), plan.level - raw.min()] if plan.inside == "above"
                            else [raw.min() - plan.level, raw.max() - plan.level], dtype=float)
     side = side_of(float(field_range[0]), float(field_range[1]), plan.refine, plan.tolerance)
     if side == 1 or (side == -1 and not (low_side.any() or high_side.any()) and not on_border):
         return index, ChunkSurface.empty(), False
     data = smoothed(raw, plan.spacing, plan.smoothing)
+    del raw
     if plan.refine > 1:
-        data = refined_nodes(spline_coefficients(data), w_lo - PAD, q_lo, q_hi, plan.refine)
+        data = refine_samples(data, w_lo, q_lo, q_hi, plan.refine)
     else:
         data = data[tuple(slice(int(a - w), int(b - w)) for a, b, w in zip(q_lo, q_hi, w_lo))]
     field = signed_field(data, plan.level, plan.inside)

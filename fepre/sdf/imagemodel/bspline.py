@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SPLINE_HALO", "PAD", "spline_coefficients", "refined_nodes", "refined_count", "certainly_one_side"]
+__all__ = ["SPLINE_HALO", "PAD", "spline_coefficients", "refined_nodes", "refine_samples", "refined_count", "certainly_one_side"]
 
 #: samples read beyond a block so that its coefficients are the whole image's (0.268^40 = 1e-23)
 SPLINE_HALO = 40
@@ -89,6 +89,28 @@ def refined_nodes(coefficients: np.ndarray, first, lo, hi, refine: int) -> np.nd
     low, high = lo // refine - 1, (hi - 1) // refine + 3  # the coefficients these nodes use
     coefficients = coefficients[tuple(slice(int(a - f), int(b - f)) for a, b, f in zip(low, high, first))]
     values = _along(coefficients, 0, int(low[0]), int(lo[0]), int(hi[0]), refine)
+    values = _along(values, 1, int(low[1]), int(lo[1]), int(hi[1]), refine)
+    return _along(values, 2, int(low[2]), int(lo[2]), int(hi[2]), refine, np.float32)
+
+
+def refine_samples(samples: np.ndarray, first, lo, hi, refine: int) -> np.ndarray:
+    """The interpolant (float32) at refined nodes ``[lo, hi)`` of the samples ``samples`` whose
+    element (0, 0, 0) is sample ``first`` of the image: :func:`refined_nodes` of their
+    :func:`spline_coefficients`, each array let go as soon as the next pass has it.
+
+    Examples
+    --------
+    >>> samples = np.random.default_rng(0).random((6, 6, 6)).astype(np.float32)
+    >>> fine = refine_samples(samples, (0, 0, 0), (0, 0, 0), (11, 11, 11), 2)
+    >>> bool(np.allclose(fine[::2, ::2, ::2], samples, atol=1e-6))
+    True
+    """
+    first, lo, hi = (np.asarray(a, dtype=np.int64) for a in (first, lo, hi))
+    coefficients = spline_coefficients(samples)
+    low, high = lo // refine - 1, (hi - 1) // refine + 3
+    crop = tuple(slice(int(a - f + PAD), int(b - f + PAD)) for a, b, f in zip(low, high, first))
+    values = _along(coefficients[crop], 0, int(low[0]), int(lo[0]), int(hi[0]), refine)
+    del coefficients
     values = _along(values, 1, int(low[1]), int(lo[1]), int(hi[1]), refine)
     return _along(values, 2, int(low[2]), int(lo[2]), int(hi[2]), refine, np.float32)
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bspline import PAD, SPLINE_HALO, certainly_one_side, refined_count, refined_nodes, spline_coefficients
+from .bspline import SPLINE_HALO, certainly_one_side, refine_samples, refined_count
 from .read import Image
 
 __all__ = ["prepared_values", "level_surface", "needs_padding", "outside_value", "smoothing_radius", "AUTO_REFINE_POINTS", "BORDER_PAD"]
@@ -60,7 +60,7 @@ def refined(values: np.ndarray, spacing: np.ndarray, refine: int) -> tuple[np.nd
     if refine == 1:
         return values, spacing
     counts = [refined_count(n, refine) for n in values.shape]
-    fine = refined_nodes(spline_coefficients(values), (-PAD,) * 3, (0, 0, 0), counts, refine)
+    fine = refine_samples(values, (0, 0, 0), (0, 0, 0), counts, refine)
     return fine, spacing / refine
 
 

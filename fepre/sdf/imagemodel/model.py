@@ -29,7 +29,7 @@ class ImageModel(MeshModel):
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, source: Image, *, level: float, inside: str,
                  smoothing: float, refine: int, features: float) -> None:
-        repaired = repair(vertices, faces)
+        repaired = repair(vertices, faces, level_set=True)
         if len(repaired.faces) == 0:
             raise ImageInputError(f"{source.name}: no solid at level {shown(level)}")
         super().__init__(repaired, source.name, sign="winding", features=features)

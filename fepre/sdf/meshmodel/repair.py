@@ -320,8 +320,12 @@ def _is_closed(faces: np.ndarray) -> bool:
     return bool(np.all(ups == 1))
 
 
-def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
+def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False) -> Repair:
     """Repair a triangle surface (see the module's description).
+
+    ``level_set=True`` (a contoured scalar field: its triangles cannot overlap and are oriented
+    alike) stops after step 1 when the surface is then closed: the steps after it would leave
+    such a surface as it is, and on millions of triangles they cost gigabytes.
 
     Examples
     --------
@@ -337,6 +341,10 @@ def repair(vertices: np.ndarray, faces: np.ndarray) -> Repair:
     faces = np.asarray(faces, dtype=np.int64)
     vertices, faces, merged = _merge_vertices(vertices, faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
+    if level_set and _is_closed(faces):
+        return Repair(vertices=vertices, faces=faces, merged=merged, degenerate=degenerate, duplicates=duplicates,
+                      flipped=0, holes=0, hole_area=0.0, internal=0, open_edges=0, closed=True,
+                      filled=np.zeros(len(faces), dtype=bool))
     faces, flipped = _orient(vertices, faces)
     original = len(faces)
     holes = fill_holes(vertices, faces)
