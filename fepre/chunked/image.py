@@ -235,8 +235,9 @@ def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Pla
     return index, piece, touches
 
 
-def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Every chunk's triangles, at most ``window`` chunks in flight, stitched in chunk order."""
+def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray, bool, bool]:
+    """Every chunk's triangles, at most ``window`` chunks in flight, stitched in chunk order;
+    whether the solid reaches the border and whether a node is exactly on the level."""
     import dask
 
     from .stitch import stitch
@@ -250,8 +251,10 @@ def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.n
         tasks.append(task(samples, number, lo, hi, q_lo, q_hi, w_lo, plan))
     results = sorted(in_completion_order(tasks, window), key=lambda r: r[0])
     touches = any(r[2] for r in results)
-    vertices, faces, _ = stitch([r[1] for r in results])
-    return vertices, faces, touches
+    pieces = [r[1] for r in results]
+    del results
+    vertices, faces, on_level = stitch(pieces)
+    return vertices, faces, touches, on_level
 
 
 def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0, refine: int | None = None,
@@ -274,14 +277,14 @@ def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: 
                  outside_value(low, high, level), field_tolerance(low, high, level),
                  smoothing_radius(data.spacing, smoothing) + (SPLINE_HALO if refine > 1 else 0))
     workers = int(dask.config.get("num_workers", None) or os.cpu_count() or 1)
-    vertices, faces, touches = _surface(data.values, plan, chunks, window or 2 * workers)
+    vertices, faces, touches, on_level = _surface(data.values, plan, chunks, window or 2 * workers)
     if touches and not pad:  # pragma: no cover - the border slabs' bound makes this impossible
         plan = replace(plan, pad=BORDER_PAD, origin=data.origin - BORDER_PAD * fine)
-        vertices, faces, touches = _surface(data.values, plan, chunks, window or 2 * workers)
+        vertices, faces, touches, on_level = _surface(data.values, plan, chunks, window or 2 * workers)
     if faces.shape[0] == 0:
         raise ImageInputError(
             f"{data.name}: after smoothing by {shown(smoothing)} voxels the interpolant does not cross level "
             f"{shown(level)}; give less smoothing or another level"
         )
     return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
-                       features=features)
+                       features=features, on_level=on_level)

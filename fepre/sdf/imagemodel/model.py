@@ -28,8 +28,8 @@ class ImageModel(MeshModel):
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, source: Image, *, level: float, inside: str,
-                 smoothing: float, refine: int, features: float) -> None:
-        repaired = repair(vertices, faces, level_set=True)
+                 smoothing: float, refine: int, features: float, on_level: bool = True) -> None:
+        repaired = repair(vertices, faces, level_set=True, coincident=on_level)
         if len(repaired.faces) == 0:
             raise ImageInputError(f"{source.name}: no solid at level {shown(level)}")
         super().__init__(repaired, source.name, sign="winding", features=features)
@@ -200,7 +200,8 @@ def image(
         )
     pad = needs_padding(border_slab_ranges(data.values, border_depth(data.spacing, smoothing, refine)), level, inside,
                         refine, low, high)
+    on_level = bool((field == 0).any())
     vertices, faces, touches = level_surface(field, fine_spacing, data.origin, pad=pad,
                                              outside=outside_value(low, high, level))
     return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
-                       features=features)
+                       features=features, on_level=on_level)
