@@ -55,18 +55,25 @@ def agreement(size: int, chunks: int, folder: Path) -> dict:
     }
 
 
-def _scale_child(store: str, h: float | None) -> None:
-    """In a fresh process: the model of the store, its time and the process's peak memory."""
+def _scale_child(store: str, h: float | None, radii: tuple[float, float], refine: int, chunks: int | None = None) -> None:
+    """In a fresh process: the model of the store, its time and the process's peak memory (after
+    building the model, and after its first evaluation, which builds its search tree)."""
     import resource
 
-    from .. import sdf
+    from ..chunked.image import level_set_triangles, model_of
 
     start = time.perf_counter()
-    model = sdf.image(store, level=0.5)
+    found = level_set_triangles(store, 0.5, refine=refine, chunks=chunks)  # what sdf.image(store, level=0.5) does, in two steps
+    triangles_seconds = time.perf_counter() - start
+    triangles_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    model = model_of(found)
+    del found
     seconds = time.perf_counter() - start
-    R, r = RADII
+    built = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    R, r = radii
     result = {
-        "seconds": seconds, "triangles": len(model.faces), "volume": model.volume,
+        "seconds": seconds, "triangles": len(model.faces), "volume": model.volume, "model_rss_mb": built,
+        "triangles_seconds": triangles_seconds, "triangles_rss_mb": triangles_rss,
         "exact_volume": 2 * math.pi**2 * R * r**2, "centre_value": float(model([R, 0.0, 0.0])), "r": r,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
@@ -81,17 +88,19 @@ def _scale_child(store: str, h: float | None) -> None:
     print(json.dumps(result))
 
 
-def scale(size: int, chunks: int, folder: Path, h: float | None) -> dict:
+def scale(size: int, chunks: int, folder: Path, h: float | None, radii=RADII, refine: int = 2,
+          process_chunks: int | None = None) -> dict:
     """Write the torus phantom of ``size``^3 voxels and model it in a fresh process."""
     from .. import sdf
     from ..chunked.phantom_store import write_partial_volume
 
-    path = folder / f"torus{size}.zarr"
+    path = folder / f"torus{size}_{radii[0]:g}_{radii[1]:g}.zarr"
     start = time.perf_counter()
     if not path.exists():
-        write_partial_volume(sdf.torus(*RADII), path, (-0.5,) * 3, (0.5,) * 3, 1.0 / size, chunks=chunks)
+        write_partial_volume(sdf.torus(*radii), path, (-0.5,) * 3, (0.5,) * 3, 1.0 / size, chunks=chunks)
     written = time.perf_counter() - start
-    code = f"from fepre.bench.image_chunks import _scale_child; _scale_child({str(path)!r}, {h!r})"
+    code = (f"from fepre.bench.image_chunks import _scale_child; "
+            f"_scale_child({str(path)!r}, {h!r}, {tuple(radii)!r}, {refine!r}, {process_chunks!r})")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     if run.returncode:
         raise RuntimeError(f"the scale run failed:\n{run.stderr[-3000:]}")
@@ -107,6 +116,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--small-chunks", type=int, default=32, help="voxels per chunk of the agreement image")
     parser.add_argument("--size", type=int, default=1024, help="voxels per axis of the scale image (0: skip)")
     parser.add_argument("--chunks", type=int, default=128, help="voxels per zarr chunk of the scale image")
+    parser.add_argument("--radii", type=float, nargs=2, default=RADII, metavar=("R", "r"),
+                        help="the scale torus's radii in the unit box (default 0.25 0.06)")
+    parser.add_argument("--refine", type=int, default=2, help="refine of the scale model (default 2)")
+    parser.add_argument("--image-chunks", type=int, default=None,
+                        help="samples per chunk sdf.image processes (default fepre.chunked.image.DEFAULT_CHUNKS)")
     parser.add_argument("--h", type=float, default=None, help="also mesh the scale model at this h")
     parser.add_argument("--keep", default=None, help="folder for the zarr stores (kept; default a temporary one)")
     args = parser.parse_args(argv)
@@ -119,10 +133,14 @@ def main(argv: list[str] | None = None) -> int:
                   f"same vertices (bits): {small['same_vertices']}; volumes {small['volume'][0]:.9f} "
                   f"{small['volume'][1]:.9f}")
         if args.size:
-            big = scale(args.size, args.chunks, folder, args.h)
+            big = scale(args.size, args.chunks, folder, args.h, tuple(args.radii), args.refine, args.image_chunks)
             print(f"scale, {big['voxels']}^3 torus ({big['image_gb']:.1f} GB float32, {big['refined_gb']:.1f} GB "
-                  f"refined): zarr written in {big['write_seconds']:.0f} s; sdf.image {big['seconds']:.0f} s, "
-                  f"peak RSS {big['peak_rss_mb']:.0f} MB, {big['triangles']} triangles, volume {big['volume']:.6f} "
+                  f"refined), R {args.radii[0]:g} r {args.radii[1]:g}, refine {args.refine}, chunks of "
+                  f"{args.image_chunks or 'default'}: zarr written in "
+                  f"{big['write_seconds']:.0f} s; sdf.image {big['seconds']:.0f} s (triangles {big['triangles_seconds']:.0f} s, "
+                  f"peak RSS {big['triangles_rss_mb']:.0f} MB), peak RSS {big['model_rss_mb']:.0f} MB "
+                  f"(after the first evaluation {big['peak_rss_mb']:.0f} MB), {big['triangles']} triangles, "
+                  f"volume {big['volume']:.6f} "
                   f"(torus {big['exact_volume']:.6f}, {100 * (big['volume'] / big['exact_volume'] - 1):+.3f}%), "
                   f"value at the tube's centre {big['centre_value']:.5f} (-r = {-big['r']})")
             if "cells" in big:

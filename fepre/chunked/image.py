@@ -32,7 +32,7 @@ from .chunk_surface import ChunkSurface, extract_chunk
 from .cluster import in_completion_order, require_dask
 from .layout import ChunkLayout, as_chunks
 
-__all__ = ["image_chunked", "open_image", "DEFAULT_CHUNKS"]
+__all__ = ["image_chunked", "level_set_triangles", "model_of", "LevelSetTriangles", "open_image", "DEFAULT_CHUNKS"]
 
 #: samples per chunk along each axis when none are given
 DEFAULT_CHUNKS = 128
@@ -257,11 +257,50 @@ def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.n
     return vertices, faces, touches, on_level
 
 
-def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0, refine: int | None = None,
-                  features: float = 0.0, spacing: Any = None, origin: Any = None, array: str | None = None,
-                  chunks: Any = None, window: int | None = None):
-    """``sdf.image`` chunk by chunk (options already checked by :func:`fepre.sdf.image`): the
-    same model as the in-memory path, never holding the image or its refined copy."""
+@dataclass
+class LevelSetTriangles:
+    """The level-set triangles of an image taken chunk by chunk (what :class:`ImageModel` is
+    built from).
+
+    Attributes
+    ----------
+    vertices, faces : ndarray
+        (V, 3) float64 and (F, 3) int64, outward.
+    image : Image
+        The image (its values a lazy dask array).
+    level, refine : float, int
+    touches : bool
+        Whether the solid reaches the image's border (then closed beyond it).
+    on_level : bool
+        Whether a refined node is exactly on the level (crossings may then coincide).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    image: Image
+    level: float
+    refine: int
+    touches: bool
+    on_level: bool
+
+
+def level_set_triangles(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0,
+                        refine: int | None = None, spacing: Any = None, origin: Any = None, array: str | None = None,
+                        chunks: Any = None, window: int | None = None) -> LevelSetTriangles:
+    """The triangles of :func:`fepre.sdf.image`'s level set, chunk by chunk (see the module).
+
+    Parameters are those of :func:`fepre.sdf.image`; ``window`` is the number of chunks in
+    flight (default twice dask's worker threads).
+
+    Examples
+    --------
+    >>> import numpy as np, dask.array as da
+    >>> x, y, z = np.mgrid[-1:1:33j, -1:1:33j, -1:1:33j]
+    >>> ball = da.from_array(1.0 - np.sqrt(x**2 + y**2 + z**2), chunks=16)
+    >>> found = level_set_triangles(ball, 0.3, spacing=1 / 16, origin=-1.0, chunks=12)
+    >>> bool(np.allclose(np.linalg.norm(found.vertices, axis=1), 0.7, atol=2e-3)), found.touches
+    (True, False)
+    """
     import dask
 
     chunks = as_chunks(DEFAULT_CHUNKS if chunks is None else chunks)
@@ -286,5 +325,21 @@ def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: 
             f"{data.name}: after smoothing by {shown(smoothing)} voxels the interpolant does not cross level "
             f"{shown(level)}; give less smoothing or another level"
         )
-    return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
-                       features=features, on_level=on_level)
+    return LevelSetTriangles(vertices, faces, data, level, refine, touches, on_level)
+
+
+def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0, refine: int | None = None,
+                  features: float = 0.0, spacing: Any = None, origin: Any = None, array: str | None = None,
+                  chunks: Any = None, window: int | None = None):
+    """``sdf.image`` chunk by chunk (options already checked by :func:`fepre.sdf.image`): the
+    same model as the in-memory path, never holding the image or its refined copy."""
+    found = level_set_triangles(source, level, inside=inside, smoothing=smoothing, refine=refine, spacing=spacing,
+                                origin=origin, array=array, chunks=chunks, window=window)
+    return model_of(found, inside=inside, smoothing=smoothing, features=features)
+
+
+def model_of(found: LevelSetTriangles, *, inside: str = "above", smoothing: float = 0.0, features: float = 0.0):
+    """The :class:`ImageModel` of :func:`level_set_triangles` (cut by the voxels' box when the
+    solid reaches the border)."""
+    return image_model(found.vertices, found.faces, found.image, found.touches, level=found.level, inside=inside,
+                       smoothing=smoothing, refine=found.refine, features=features, on_level=found.on_level)

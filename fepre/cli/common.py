@@ -206,7 +206,7 @@ def chunks_argument(values: list[int] | None):
 
 
 def is_zarr_grid(path: str) -> bool:
-    """Whether ``path`` is a grid written by ``fepre sample --store`` (a ``.zarr`` store marked as
+    """Whether ``path`` is a grid written by ``fepre.sample(store=)`` (a ``.zarr`` store marked as
     fepre's); any other ``.zarr`` store is an image (``--level``)."""
     if Path(path).suffix.lower() != ".zarr" or not Path(path).exists():
         return False
