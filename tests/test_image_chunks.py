@@ -168,3 +168,18 @@ def test_a_larger_chunked_image_is_the_in_memory_image(tmp_path):
     assert np.array_equal(_sorted_rows(chunked.vertices), _sorted_rows(whole.vertices))
     assert np.array_equal(_triangles(chunked), _triangles(whole))
     assert chunked.volume == pytest.approx(2 * math.pi**2 * 0.6 * 0.2**2, rel=0.01)
+
+
+def test_chunks_away_from_the_level_are_skipped():
+    """A ball in a 48^3 image in chunks of 12, refine 1 (at refine 2 every window of so small an
+    image reaches 40 samples beyond its chunk, over the ball): the corner chunks' samples are all
+    0, surely outside; skipped before any filtering."""
+    from fepre.chunked.image import level_set_triangles
+
+    x, y, z = np.mgrid[-1:1:48j, -1:1:48j, -1:1:48j]
+    ball = (np.sqrt(x**2 + y**2 + z**2) < 0.5).astype(np.float32)
+    found = level_set_triangles(da.from_array(ball, chunks=16), 0.5, spacing=2 / 47, origin=-1.0, chunks=12,
+                                refine=1)
+    assert found.chunks == 64
+    assert 0 < found.skipped < 64
+    assert np.abs(np.linalg.norm(found.vertices, axis=1) - 0.5).max() < 2 / 47  # the level set is the sphere's

@@ -67,6 +67,7 @@ def _scale_child(store: str, h: float | None, radii: tuple[float, float], refine
     triangles_seconds = time.perf_counter() - start
     triangles_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     model = model_of(found)
+    found_chunks = (found.chunks, found.skipped)
     del found
     seconds = time.perf_counter() - start
     built = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -74,6 +75,7 @@ def _scale_child(store: str, h: float | None, radii: tuple[float, float], refine
     result = {
         "seconds": seconds, "triangles": len(model.faces), "volume": model.volume, "model_rss_mb": built,
         "triangles_seconds": triangles_seconds, "triangles_rss_mb": triangles_rss,
+        "chunks": found_chunks,
         "exact_volume": 2 * math.pi**2 * R * r**2, "centre_value": float(model([R, 0.0, 0.0])), "r": r,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
@@ -138,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"refined), R {args.radii[0]:g} r {args.radii[1]:g}, refine {args.refine}, chunks of "
                   f"{args.image_chunks or 'default'}: zarr written in "
                   f"{big['write_seconds']:.0f} s; sdf.image {big['seconds']:.0f} s (triangles {big['triangles_seconds']:.0f} s, "
-                  f"peak RSS {big['triangles_rss_mb']:.0f} MB), peak RSS {big['model_rss_mb']:.0f} MB "
+                  f"peak RSS {big['triangles_rss_mb']:.0f} MB; {big['chunks'][1]} of {big['chunks'][0]} chunks skipped by "
+                  f"the bound), peak RSS {big['model_rss_mb']:.0f} MB "
                   f"(after the first evaluation {big['peak_rss_mb']:.0f} MB), {big['triangles']} triangles, "
                   f"volume {big['volume']:.6f} "
                   f"(torus {big['exact_volume']:.6f}, {100 * (big['volume'] / big['exact_volume'] - 1):+.3f}%), "

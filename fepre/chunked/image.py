@@ -199,8 +199,9 @@ def _window(lo: np.ndarray, hi: np.ndarray, plan: _Plan, shape) -> tuple[np.ndar
     return q_lo, q_hi, w_lo, w_hi
 
 
-def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Plan) -> tuple[int, ChunkSurface, bool]:
-    """One chunk's triangles and whether its refined field is negative on the image's border."""
+def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Plan) -> tuple[int, ChunkSurface, bool, bool]:
+    """One chunk's triangles, whether its refined field is negative on the image's border and
+    whether it was skipped by the bound."""
     counts_padded = plan.counts + 2 * plan.pad
     read_lo, read_hi = lo, np.minimum(hi + 1, counts_padded)
     low_side, high_side = read_lo < plan.pad, read_hi > plan.counts + plan.pad
@@ -211,7 +212,7 @@ def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Pla
                            else [raw.min() - plan.level, raw.max() - plan.level], dtype=float)
     side = side_of(float(field_range[0]), float(field_range[1]), plan.refine, plan.tolerance)
     if side == 1 or (side == -1 and not (low_side.any() or high_side.any()) and not on_border):
-        return index, ChunkSurface.empty(), False
+        return index, ChunkSurface.empty(), False, True
     data = smoothed(raw, plan.spacing, plan.smoothing)
     del raw
     if plan.refine > 1:
@@ -232,12 +233,13 @@ def _chunk(samples: np.ndarray, index: int, lo, hi, q_lo, q_hi, w_lo, plan: _Pla
         np.ascontiguousarray(field.transpose(2, 1, 0)), read_lo, lo, hi, method="flying_edges", level=0.0,
         origin=plan.origin, spacing=plan.fine, counts=counts_padded, named=True,
     )
-    return index, piece, touches
+    return index, piece, touches, False
 
 
-def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray, bool, bool]:
+def _surface(values, plan: _Plan, chunks: np.ndarray, window: int):
     """Every chunk's triangles, at most ``window`` chunks in flight, stitched in chunk order;
-    whether the solid reaches the border and whether a node is exactly on the level."""
+    whether the solid reaches the border, whether a node is exactly on the level, and the
+    chunks (count, skipped)."""
     import dask
 
     from .stitch import stitch
@@ -251,10 +253,11 @@ def _surface(values, plan: _Plan, chunks: np.ndarray, window: int) -> tuple[np.n
         tasks.append(task(samples, number, lo, hi, q_lo, q_hi, w_lo, plan))
     results = sorted(in_completion_order(tasks, window), key=lambda r: r[0])
     touches = any(r[2] for r in results)
+    counted = (len(results), sum(r[3] for r in results))
     pieces = [r[1] for r in results]
     del results
     vertices, faces, on_level = stitch(pieces)
-    return vertices, faces, touches, on_level
+    return vertices, faces, touches, on_level, counted
 
 
 @dataclass
@@ -273,6 +276,9 @@ class LevelSetTriangles:
         Whether the solid reaches the image's border (then closed beyond it).
     on_level : bool
         Whether a refined node is exactly on the level (crossings may then coincide).
+    chunks, skipped : int
+        Chunks processed, and of them those skipped before any filtering (the samples bound
+        the interpolant to one side of the level).
     """
 
     vertices: np.ndarray
@@ -282,6 +288,8 @@ class LevelSetTriangles:
     refine: int
     touches: bool
     on_level: bool
+    chunks: int = 0
+    skipped: int = 0
 
 
 def level_set_triangles(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0,
@@ -316,16 +324,16 @@ def level_set_triangles(source: Any, level: Any, *, inside: str = "above", smoot
                  outside_value(low, high, level), field_tolerance(low, high, level),
                  smoothing_radius(data.spacing, smoothing) + (SPLINE_HALO if refine > 1 else 0))
     workers = int(dask.config.get("num_workers", None) or os.cpu_count() or 1)
-    vertices, faces, touches, on_level = _surface(data.values, plan, chunks, window or 2 * workers)
+    vertices, faces, touches, on_level, counted = _surface(data.values, plan, chunks, window or 2 * workers)
     if touches and not pad:  # pragma: no cover - the border slabs' bound makes this impossible
         plan = replace(plan, pad=BORDER_PAD, origin=data.origin - BORDER_PAD * fine)
-        vertices, faces, touches, on_level = _surface(data.values, plan, chunks, window or 2 * workers)
+        vertices, faces, touches, on_level, counted = _surface(data.values, plan, chunks, window or 2 * workers)
     if faces.shape[0] == 0:
         raise ImageInputError(
             f"{data.name}: after smoothing by {shown(smoothing)} voxels the interpolant does not cross level "
             f"{shown(level)}; give less smoothing or another level"
         )
-    return LevelSetTriangles(vertices, faces, data, level, refine, touches, on_level)
+    return LevelSetTriangles(vertices, faces, data, level, refine, touches, on_level, *counted)
 
 
 def image_chunked(source: Any, level: Any, *, inside: str = "above", smoothing: float = 0.0, refine: int | None = None,
