@@ -86,7 +86,7 @@ def _scale_child(store: str, h: float | None, radii: tuple[float, float], refine
         mesh = fepre.distmesh(model, h, progress=False)
         result.update(mesh_seconds=time.perf_counter() - start, cells=mesh.n_cells,
                       mesh_volume=float(mesh.cell_data["volume"].sum()),
-                      peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+                      mesh_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
     print(json.dumps(result))
 
 
@@ -148,5 +148,5 @@ def main(argv: list[str] | None = None) -> int:
                   f"value at the tube's centre {big['centre_value']:.5f} (-r = {-big['r']})")
             if "cells" in big:
                 print(f"  distmesh h={args.h}: {big['cells']} cells in {big['mesh_seconds']:.0f} s, volume "
-                      f"{big['mesh_volume']:.6f}")
+                      f"{big['mesh_volume']:.6f}, peak RSS {big['mesh_rss_mb']:.0f} MB")
     return 0
