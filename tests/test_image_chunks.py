@@ -183,3 +183,9 @@ def test_chunks_away_from_the_level_are_skipped():
     assert found.chunks == 64
     assert 0 < found.skipped < 64
     assert np.abs(np.linalg.norm(found.vertices, axis=1) - 0.5).max() < 2 / 47  # the level set is the sphere's
+
+
+def test_label_images_beyond_memory_are_refused_clearly(torus_image):
+    _, _, path, _ = torus_image
+    with pytest.raises(ImageInputError, match="sdf.labels reads a label image whole; a zarr store"):
+        sdf.labels(str(path))
