@@ -58,6 +58,8 @@ __all__ = ["sdf", "config", "MeshingError", "ConvergenceWarning", "FeatureWarnin
 _backends.provide("ChunkedGrid", lambda: importlib.import_module("fepre.chunked.grid").ChunkedGrid)
 _backends.provide("sample_chunked", lambda: importlib.import_module("fepre.chunked.sampling").sample_model)
 _backends.provide("isosurface_chunked", lambda: importlib.import_module("fepre.chunked.api").isosurface_chunked)
+# sdf.image of a zarr store or dask array (the model layer hands over the same way)
+_backends.provide("image_chunked", lambda: importlib.import_module("fepre.chunked.image").image_chunked)
 
 
 def __getattr__(name: str) -> Any:

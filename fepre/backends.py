@@ -8,8 +8,9 @@ over to it. So those two ask for it here, by name, and the package's façade
 name: the implementation is imported on first use, as before, and the import graph has no cycle.
 
 Registered names: ``"ChunkedGrid"`` (the class, for ``isinstance``), ``"sample_chunked"``
-(:func:`fepre.chunked.sampling.sample_model`) and ``"isosurface_chunked"``
-(:func:`fepre.chunked.api.isosurface_chunked`).
+(:func:`fepre.chunked.sampling.sample_model`), ``"isosurface_chunked"``
+(:func:`fepre.chunked.api.isosurface_chunked`) and ``"image_chunked"``
+(:func:`fepre.chunked.image.image_chunked`: ``sdf.image`` of a zarr store or a dask array).
 """
 
 from __future__ import annotations

@@ -144,8 +144,9 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
         A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; a
         surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK) or a volume mesh file
         (VTU, Medit MESH, gmsh MSH, Abaqus/CalculiX INP: its boundary), whose model is
-        :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``),
-        whose model is :func:`fepre.sdf.image` of it with the options ``image``.
+        :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``; a
+        ``.zarr`` store is read chunk by chunk), whose model is :func:`fepre.sdf.image` of it with
+        the options ``image``.
     image : dict, optional
         For an image file: ``level`` (required) and the keywords of :func:`fepre.sdf.image`
         (``inside``, ``smoothing``); or ``labels=True`` and the keywords of
@@ -175,7 +176,7 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     path = Path(path)
     if not path.exists():
         raise ModelFileError(f"model file {path} does not exist")
-    if path.is_dir():
+    if path.is_dir() and not _is_image(path):
         raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
     image_inside = (image or {}).get("inside")
     if _is_image(path):
@@ -199,7 +200,7 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if path.suffix != ".py":
         raise ModelFileError(
             f"model file {path} must be a Python file ending in .py, a surface mesh "
-            f"({', '.join(MESH_SUFFIXES)}) or an image (.vti, .nii, .nii.gz, .tif); got {path.suffix or 'no suffix'!r}"
+            f"({', '.join(MESH_SUFFIXES)}) or an image (.vti, .nii, .nii.gz, .tif, .zarr); got {path.suffix or 'no suffix'!r}"
         )
     resolved = path.resolve()
     folder = str(resolved.parent)

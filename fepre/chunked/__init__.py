@@ -6,6 +6,9 @@ chunk and stitches the single-grid surface; :func:`write_isosurface` streams a s
 to hold to an STL or PLY file. Chunks run wherever dask runs them: threads by default, or the
 ``dask.distributed`` client the user has (the model is then pickled to the workers).
 
+``fepre.sdf.image`` of a zarr store or a dask array (an image beyond memory) is taken chunk by chunk
+here too (:mod:`fepre.chunked.image`: the same triangles as the in-memory image, bit for bit).
+
 Needs the optional dependencies: ``pip install 'fepre[dask]'``.
 
 Examples

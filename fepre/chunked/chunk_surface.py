@@ -240,7 +240,10 @@ def _face_crossings(cells, lo, level, spacing, counts, planes) -> tuple[np.ndarr
         flat = block.reshape(-1)
         stride = np.array([1, bx, bx * by])[family]
         value = flat[edge].astype(np.float64)
-        index[np.arange(index.shape[0]), family] += (level - value) / (flat[edge + stride].astype(np.float64) - value)
+        # VTK subtracts the two samples in their own type (float32 rounds when they differ in
+        # magnitude, as next to an image's padding), the level in double
+        step = (flat[edge + stride] - flat[edge]).astype(np.float64)
+        index[np.arange(index.shape[0]), family] += (level - value) / step
         all_points.append((spacing * index.astype(np.float32).astype(np.float64)).astype(np.float32))
         all_keys.append(family * total + _global_ids(edge, block.shape, start, counts))
     return np.concatenate(all_keys), np.concatenate(all_points)

@@ -76,7 +76,7 @@ def model_argument(parser: argparse.ArgumentParser) -> None:
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
                              "a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model, the boundary of a "
                              "volume mesh file (VTU, MESH, MSH, INP) to remesh, "
-                             "or an image (.vti, .nii, .nii.gz, .tif) with --level")
+                             "or an image (.vti, .nii, .nii.gz, .tif, .zarr) with --level")
     parser.add_argument("--inside", choices=("closed", "winding", "above", "below"),
                         help="for a surface mesh file: the solid is what the repaired surface encloses (closed, the default; "
                              "open surfaces with large holes are refused) or where its generalised winding number exceeds 1/2 "
@@ -206,7 +206,16 @@ def chunks_argument(values: list[int] | None):
 
 
 def is_zarr_grid(path: str) -> bool:
-    return Path(path).suffix.lower() == ".zarr"
+    """Whether ``path`` is a grid written by ``fepre.sample(store=)`` (a ``.zarr`` store marked as
+    fepre's); any other ``.zarr`` store is an image (``--level``)."""
+    if Path(path).suffix.lower() != ".zarr" or not Path(path).exists():
+        return False
+    try:
+        import zarr
+
+        return dict(zarr.open(str(path), mode="r").attrs).get("fepre") == "sdf-grid"
+    except Exception:  # missing, not zarr, or zarr absent: open_grid says which
+        return True
 
 
 def bounds_argument(values):

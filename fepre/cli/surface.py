@@ -6,6 +6,8 @@ import argparse
 import time
 from pathlib import Path
 
+import numpy as np
+
 from . import common
 
 
@@ -109,6 +111,24 @@ def _check_surface_file(surface, model, spacing: float, quiet: bool) -> None:
         )
 
 
+def _write_image_triangles(args: argparse.Namespace, image, output: Path, cut: bool) -> int:
+    """``fepre surface scan.zarr --level L``: an image read chunk by chunk is not sampled again
+    (its refined grid is beyond memory); its level set's triangles are the surface."""
+    import pyvista as pv
+
+    if args.spacing is not None or args.bounds is not None:
+        raise ValueError("--spacing and --bounds do not apply to a .zarr image: its surface is its level set's "
+                         "triangles, taken chunk by chunk")
+    faces = np.column_stack([np.full(len(image.faces), 3), image.faces]).ravel()
+    surface = pv.PolyData(np.asarray(image.vertices), faces)
+    if not args.quiet:
+        common.say(f"fepre surface: the level set's {surface.n_cells} triangles"
+                   + (" (closed beyond the image's border, not cut by its box)" if cut else ""))
+    common.write_atomically(lambda path: surface.save(str(path)), output)
+    print(f"wrote {output}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from ..surface import isosurface
 
@@ -126,6 +146,9 @@ def run(args: argparse.Namespace) -> int:
 
         bounds = as_bounds((args.bounds[:3], args.bounds[3:]), 3, "--bounds")
     part = common.load_part(args)
+    image = common.image_of(part.model)
+    if image is not None and not isinstance(image.image.values, np.ndarray):
+        return _write_image_triangles(args, image, output, part.model is not image)
     bounds = bounds if bounds is not None else part.bounds
     if args.spacing is not None:
         spacing = args.spacing

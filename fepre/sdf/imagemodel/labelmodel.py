@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -180,6 +181,14 @@ def labels(
     >>> # mesh = fepre.distmesh(regions.part, 0.1, regions=regions)
     """
     smoothing = nonnegative_float(smoothing, "smoothing")
+    from .model import is_chunked_source
+
+    if is_chunked_source(source):
+        raise ImageInputError(
+            f"{source if isinstance(source, (str, os.PathLike)) else type(source).__name__}: sdf.labels reads a label "
+            "image whole; a zarr store or dask array is read chunk by chunk by sdf.image (grey images) only. Load it "
+            "as a numpy array (e.g. np.asarray(zarr.open_array(path))) if it fits in memory"
+        )
     data = read_image(source, spacing=spacing, origin=origin, array=array)
     values = data.values
     if not (np.issubdtype(values.dtype, np.integer) or values.dtype == bool):

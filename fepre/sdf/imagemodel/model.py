@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -9,10 +11,11 @@ import numpy as np
 from ...arguments import finite_float, nonnegative_float, shown
 from ..meshmodel.model import MeshModel
 from ..meshmodel.repair import repair
-from .levelset import auto_refine, level_surface, prepared_values
+from .levelset import (auto_refine, border_depth, border_slab_ranges, level_surface, needs_padding, outside_value,
+                       prepared_values)
 from .read import Image, ImageInputError, read_image
 
-__all__ = ["ImageModel", "image", "INSIDE"]
+__all__ = ["ImageModel", "image", "image_model", "checked_level", "checked_options", "is_chunked_source", "INSIDE"]
 
 INSIDE = ("above", "below")
 
@@ -25,8 +28,8 @@ class ImageModel(MeshModel):
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, source: Image, *, level: float, inside: str,
-                 smoothing: float, refine: int, features: float) -> None:
-        repaired = repair(vertices, faces)
+                 smoothing: float, refine: int, features: float, on_level: bool = True) -> None:
+        repaired = repair(vertices, faces, level_set=True, coincident=on_level)
         if len(repaired.faces) == 0:
             raise ImageInputError(f"{source.name}: no solid at level {shown(level)}")
         super().__init__(repaired, source.name, sign="winding", features=features)
@@ -55,18 +58,54 @@ class ImageModel(MeshModel):
         return "image"
 
 
-def _checked_level(image: Image, level: Any) -> float:
+def checked_level(name: str, level: Any, low: float, high: float) -> float:
+    """``level`` as a float strictly between the image's smallest and largest values ``low``,
+    ``high``; a clear error naming the image otherwise."""
     if level is None:
-        raise ValueError(f"{image.name}: level is required (the grey value of the boundary, between the image's "
-                         f"values {shown(float(image.values.min()))} and {shown(float(image.values.max()))})")
+        raise ValueError(f"{name}: level is required (the grey value of the boundary, between the image's "
+                         f"values {shown(low)} and {shown(high)})")
     level = finite_float(level, "level")
-    low, high = float(image.values.min()), float(image.values.max())
     if not low < level < high:
         raise ImageInputError(
-            f"{image.name}: level {shown(level)} is outside the image's values ({shown(low)} to {shown(high)}); "
+            f"{name}: level {shown(level)} is outside the image's values ({shown(low)} to {shown(high)}); "
             f"give a level strictly between them"
         )
     return level
+
+
+def checked_options(inside: Any, smoothing: Any, features: Any, refine: Any) -> tuple[float, float]:
+    """``smoothing`` and ``features`` as floats after checking every option of :func:`image`."""
+    if inside not in INSIDE:
+        raise ValueError(f"inside must be 'above' or 'below' (which side of the level is the solid); got {shown(inside)}")
+    smoothing = nonnegative_float(smoothing, "smoothing")
+    features = finite_float(features, "features")
+    if not 0.0 <= features < 180.0:
+        raise ValueError(f"features must be an angle in degrees in [0, 180); got {shown(features)}")
+    if refine is not None and (isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 1 <= refine <= 4):
+        raise ValueError(f"refine must be an integer from 1 to 4 (samples per voxel along each axis); got {shown(refine)}")
+    return smoothing, features
+
+
+def is_chunked_source(source: Any) -> bool:
+    """Whether ``source`` is read chunk by chunk: a dask or zarr array, or a ``.zarr`` store."""
+    if isinstance(source, (str, os.PathLike)):
+        path = Path(source)
+        return path.name.lower().endswith(".zarr") or (path.is_dir() and any(
+            (path / marker).exists() for marker in (".zarray", ".zgroup", "zarr.json")))
+    module = type(source).__module__.split(".")[0]
+    return module in ("dask", "zarr")
+
+
+def image_model(vertices: np.ndarray, faces: np.ndarray, data: Image, touches: bool, **options):
+    """The :class:`ImageModel` of the level-set triangles, cut by the voxels' box when the solid
+    reaches the image's border."""
+    model = ImageModel(vertices, faces, data, **options)
+    if not touches:
+        return model
+    from ..solids import box
+
+    lower, upper = data.voxel_box()
+    return model & box(tuple(upper - lower), center=tuple(0.5 * (lower + upper)))
 
 
 def image(
@@ -80,6 +119,7 @@ def image(
     spacing: Any = None,
     origin: Any = None,
     array: str | None = None,
+    chunks: Any = None,
 ):
     """A grey-value image (CT scan, density field) as a model: the solid where the image's
     smooth interpolant is above ``level`` (or below it).
@@ -96,7 +136,9 @@ def image(
     source : pyvista.ImageData, str, path-like or array_like
         A grid (point data at the samples; cell data at the cell centres), an image file
         (``.vti`` or any grid PyVista reads; ``.nii``/``.nii.gz`` with nibabel, ``.tif`` stacks
-        with tifffile) or a 3D array indexed ``[i, j, k]`` along x, y, z.
+        with tifffile), a 3D array indexed ``[i, j, k]`` along x, y, z, or an image beyond
+        memory: a dask array, a zarr array or a ``.zarr`` store (same indexing; ``spacing`` and
+        ``origin`` as for arrays, or from the store's attributes).
     level : float
         The boundary's grey value, strictly between the image's smallest and largest values.
     inside : {"above", "below"}
@@ -113,7 +155,12 @@ def image(
     spacing, origin : float or (3,) floats, optional
         For an array: the voxel spacing (default 1) and the position of voxel (0, 0, 0).
     array : str, optional
-        The grid's array to read (default its active scalars or its only array).
+        The grid's array to read (default its active scalars or its only array); for a zarr
+        group, the name of its array.
+    chunks : int or (3,) ints, optional
+        Samples per chunk along x, y, z: the image is then processed chunk by chunk
+        (:mod:`fepre.chunked.image`), never held whole, and gives the same triangles (default 128
+        for a dask or zarr source, which always goes that way; refine then defaults to 2).
 
     Returns
     -------
@@ -135,16 +182,15 @@ def image(
     >>> round(float(ball([0.0, 0.0, 0.0])), 2)      # the level set is the sphere of radius 0.7
     -0.7
     """
-    if inside not in INSIDE:
-        raise ValueError(f"inside must be 'above' or 'below' (which side of the level is the solid); got {shown(inside)}")
-    smoothing = nonnegative_float(smoothing, "smoothing")
-    features = finite_float(features, "features")
-    if not 0.0 <= features < 180.0:
-        raise ValueError(f"features must be an angle in degrees in [0, 180); got {shown(features)}")
-    if refine is not None and (isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 1 <= refine <= 4):
-        raise ValueError(f"refine must be an integer from 1 to 4 (samples per voxel along each axis); got {shown(refine)}")
+    smoothing, features = checked_options(inside, smoothing, features, refine)
+    if chunks is not None or is_chunked_source(source):
+        from ...backends import provided
+
+        return provided("image_chunked")(source, level, inside=inside, smoothing=smoothing, refine=refine,
+                                         features=features, spacing=spacing, origin=origin, array=array, chunks=chunks)
     data = read_image(source, spacing=spacing, origin=origin, array=array)
-    level = _checked_level(data, level)
+    low, high = float(data.values.min()), float(data.values.max())
+    level = checked_level(data.name, level, low, high)
     refine = auto_refine(data.values.shape) if refine is None else int(refine)
     field, fine_spacing = prepared_values(data, level, inside, smoothing, refine)
     if not (field < 0).any() or not (field > 0).any():
@@ -152,12 +198,10 @@ def image(
             f"{data.name}: after smoothing by {shown(smoothing)} voxels no sample is on both sides of level "
             f"{shown(level)}; give less smoothing or another level"
         )
-    vertices, faces, touches = level_surface(field, fine_spacing, data.origin)
-    model = ImageModel(vertices, faces, data, level=level, inside=inside, smoothing=smoothing, refine=refine,
-                       features=features)
-    if not touches:
-        return model
-    from ..solids import box
-
-    lower, upper = data.voxel_box()
-    return model & box(tuple(upper - lower), center=tuple(0.5 * (lower + upper)))
+    pad = needs_padding(border_slab_ranges(data.values, border_depth(data.spacing, smoothing, refine)), level, inside,
+                        refine, low, high)
+    on_level = bool((field == 0).any())
+    vertices, faces, touches = level_surface(field, fine_spacing, data.origin, pad=pad,
+                                             outside=outside_value(low, high, level))
+    return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
+                       features=features, on_level=on_level)

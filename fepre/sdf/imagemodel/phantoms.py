@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["voxel_centres", "partial_volume", "label_image"]
+__all__ = ["voxel_centres", "voxel_shares", "partial_volume", "label_image"]
 
 #: voxels handled per batch of supersamples (memory: CHUNK * sub^3 points)
 CHUNK = 8192
@@ -38,6 +38,21 @@ def _grid(values: np.ndarray, first: np.ndarray, spacing: float, name: str):
     return grid
 
 
+def voxel_shares(model, points: np.ndarray, spacing: float, sub: int = 6) -> np.ndarray:
+    """The share of each voxel of side ``spacing`` centred at ``points`` (N, 3) inside ``model``:
+    ``sub^3`` samples in the voxels within 0.87 spacing of the surface, 0 or 1 elsewhere."""
+    values = np.asarray(model(points), dtype=np.float64)
+    share = (values < 0).astype(np.float64)
+    near = np.flatnonzero(np.abs(values) < 0.87 * spacing)
+    offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * spacing
+    cube = np.stack(np.meshgrid(offsets, offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 3)
+    for start in range(0, len(near), CHUNK):
+        chunk = near[start:start + CHUNK]
+        samples = (points[chunk, None, :] + cube[None]).reshape(-1, 3)
+        share[chunk] = (np.asarray(model(samples)) < 0).reshape(len(chunk), -1).mean(axis=1)
+    return share
+
+
 def partial_volume(model, lower: Any, upper: Any, spacing: float, *, sub: int = 6, scale: float = 1.0):
     """A grey image of ``model``: each voxel's share inside it, times ``scale``.
 
@@ -54,15 +69,7 @@ def partial_volume(model, lower: Any, upper: Any, spacing: float, *, sub: int = 
     0.524
     """
     points, first, shape = voxel_centres(lower, upper, spacing)
-    values = np.asarray(model(points), dtype=np.float64)
-    share = (values < 0).astype(np.float64)
-    near = np.flatnonzero(np.abs(values) < 0.87 * spacing)
-    offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * spacing
-    cube = np.stack(np.meshgrid(offsets, offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 3)
-    for start in range(0, len(near), CHUNK):
-        chunk = near[start:start + CHUNK]
-        samples = (points[chunk, None, :] + cube[None]).reshape(-1, 3)
-        share[chunk] = (np.asarray(model(samples)) < 0).reshape(len(chunk), -1).mean(axis=1)
+    share = voxel_shares(model, points, spacing, sub)
     return _grid((scale * share).reshape(shape).astype(np.float32), first, spacing, "density")
 
 

@@ -20,8 +20,9 @@ from ...arguments import shown
 
 __all__ = ["Image", "ImageInputError", "read_image", "IMAGE_SUFFIXES"]
 
-#: File suffixes read as images (the CLI meshes them as image models).
-IMAGE_SUFFIXES = (".vti", ".nii", ".nii.gz", ".tif", ".tiff")
+#: File suffixes read as images (the CLI meshes them as image models; a ``.zarr`` store is read
+#: chunk by chunk by :mod:`fepre.chunked.image`).
+IMAGE_SUFFIXES = (".vti", ".nii", ".nii.gz", ".tif", ".tiff", ".zarr")
 
 
 class ImageInputError(ValueError):
@@ -236,7 +237,7 @@ def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: s
         values = np.asarray(None)
     if values.dtype == object or values.ndim == 0:
         raise TypeError(
-            f"image must be a pyvista.ImageData, an image file (.vti, .nii, .nii.gz, .tif) or a 3D numpy array; "
+            f"image must be a pyvista.ImageData, an image file (.vti, .nii, .nii.gz, .tif), a 3D numpy array, or a zarr store, zarr or dask array; "
             f"got {type(source).__name__}"
         )
     try:

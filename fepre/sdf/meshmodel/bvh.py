@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .tables import BLOCK
+
 __all__ = ["TriangleTree", "LEAF_SIZE", "REGION_FACE"]
 
 #: Triangles per leaf.
@@ -85,7 +87,6 @@ class TriangleTree:
     def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         vertices = np.asarray(vertices, dtype=np.float64)
         faces = np.asarray(faces, dtype=np.int64)
-        corners = vertices[faces]  # (F, 3, 3)
         count = len(faces)
         leaves = max(1, -(-count // LEAF_SIZE))
         depth = int(np.ceil(np.log2(leaves))) if leaves > 1 else 0
@@ -93,11 +94,19 @@ class TriangleTree:
         self.width = width
         boundaries = (np.arange(width + 1) * count) // width  # leaf ranges: sizes differ by at most 1
         self.leaf_start = boundaries.astype(np.int64)
-        order = _median_split_order(corners.mean(axis=1), boundaries, depth)
+        # row by row in blocks (the same bits; the (F, 3, 3) temporaries stay small)
+        centroids = np.concatenate([vertices[faces[s:s + BLOCK]].mean(axis=1) for s in range(0, count, BLOCK)]
+                                   or [np.empty((0, 3))])
+        order = _median_split_order(centroids, boundaries, depth)
+        del centroids
         self.order = order.astype(np.int64)
-        self.triangles = np.ascontiguousarray(corners[order])
-        centres = self.triangles.mean(axis=1)
-        radii = np.linalg.norm(self.triangles - centres[:, None, :], axis=2).max(axis=1)
+        self.triangles = vertices[faces[order]]
+        centres = np.empty((count, 3))
+        radii = np.empty(count)
+        for s in range(0, count, BLOCK):
+            block = self.triangles[s:s + BLOCK]
+            centres[s:s + BLOCK] = block.mean(axis=1)
+            radii[s:s + BLOCK] = np.linalg.norm(block - centres[s:s + BLOCK, None, :], axis=2).max(axis=1)
         # rounding: a sphere a hair too small must not skip the nearest triangle
         self.spheres = np.ascontiguousarray(np.column_stack([centres, radii * (1 + 1e-12) + 1e-300]))
         box_lower = np.full((2 * width, 3), np.inf)

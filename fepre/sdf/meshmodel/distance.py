@@ -18,7 +18,7 @@ import threading
 import numpy as np
 
 from .bvh import REGION_FACE, TriangleTree
-from .tables import edge_table, face_normals
+from .tables import BLOCK, edge_table, face_normals
 
 __all__ = ["TriangleDistance", "NEAR_WINDING"]
 
@@ -179,9 +179,11 @@ def _angle_weighted_normals(vertices: np.ndarray, faces: np.ndarray, normals: np
     """Vertex normals as the sum of their faces' normals weighted by the face's angle there."""
     result = np.zeros_like(vertices)
     for k in range(3):
-        here = vertices[faces[:, k]]
-        first = _unit(vertices[faces[:, (k + 1) % 3]] - here)
-        second = _unit(vertices[faces[:, (k + 2) % 3]] - here)
-        angle = np.arccos(np.clip(np.einsum("ij,ij->i", first, second), -1.0, 1.0))
-        np.add.at(result, faces[:, k], normals * angle[:, None])
+        for start in range(0, len(faces), BLOCK):  # in face order still: the same sums
+            block, weights = faces[start:start + BLOCK], normals[start:start + BLOCK]
+            here = vertices[block[:, k]]
+            first = _unit(vertices[block[:, (k + 1) % 3]] - here)
+            second = _unit(vertices[block[:, (k + 2) % 3]] - here)
+            angle = np.arccos(np.clip(np.einsum("ij,ij->i", first, second), -1.0, 1.0))
+            np.add.at(result, block[:, k], weights * angle[:, None])
     return result

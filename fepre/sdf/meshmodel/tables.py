@@ -7,12 +7,21 @@ import numpy as np
 __all__ = ["face_normals", "edge_table", "manifold_pairs", "winding_numbers", "enclosed_volume"]
 
 
+#: triangles per block of the row-wise tables (their temporaries stay ~100 MB on any surface)
+BLOCK = 1 << 20
+
+
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit normals (F, 3) (zero for zero-area triangles) and areas (F,)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    cross = np.cross(b - a, c - a)
-    twice = np.linalg.norm(cross, axis=1)
-    normals = np.divide(cross, twice[:, None], out=np.zeros_like(cross), where=twice[:, None] > 0)
+    normals = np.zeros((len(faces), 3))
+    twice = np.empty(len(faces))
+    for start in range(0, len(faces), BLOCK):  # row by row: blocks change no bit
+        block = faces[start:start + BLOCK]
+        a, b, c = (vertices[block[:, k]] for k in range(3))
+        cross = np.cross(b - a, c - a)
+        twice[start:start + BLOCK] = np.linalg.norm(cross, axis=1)
+        here = twice[start:start + BLOCK, None]
+        np.divide(cross, here, out=normals[start:start + BLOCK], where=here > 0)
     return normals, 0.5 * twice
 
 
@@ -28,13 +37,18 @@ def edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     forward : (F, 3) bool
         True where the triangle traverses its side from the smaller vertex to the larger.
     """
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    forward = directed[:, 0] < directed[:, 1]
-    keys = np.sort(directed, axis=1)
+    faces = np.asarray(faces, dtype=np.int64)
+    end = faces[:, [1, 2, 0]]  # sides v0v1, v1v2, v2v0
+    forward = faces < end
     stride = np.int64(int(faces.max()) + 1 if faces.size else 1)
-    packed, inverse = np.unique(keys[:, 0] * stride + keys[:, 1], return_inverse=True)
+    keys = np.minimum(faces, end)
+    keys *= stride
+    keys += np.maximum(faces, end)
+    del end
+    packed, inverse = np.unique(keys.reshape(-1), return_inverse=True)
+    del keys
     edges = np.column_stack([packed // stride, packed % stride])
-    return edges, inverse.reshape(-1, 3), forward.reshape(-1, 3)
+    return edges, inverse.reshape(-1, 3), forward
 
 
 def manifold_pairs(face_edge: np.ndarray, forward: np.ndarray, edge_count: int):
