@@ -33,6 +33,9 @@ __all__ = ["collapse_round", "SHORT_EDGE"]
 
 #: A boundary edge shorter than this fraction of its bad cell's longest edge may be collapsed.
 SHORT_EDGE = 0.4
+#: The same in the second series of insertions, with inner collapses (fertility at (D/50, D/12):
+#: a boundary face's apex 0.45 of its cell's longest edge from one end, on the line of the other two)
+SHORT_EDGE_RESHAPING = 0.5
 #: A collapse must raise the worst score of the cells it touches by at least this (degrees).
 MIN_GAIN = 1e-3
 
@@ -48,7 +51,8 @@ def _short_edges(points, tets, quality, threshold, on_boundary, inner: bool) -> 
     relative = length / length.max(axis=1, keepdims=True)
     # a boundary edge of a cell with only two boundary vertices is an inner cell's: left alone
     both = on_boundary[pairs].all(axis=2) & (on_boundary[tets[bad]].sum(axis=1) >= 2)[:, None]
-    short = (relative < SHORT_EDGE) & (both | (inner & ~on_boundary[pairs].all(axis=2)))
+    limit = SHORT_EDGE_RESHAPING if inner else SHORT_EDGE
+    short = (relative < limit) & (both | (inner & ~on_boundary[pairs].all(axis=2)))
     edges, relative = np.sort(pairs[short], axis=1), relative[short]
     edges, first = np.unique(edges, axis=0, return_index=True)
     return edges[np.argsort(relative[first], kind="stable")]
