@@ -108,7 +108,28 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
     if moved.shape[0] and not guard.faces_allowed(points[moved], points[after]).all():
         return None
     gone = faces[(faces == v).any(axis=1)]
+    if not _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n):
+        return None
     return removed, changed, new, new_quality, gone, after
+
+
+def _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n: int) -> bool:
+    """True when the faces of ``u``'s new cells that are used once (counted over every cell
+    touching them) are exactly those the collapse's bookkeeping keeps as boundary faces. A boundary
+    vertex with three surface neighbours joined into one of them can leave its last face inside
+    (on camelhead at (D/50, D/12): the stage then refused its own result and returned DistMesh's
+    0.5 deg mesh)."""
+    vertices = np.unique(around)
+    ring = np.flatnonzero(np.isin(tets, vertices).any(axis=1))
+    replaced = np.full(tets.shape[0], -1)
+    replaced[changed] = np.arange(changed.size)
+    ring = ring[~np.isin(ring, removed)]
+    cells = np.where((replaced[ring] >= 0)[:, None], new[np.maximum(replaced[ring], 0)], tets[ring])
+    codes, uses = np.unique(face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
+    mine = np.unique(face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n))
+    used_once = mine[uses[np.searchsorted(codes, mine)] == 1]
+    kept = np.union1d(np.setdiff1d(keys, face_keys(gone, n)), face_keys(after, n))
+    return np.array_equal(used_once, mine[in_sorted(mine, kept)])
 
 
 def _inner_collapse(tets, star_u, star_v, removed, changed, new, new_quality, n: int):
