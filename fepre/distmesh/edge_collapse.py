@@ -33,8 +33,8 @@ __all__ = ["collapse_round", "SHORT_EDGE"]
 
 #: A boundary edge shorter than this fraction of its bad cell's longest edge may be collapsed.
 SHORT_EDGE = 0.4
-#: The same in the second series of insertions, with inner collapses (fertility at (D/50, D/12):
-#: a boundary face's apex 0.45 of its cell's longest edge from one end, on the line of the other two)
+#: The same in the second series of insertions, with inner collapses (fertility at (D/50, D/12) in one
+#: order of ties: a boundary face's apex 0.45 of its cell's longest edge from one end, on the line of the others)
 SHORT_EDGE_RESHAPING = 0.5
 #: A collapse must raise the worst score of the cells it touches by at least this (degrees).
 MIN_GAIN = 1e-3
