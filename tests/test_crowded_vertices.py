@@ -28,15 +28,20 @@ def _crowded_ball():
         if np.linalg.norm(p) < 0.7 and all(np.linalg.norm(p - q) > 0.25 for q in inner):
             inner.append(p)
     points = np.vstack([surface, inner, inner[0] + np.array([0.03, 0.03, 0.025])])
+    return points, _oriented_delaunay(points)
+
+
+def _oriented_delaunay(points):
     tets = Delaunay(points).simplices
     flipped = signed_volume(points[tets]) < 0
     tets[flipped] = tets[flipped][:, [1, 0, 2, 3]]
-    return points, tets
+    return tets
 
 
-def _collapse(points, tets, inner: bool):
+def _collapse(points, tets, inner: bool, surface_points: int = 150):
+    """One round of collapses on the ball: the first ``surface_points`` points are its surface."""
     n = len(points)
-    on_boundary = np.arange(n) < 150
+    on_boundary = np.arange(n) < surface_points
     targets = ShapeTargets()
     quality = targets.score(points[tets])
     faces = faces_on_boundary(tets, face_neighbours(tets, n))
@@ -108,20 +113,9 @@ def test_collapses_keep_the_boundary_they_report():
         near = np.einsum("k,ikj->ij", weights, points[picked])
         near /= np.linalg.norm(near, axis=1)[:, None]
         points = np.vstack([points[:150], near, points[150:]])
-        tets = Delaunay(points).simplices
-        flipped = signed_volume(points[tets]) < 0
-        tets[flipped] = tets[flipped][:, [1, 0, 2, 3]]
+        tets = _oriented_delaunay(points)
         n = len(points)
-        on_boundary = np.arange(n) < 162
-        targets = ShapeTargets()
-        quality = targets.score(points[tets])
-        faces = faces_on_boundary(tets, face_neighbours(tets, n))
-        keys = np.sort(face_keys(faces, n))
-        edges = np.unique(edge_keys(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
-        guard = SurfaceGuard(sdf.sphere(1.0), 0.3, points, on_boundary)
-        new_tets, _, done, new_keys, _, _ = collapse_round(
-            points, tets, quality, 25.0, on_boundary.copy(), np.ones(n, bool), np.ones(n, bool), keys, edges,
-            targets=targets, guard=guard)
+        _, (new_tets, _, done, new_keys, _, _) = _collapse(points, tets, inner=False, surface_points=162)
         actual = np.sort(face_keys(faces_on_boundary(new_tets, face_neighbours(new_tets, n)), n))
         assert np.array_equal(actual, np.sort(new_keys)), seed
         assert done >= 6
