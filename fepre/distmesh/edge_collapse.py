@@ -86,21 +86,22 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
     new_quality = targets.score(points[new])
     if new_quality.min() <= quality[star_v].min() + MIN_GAIN:
         return None
-    if not (faces == v).any():
-        return _inner_collapse(tets, star_u, star_v, removed, changed, new, new_quality, n)
+    inner = not (faces == v).any()
     # the link condition on the surface: u and v share exactly the apexes of the two faces on uv
     on_uv = faces[((faces == u) | (faces == v)).sum(axis=1) == 2]
-    if on_uv.shape[0] != 2:
-        return None
-    if _surface_neighbours(faces, u) & _surface_neighbours(faces, v) != set(on_uv.ravel().tolist()) - {u, v}:
+    if not inner and (on_uv.shape[0] != 2 or _surface_neighbours(faces, u) & _surface_neighbours(faces, v)
+                      != set(on_uv.ravel().tolist()) - {u, v}):
         return None
     keep_u = np.setdiff1d(star_u, removed)
     around = np.concatenate([tets[keep_u], new])
     if np.unique(np.sort(around, axis=1), axis=0).shape[0] != around.shape[0]:
         return None
-    _, uses = np.unique(face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
+    codes, uses = np.unique(face_keys(around[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
     if uses.max() > 2:
         return None
+    if inner:
+        return _inner_collapse(tets, np.union1d(star_u, star_v), codes[uses == 1], removed, changed, new,
+                               new_quality, n)
     # the boundary faces that move with v stay on the surface
     moved = faces[(faces == v).any(axis=1) & ~(faces == u).any(axis=1)]
     after = moved.copy()
@@ -132,23 +133,12 @@ def _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n:
     return np.array_equal(used_once, mine[in_sorted(mine, kept)])
 
 
-def _inner_collapse(tets, star_u, star_v, removed, changed, new, new_quality, n: int):
+def _inner_collapse(tets, stars, shell, removed, changed, new, new_quality, n: int):
     """The collapse of an inner vertex ``v`` (on no boundary face) into ``u``: allowed when the
-    cells around ``u`` afterwards fill exactly the region the stars of ``u`` and ``v`` filled
-    (the same faces on its shell, each inner face used twice, no cell twice), so the boundary and
-    every other cell stay as they were."""
-    keep_u = np.setdiff1d(star_u, removed)
-    around = np.concatenate([tets[keep_u], new])
-    if np.unique(np.sort(around, axis=1), axis=0).shape[0] != around.shape[0]:
-        return None
-    before = tets[np.union1d(star_u, star_v)]
-    shell = []
-    for cells in (before, around):
-        codes, uses = np.unique(face_keys(cells[:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
-        if uses.max() > 2:
-            return None
-        shell.append(codes[uses == 1])
-    if shell[0].shape != shell[1].shape or (shell[0] != shell[1]).any():
+    cells around ``u`` afterwards (their faces used once: ``shell``) fill exactly the region the
+    ``stars`` of ``u`` and ``v`` filled, so the boundary and every other cell stay as they were."""
+    codes, uses = np.unique(face_keys(tets[stars][:, FACE_OF_TET].reshape(-1, 3), n), return_counts=True)
+    if not np.array_equal(codes[uses == 1], shell):
         return None
     empty = np.zeros((0, 3), dtype=tets.dtype)
     return removed, changed, new, new_quality, empty, empty
