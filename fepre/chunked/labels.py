@@ -253,7 +253,7 @@ def label_surface_chunked(source: Any, *, names: dict | None = None, background:
     >>> values = np.zeros((20, 20, 20), np.uint8); values[4:16, 4:16, 4:16] = 1; values[8:12, 8:12, 8:12] = 2
     >>> found = label_surface_chunked(da.from_array(values, chunks=10), chunks=8)
     >>> found.chunks, len(found.surface.faces) > 0, found.reaches
-    (27, True, False)
+    (8, True, False)
     """
     import dask
 
