@@ -212,11 +212,7 @@ def cell_pieces(fields: np.ndarray, labels: np.ndarray, offset, owned_lo, owned_
     offset, owned_lo, owned_hi = (np.asarray(x, dtype=np.int64) for x in (offset, owned_lo, owned_hi))
     cells = tuple(int(n) - 1 for n in nodes)
     cell_hi = np.minimum(owned_hi, np.array(cells))
-    local = tuple(int(n) for n in np.maximum(cell_hi - owned_lo, 0))
-    size = int(np.prod(local))
-    sums, counts = np.zeros((size, 3)), np.zeros(size)
-    axes = np.zeros(size, dtype=np.uint8)
-    edges = []
+    edges, touched = [], []  # touched: per (axis, corner) the owned cells (flat) and the crossings
     for axis in range(3):
         block, a, b, fraction = _crossings(fields, labels, axis)
         node = block + offset
@@ -231,15 +227,19 @@ def cell_pieces(fields: np.ndarray, labels: np.ndarray, offset, owned_lo, owned_
             cell[:, v] += dv
             quad[:, corner] = np.ravel_multi_index(tuple(cell.T), cells, mode="clip")
             mine = np.all((cell >= owned_lo) & (cell < cell_hi), axis=1)
-            at = np.ravel_multi_index(tuple((cell[mine] - owned_lo).T), local)
-            np.add.at(sums, at, point[mine])
-            np.add.at(counts, at, 1.0)
-            axes[at] |= np.uint8(1 << axis)
+            touched.append((axis, quad[mine, corner], point[mine]))
         edges.append((np.ravel_multi_index(tuple(node[own].T), tuple(int(n) for n in nodes)), quad[own], a[own], b[own]))
-    found = np.flatnonzero(counts)
-    used = np.ravel_multi_index(tuple((np.column_stack(np.unravel_index(found, local)) + owned_lo).T), cells) \
-        if size else found
-    return CellPieces(used.astype(np.int64), axes[found], sums[found], counts[found], edges)
+    # the sums over the cells crossed only (a dense array of the block's cells took 33 bytes a
+    # cell: 550 MB at 256^3), added in the same order
+    used = np.unique(np.concatenate([t[1] for t in touched])) if touched else np.zeros(0, np.int64)
+    sums, counts = np.zeros((len(used), 3)), np.zeros(len(used))
+    axes = np.zeros(len(used), dtype=np.uint8)
+    for axis, cell, point in touched:
+        at = np.searchsorted(used, cell)
+        np.add.at(sums, at, point)
+        np.add.at(counts, at, 1.0)
+        axes[at] |= np.uint8(1 << axis)
+    return CellPieces(used.astype(np.int64), axes, sums, counts, edges)
 
 
 def assemble(pieces: CellPieces, nodes, spacing: np.ndarray, origin: np.ndarray, iterations: int = 0,
