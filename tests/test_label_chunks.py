@@ -180,3 +180,23 @@ def test_bad_label_stores(tmp_path, kind, message, capsys):
 def test_chunks_is_checked():
     with pytest.raises(ValueError, match="chunks"):
         sdf.labels(np.zeros((10, 10, 10), np.uint8), chunks=2)
+
+
+@pytest.mark.slow
+def test_the_mni_brain_chunked_is_the_brain_in_memory():
+    """A real segmentation (the MNI brain of examples/brain_mri.py at 2 mm, 98 x 116 x 94, three
+    labels): joins in several chunks (225 nodes), the same triangles in chunks of 48."""
+    import runpy
+    from pathlib import Path
+
+    pytest.importorskip("nibabel")
+    namespace = runpy.run_path(str(Path(__file__).parents[1] / "examples" / "brain_mri.py"))
+    if namespace["template_folder"]() is None:
+        pytest.skip("the MNI152 templates come with nilearn: pip install --no-deps nilearn")
+    values, spacing, origin = namespace["mni152_labels"]()
+    found = label_surface_chunked(da.from_array(values, chunks=64), spacing=spacing, origin=origin, chunks=48)
+    spacing = np.asarray(spacing, float)
+    indices = np.pad(found.plan.indices(values), BORDER_COPIES, mode="edge")  # the brain stem reaches the border
+    whole = label_surface(indices, 4, spacing, np.asarray(origin, float) - BORDER_COPIES * spacing, 0.5, 0, 30)
+    assert found.reaches and found.joined > 100 and found.retaken > 1
+    assert np.array_equal(found.surface.vertices, whole.vertices) and np.array_equal(found.surface.faces, whole.faces)
