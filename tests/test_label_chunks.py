@@ -200,3 +200,21 @@ def test_the_mni_brain_chunked_is_the_brain_in_memory():
     whole = label_surface(indices, 4, spacing, np.asarray(origin, float) - BORDER_COPIES * spacing, 0.5, 0, 30)
     assert found.reaches and found.joined > 100 and found.retaken > 1
     assert np.array_equal(found.surface.vertices, whole.vertices) and np.array_equal(found.surface.faces, whole.faces)
+
+
+@pytest.mark.parametrize("options", [
+    {"spacing": (1.0, 0.5, 2.0), "smoothing": 1.5},  # anisotropic: the Gaussian's reach differs per axis
+    {"background": 100, "names": {0: "a", 7000: "b"}},  # label values far apart, another background
+    {"keep_background": True, "spacing": (2.0, 1.0, 1.0)},
+])
+def test_spacing_label_values_and_background(options):
+    values = np.array([0, 100, 7000], np.uint16)[_noisy(24, 5) % 3]
+    whole = sdf.labels(values, **options)
+    chunked = sdf.labels(da.from_array(values, chunks=(7, 9, 11)), chunks=(9, 12, 10), **options)
+    assert list(chunked) == list(whole) and chunked.labels == whole.labels
+    points = np.random.default_rng(0).uniform(-3, 50, (500, 3))
+    for name in [*whole, "part"]:
+        a, b = (whole[name], chunked[name]) if name != "part" else (whole.part, chunked.part)
+        assert np.array_equal(a(points), b(points))
+        if hasattr(a, "faces"):
+            assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
