@@ -36,7 +36,7 @@ import numpy as np
 from ..sdf.imagemodel.labelmodel import (BORDER_COPIES, ITERATIONS, LabelPlan, LabelRegions, label_plan,
                                          label_regions, non_integer_message)
 from ..sdf.imagemodel.multilabel import (CellPieces, assemble, cell_pieces, clear_ring, diagonal_faces, label_rank,
-                                         smoothed_labels, swap_fields, _no_diagonal_faces)
+                                         no_diagonal_faces, smoothed_labels, swap_fields)
 from ..sdf.imagemodel.read import Image, ImageInputError
 from .cluster import in_completion_order
 from .image import open_image
@@ -192,7 +192,7 @@ def _joins(values, corners: np.ndarray, rank: np.ndarray, plan: _Plan):
             samples = np.asarray(values[s_lo[0]:s_hi[0], s_lo[1]:s_hi[1], s_lo[2]:s_hi[2]])
             _, labels = _block_labels(samples, s_lo, box_lo, box_hi, plan, always=True)
             held = max(held, labels.size)
-            joined = unrank[_no_diagonal_faces(rank[labels])]
+            joined = unrank[no_diagonal_faces(rank[labels])]
             where = np.argwhere(joined != labels)
             low_ok = (where >= 2) | (box_lo == 0)
             high_ok = (where < box_hi - box_lo - 2) | (box_hi == nodes)

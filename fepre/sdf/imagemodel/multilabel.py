@@ -17,7 +17,7 @@ import numpy as np
 from .sharp import sharp_planes
 
 __all__ = ["LabelSurface", "label_surface", "label_rank", "swap_fields", "diagonal_faces", "CellPieces",
-           "cell_pieces", "assemble", "clear_ring", "smoothed_labels"]
+           "cell_pieces", "assemble", "clear_ring", "smoothed_labels", "no_diagonal_faces"]
 
 
 class LabelSurface:
@@ -60,12 +60,12 @@ def smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
     return fields, np.argmax(fields, axis=0).astype(np.int16)
 
 
-#: most rounds of :func:`_no_diagonal_faces` (a node's label only grows, so they end; a brain MRI
+#: most rounds of :func:`no_diagonal_faces` (a node's label only grows, so they end; a brain MRI
 #: at 2 mm needed 5)
 DIAGONAL_ROUNDS = 50
 
 
-def _no_diagonal_faces(labels: np.ndarray) -> np.ndarray:
+def no_diagonal_faces(labels: np.ndarray) -> np.ndarray:
     """The labels with no grid face whose two diagonals hold one label on one diagonal only.
 
     A label on two opposite nodes of a face and not on the other two (voxels that touch along an
@@ -150,7 +150,7 @@ def swap_fields(fields: np.ndarray, changed: np.ndarray, before: np.ndarray, aft
 
 def diagonal_faces(labels: np.ndarray) -> list[np.ndarray]:
     """Per axis, the first corners (M, 3) of the faces normal to it that hold a label on one
-    diagonal only (what :func:`_no_diagonal_faces` joins up; the test is the same for labels
+    diagonal only (what :func:`no_diagonal_faces` joins up; the test is the same for labels
     and their ranks)."""
     found = []
     for axis in range(3):
@@ -291,7 +291,7 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     indices = np.pad(indices, 1, constant_values=background)
     fields, labels = smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
     rank = label_rank(np.bincount(labels.ravel(), minlength=count))
-    joined = np.argsort(rank).astype(np.int16)[_no_diagonal_faces(rank[labels])]
+    joined = np.argsort(rank).astype(np.int16)[no_diagonal_faces(rank[labels])]
     changed = np.flatnonzero((joined != labels).ravel())
     swap_fields(fields, changed, labels.ravel()[changed], joined.ravel()[changed])
     labels = joined
