@@ -60,6 +60,7 @@ _backends.provide("sample_chunked", lambda: importlib.import_module("fepre.chunk
 _backends.provide("isosurface_chunked", lambda: importlib.import_module("fepre.chunked.api").isosurface_chunked)
 # sdf.image of a zarr store or dask array (the model layer hands over the same way)
 _backends.provide("image_chunked", lambda: importlib.import_module("fepre.chunked.image").image_chunked)
+_backends.provide("labels_chunked", lambda: importlib.import_module("fepre.chunked.labels").labels_chunked)
 
 
 def __getattr__(name: str) -> Any:

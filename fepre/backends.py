@@ -10,7 +10,8 @@ name: the implementation is imported on first use, as before, and the import gra
 Registered names: ``"ChunkedGrid"`` (the class, for ``isinstance``), ``"sample_chunked"``
 (:func:`fepre.chunked.sampling.sample_model`), ``"isosurface_chunked"``
 (:func:`fepre.chunked.api.isosurface_chunked`) and ``"image_chunked"``
-(:func:`fepre.chunked.image.image_chunked`: ``sdf.image`` of a zarr store or a dask array).
+(:func:`fepre.chunked.image.image_chunked`: ``sdf.image`` of a zarr store or a dask array) and
+``"labels_chunked"`` (:func:`fepre.chunked.labels.labels_chunked`: ``sdf.labels`` of one).
 """
 
 from __future__ import annotations

@@ -185,7 +185,9 @@ def test_chunks_away_from_the_level_are_skipped():
     assert np.abs(np.linalg.norm(found.vertices, axis=1) - 0.5).max() < 2 / 47  # the level set is the sphere's
 
 
-def test_label_images_beyond_memory_are_refused_clearly(torus_image):
+def test_a_grey_store_is_no_label_image(torus_image):
+    """sdf.labels reads stores chunk by chunk (tests/test_label_chunks.py); a partial-volume
+    image is refused by its first pass, naming the store."""
     _, _, path, _ = torus_image
-    with pytest.raises(ImageInputError, match="sdf.labels reads a label image whole; a zarr store"):
+    with pytest.raises(ImageInputError, match=f"^{path}.* holds non-integer values .float32.; a label image holds integer"):
         sdf.labels(str(path))

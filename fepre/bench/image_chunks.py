@@ -13,6 +13,12 @@ Two parts:
    centre against -r. ``--h H`` also meshes the model with ``fepre.distmesh``. N = 1024 is a
    4 GB float32 image, 34 GB refined twice. The store goes to a temporary folder, removed after,
    unless ``--keep FOLDER`` names one.
+3. Labels (``--labels N``, default off): the three-label speed phantom of ``fepre bench images``
+   (a block with a ball and a rod in it) at N^3 voxels written chunk by chunk to a uint8 zarr
+   store, then ``sdf.labels`` of the store (chunks of ``--label-chunks``) in a fresh process, and
+   of the same image loaded as a numpy array in another: wall time, peak resident memory
+   (``getrusage``, which includes the interpreter and the imports, about 250 MB), triangles,
+   region volumes against the analytic ones, and whether the two give the same triangles (bits).
 """
 
 from __future__ import annotations
@@ -112,6 +118,95 @@ def scale(size: int, chunks: int, folder: Path, h: float | None, radii=RADII, re
     return result
 
 
+def _label_models():
+    from .. import sdf
+
+    return [sdf.box((1.6, 1.2, 1.2)), sdf.sphere(0.4, center=(-0.35, 0, 0)),
+            sdf.cylinder(radius=0.25, height=1.0, center=(0.45, 0, 0))]
+
+
+def _labels_child(store: str, mode: str, chunks: int | None, output: str) -> None:
+    """In a fresh process: ``sdf.labels`` of the store (``mode="chunked"``) or of its image read
+    whole (``"memory"``), its time and peak memory; the triangles saved to ``output``."""
+    import resource
+
+    import zarr
+
+    from .. import sdf
+
+    start = time.perf_counter()
+    surface = {}
+    if mode == "chunked":  # what sdf.labels(store, chunks=chunks) does, in two steps
+        from ..chunked.labels import label_surface_chunked
+        from ..sdf.imagemodel.labelmodel import label_regions
+
+        found = label_surface_chunked(store, chunks=chunks)
+        surface = {"surface_seconds": time.perf_counter() - start, "chunks": [found.chunks, found.skipped, found.retaken],
+                   "surface_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+        regions = label_regions(found.surface, found.image, found.plan, found.reaches)
+        del found
+    else:
+        array = zarr.open_array(store, mode="r")
+        regions = sdf.labels(np.asarray(array[:]), spacing=array.attrs["spacing"], origin=array.attrs["origin"])
+    seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    part = regions.part if hasattr(regions.part, "faces") else regions.part.children[0]
+    volumes = {name: float(model.volume) for name, model in regions.items()}
+    np.savez(output, vertices=part.vertices, faces=part.faces)
+    voxels = np.bincount(np.asarray(zarr.open_array(store, mode="r")[:]).ravel())  # (after the peak was read)
+    cell = float(np.prod(zarr.open_array(store, mode="r").attrs["spacing"]))
+    counted = {name: float(voxels[label]) * cell for name, label in regions.labels.items()}
+    print(json.dumps({"seconds": seconds, "peak_rss_mb": peak, "triangles": len(part.faces), "volumes": volumes,
+                      "voxel_volumes": counted, **surface}))
+
+
+def _run(code: str) -> dict:
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    if run.returncode:
+        raise RuntimeError(f"the run failed:\n{run.stderr[-3000:]}")
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def labels_scale(size: int, chunks: int, folder: Path, process_chunks: int | None, memory: bool = True) -> dict:
+    """Write the three-label phantom of ``size``^3 voxels and label it chunked and in memory,
+    each in a fresh process."""
+    from ..chunked.phantom_store import write_label_image
+
+    path = folder / f"labels{size}.zarr"
+    start = time.perf_counter()
+    if not path.exists():
+        write_label_image(_label_models(), path, (-1, -1, -1), (1, 1, 1), 2.0 / size, chunks=chunks)
+    written = time.perf_counter() - start
+    result = {"voxels": size, "write_seconds": written}
+    for mode in ("chunked", "memory") if memory else ("chunked",):
+        code = (f"from fepre.bench.image_chunks import _labels_child; "
+                f"_labels_child({str(path)!r}, {mode!r}, {process_chunks!r}, {str(folder / (mode + '.npz'))!r})")
+        result[mode] = _run(code)
+    if memory:
+        a, b = np.load(folder / "chunked.npz"), np.load(folder / "memory.npz")
+        result["same"] = all(np.array_equal(a[k], b[k]) for k in ("vertices", "faces"))
+    ball, rod = 4 / 3 * math.pi * 0.4**3, math.pi * 0.25**2 * 1.0
+    result["exact"] = {"label_1": 1.6 * 1.2 * 1.2 - ball - rod, "label_2": ball, "label_3": rod}
+    return result
+
+
+def _print_labels(big: dict, chunks: int | None) -> None:
+    found = big["chunked"]
+    errors = " ".join(f"{name} {100 * (found['volumes'][name] / exact - 1):+.2f}%" for name, exact in big["exact"].items())
+    counted = " ".join(f"{name} {100 * (found['volumes'][name] / found['voxel_volumes'][name] - 1):+.2f}%"
+                       for name in big["exact"])
+    print(f"labels, {big['voxels']}^3 block with a ball and a rod (3 labels, {big['voxels']**3 / 1e6:.0f} MB uint8), "
+          f"zarr written in {big['write_seconds']:.0f} s; sdf.labels of the store (chunks of {chunks or 'default'}) "
+          f"{found['seconds']:.1f} s, peak RSS {found['peak_rss_mb']:.0f} MB (the surface {found['surface_seconds']:.1f} s, "
+          f"{found['surface_rss_mb']:.0f} MB; chunks, one-label skipped, retaken for joins: {found['chunks']}), "
+          f"{found['triangles']} triangles on the part; region volumes {errors} from the analytic ones, {counted} from "
+          f"the voxel counts")
+    if "memory" in big:
+        whole = big["memory"]
+        print(f"  in memory: {whole['seconds']:.1f} s, peak RSS {whole['peak_rss_mb']:.0f} MB; "
+              f"the same triangles (bits): {big['same']}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fepre bench image-chunks", description=__doc__.splitlines()[0])
     parser.add_argument("--small", type=int, default=96, help="voxels per axis of the agreement image")
@@ -124,6 +219,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--image-chunks", type=int, default=None,
                         help="samples per chunk sdf.image processes (default fepre.chunked.image.DEFAULT_CHUNKS)")
     parser.add_argument("--h", type=float, default=None, help="also mesh the scale model at this h")
+    parser.add_argument("--labels", type=int, default=0,
+                        help="voxels per axis of the three-label phantom labelled from a store (0: skip, the default)")
+    parser.add_argument("--label-chunks", type=int, default=None,
+                        help="nodes per chunk sdf.labels processes (default fepre.chunked.labels.DEFAULT_CHUNKS)")
+    parser.add_argument("--no-memory", action="store_true", help="with --labels: skip the in-memory run")
     parser.add_argument("--keep", default=None, help="folder for the zarr stores (kept; default a temporary one)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as temporary:
@@ -149,4 +249,7 @@ def main(argv: list[str] | None = None) -> int:
             if "cells" in big:
                 print(f"  distmesh h={args.h}: {big['cells']} cells in {big['mesh_seconds']:.0f} s, volume "
                       f"{big['mesh_volume']:.6f}, peak RSS {big['mesh_rss_mb']:.0f} MB")
+        if args.labels:
+            big = labels_scale(args.labels, args.chunks, folder, args.label_chunks, not args.no_memory)
+            _print_labels(big, args.label_chunks)
     return 0

@@ -7,7 +7,8 @@ to hold to an STL or PLY file. Chunks run wherever dask runs them: threads by de
 ``dask.distributed`` client the user has (the model is then pickled to the workers).
 
 ``fepre.sdf.image`` of a zarr store or a dask array (an image beyond memory) is taken chunk by chunk
-here too (:mod:`fepre.chunked.image`: the same triangles as the in-memory image, bit for bit).
+here too (:mod:`fepre.chunked.image`: the same triangles as the in-memory image, bit for bit), and
+so is ``fepre.sdf.labels`` of one (:mod:`fepre.chunked.labels`: the same label surface, bit for bit).
 
 Needs the optional dependencies: ``pip install 'fepre[dask]'``.
 

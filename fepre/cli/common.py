@@ -97,8 +97,8 @@ def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None
 def label_arguments(parser: argparse.ArgumentParser) -> None:
     """``--labels`` and ``--label VALUE=NAME``: an image MODEL as a label image, one region per label."""
     parser.add_argument("--labels", action="store_true",
-                        help="MODEL is a label image: one region (element set) per label, meshed conformally; "
-                             "label 0 is the background")
+                        help="MODEL is a label image (.vti, .nii, .nii.gz, .tif, or a .zarr store read chunk by chunk): "
+                             "one region (element set) per label, meshed conformally; label 0 is the background")
     parser.add_argument("--label", action="append", metavar="VALUE=NAME",
                         help="with --labels: the region name of a label (repeat; default label_<VALUE>)")
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -13,7 +13,7 @@ from ..meshmodel.repair import Repair, _is_closed, repair
 from .multilabel import label_surface
 from .read import Image, ImageInputError, read_image
 
-__all__ = ["LabelRegions", "LabelModel", "labels"]
+__all__ = ["LabelRegions", "LabelModel", "LabelPlan", "labels", "label_plan", "label_regions", "BORDER_COPIES", "ITERATIONS"]
 
 ITERATIONS = 30
 #: Copies of the border voxels added beyond the image's border where a label reaches it, so that
@@ -131,6 +131,7 @@ def labels(
     spacing: Any = None,
     origin: Any = None,
     array: str | None = None,
+    chunks: Any = None,
 ) -> LabelRegions:
     """A segmented label image (CT or MRI segmentation, phases of a material) as the regions of
     one conformal mesh.
@@ -143,8 +144,10 @@ def labels(
 
     Parameters
     ----------
-    source : pyvista.ImageData, str, path-like or array_like
-        A label image: a grid, an image file (``.vti``, NIfTI, TIFF) or a 3D integer array.
+    source : pyvista.ImageData, str, path-like, array_like, zarr.Array or dask.array.Array
+        A label image: a grid, an image file (``.vti``, NIfTI, TIFF), a 3D integer array, or
+        an image beyond memory: a ``.zarr`` store (a group with ``array=``), a zarr or dask
+        array (indexed x, y, z), read chunk by chunk (:mod:`fepre.chunked.labels`).
     names : dict, optional
         Label value -> region name (solver-safe: letters, digits, ``_``); the others are
         named ``label_<value>``.
@@ -154,10 +157,15 @@ def labels(
         Mesh the background too, as a region ``background`` (named by ``names`` if given), the
         part being the whole box the voxels fill.
     smoothing : float
-        Width of the Gaussian in voxels of the finest axis (default 1; 0 keeps the voxels'
+        Width of the Gaussian in voxels of the finest axis (default 0.5; 0 keeps the voxels'
         staircase).
     spacing, origin, array : optional
-        As for :func:`fepre.sdf.image`.
+        As for :func:`fepre.sdf.image` (a store's ``spacing`` and ``origin`` attributes are
+        taken when not given).
+    chunks : int or (3,) ints, optional
+        Nodes per chunk along x, y, z: the image is then processed chunk by chunk, never held
+        whole, with the same triangles bit for bit (default 128 for a zarr store or a dask
+        array, which are always processed so).
 
     Returns
     -------
@@ -168,7 +176,8 @@ def labels(
     Raises
     ------
     fepre.sdf.imagemodel.ImageInputError
-        Unreadable file, not 3D, no scalar array, non-integer labels, fewer than two regions.
+        Unreadable file, not 3D, no scalar array, non-integer labels, fewer than two regions
+        (for a store, found by one pass over its chunks before any smoothing).
 
     Examples
     --------
@@ -183,18 +192,53 @@ def labels(
     smoothing = nonnegative_float(smoothing, "smoothing")
     from .model import is_chunked_source
 
-    if is_chunked_source(source):
-        raise ImageInputError(
-            f"{source if isinstance(source, (str, os.PathLike)) else type(source).__name__}: sdf.labels reads a label "
-            "image whole; a zarr store or dask array is read chunk by chunk by sdf.image (grey images) only. Load it "
-            "as a numpy array (e.g. np.asarray(zarr.open_array(path))) if it fits in memory"
-        )
+    if chunks is not None or is_chunked_source(source):
+        from ...backends import provided
+
+        return provided("labels_chunked")(source, names=names, background=background, keep_background=keep_background,
+                                          smoothing=smoothing, spacing=spacing, origin=origin, array=array,
+                                          chunks=chunks)
     data = read_image(source, spacing=spacing, origin=origin, array=array)
     values = data.values
     if not (np.issubdtype(values.dtype, np.integer) or values.dtype == bool):
         if not np.array_equal(values, np.round(values)):
-            raise ImageInputError(f"{data.name} holds non-integer values ({values.dtype}); a label image holds integer labels")
-    present = np.unique(values).astype(np.int64)
+            raise ImageInputError(non_integer_message(data.name, values.dtype))
+    plan = label_plan(data, np.unique(values), names, background, keep_background)
+    indices = plan.indices(values)
+    origin = np.asarray(data.origin, dtype=np.float64)
+    reaches = not keep_background and _touches_border(indices)
+    if reaches:  # the regions run on beyond the image's border, to be cut by the voxels' box
+        indices = np.pad(indices, BORDER_COPIES, mode="edge")
+        origin = origin - BORDER_COPIES * np.asarray(data.spacing, dtype=np.float64)
+    surface = label_surface(indices, len(plan.order), data.spacing, origin, smoothing, 0, ITERATIONS)
+    return label_regions(surface, data, plan, reaches)
+
+
+def non_integer_message(name: str, dtype) -> str:
+    return f"{name} holds non-integer values ({dtype}); a label image holds integer labels"
+
+
+@dataclass(frozen=True)
+class LabelPlan:
+    """The labels of an image: ``order`` (label values, index 0 the background, then the
+    regions' labels in increasing order), ``named`` (label value -> region name), and
+    ``background``, ``keep_background``."""
+
+    order: np.ndarray
+    named: dict
+    background: int
+    keep_background: bool
+
+    def indices(self, values: np.ndarray) -> np.ndarray:
+        """int16 label indices (positions in ``order``) of label values."""
+        indices = np.searchsorted(np.sort(self.order), values).astype(np.int16)
+        return np.argsort(self.order)[indices].astype(np.int16)  # sorted position -> index in order
+
+
+def label_plan(data: Image, present: np.ndarray, names: Any, background: int, keep_background: bool) -> LabelPlan:
+    """The regions of an image holding the label values ``present``: at least two, named
+    (``names``: label value -> region name)."""
+    present = np.asarray(present).astype(np.int64)
     kept = present if keep_background else present[present != background]
     if len(kept) < 2:
         raise ImageInputError(
@@ -205,15 +249,13 @@ def labels(
     named = _names(kept, names, data, background)
     check_names(list(named.values()), "names")
     order = np.concatenate([[background], kept[kept != background]])  # index 0 is the background
-    indices = np.searchsorted(np.sort(order), values).astype(np.int16)
-    remap = np.argsort(order)  # sorted position -> index in order
-    indices = remap[indices].astype(np.int16)
-    origin = np.asarray(data.origin, dtype=np.float64)
-    reaches = not keep_background and _touches_border(indices)
-    if reaches:  # the regions run on beyond the image's border, to be cut by the voxels' box
-        indices = np.pad(indices, BORDER_COPIES, mode="edge")
-        origin = origin - BORDER_COPIES * np.asarray(data.spacing, dtype=np.float64)
-    surface = label_surface(indices, len(order), data.spacing, origin, smoothing, 0, ITERATIONS)
+    return LabelPlan(order, named, background, keep_background)
+
+
+def label_regions(surface, data: Image, plan: LabelPlan, reaches: bool) -> LabelRegions:
+    """The regions' models of a label surface (``reaches``: a label reaches the image's border,
+    so the surface closes beyond it and the voxels' box cuts the part)."""
+    order, named, background = plan.order, plan.named, plan.background
     regions = LabelRegions()
     regions.labels, regions.image = {}, data
     for index in range(1, len(order)):
@@ -227,7 +269,7 @@ def labels(
     from ..solids import box
 
     whole = box(tuple(upper - lower), center=tuple(0.5 * (lower + upper)))
-    if keep_background:
+    if plan.keep_background:
         regions[named[background]] = whole & -part
         regions.labels[named[background]] = background
         regions.part = whole

@@ -16,7 +16,8 @@ import numpy as np
 
 from .sharp import sharp_planes
 
-__all__ = ["LabelSurface", "label_surface"]
+__all__ = ["LabelSurface", "label_surface", "label_rank", "swap_fields", "diagonal_faces", "CellPieces",
+           "cell_pieces", "assemble", "clear_ring", "smoothed_labels", "no_diagonal_faces"]
 
 
 class LabelSurface:
@@ -48,7 +49,7 @@ class LabelSurface:
         return faces, np.concatenate([self.inner[out], self.outer[into]]), np.concatenate([self.plane[out], self.plane[into]])
 
 
-def _smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
+def smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
     """Smoothed indicators (count, ...) as float32 and the smoothed labels."""
     from scipy import ndimage
 
@@ -59,12 +60,12 @@ def _smoothed_labels(indices: np.ndarray, count: int, sigma: np.ndarray):
     return fields, np.argmax(fields, axis=0).astype(np.int16)
 
 
-#: most rounds of :func:`_no_diagonal_faces` (a node's label only grows, so they end; a brain MRI
+#: most rounds of :func:`no_diagonal_faces` (a node's label only grows, so they end; a brain MRI
 #: at 2 mm needed 5)
 DIAGONAL_ROUNDS = 50
 
 
-def _no_diagonal_faces(labels: np.ndarray) -> np.ndarray:
+def no_diagonal_faces(labels: np.ndarray) -> np.ndarray:
     """The labels with no grid face whose two diagonals hold one label on one diagonal only.
 
     A label on two opposite nodes of a face and not on the other two (voxels that touch along an
@@ -130,6 +131,155 @@ _AROUND = {0: ((1, 2), ((-1, -1), (0, -1), (0, 0), (-1, 0))),
            2: ((0, 1), ((-1, -1), (0, -1), (0, 0), (-1, 0)))}
 
 
+def label_rank(counts: np.ndarray) -> np.ndarray:
+    """(count,) int16: each label index's rank by its smoothed nodes' count (the larger region
+    takes a diagonal face's node: the smallest relative change of volume)."""
+    return np.argsort(np.argsort(counts, kind="stable"), kind="stable").astype(np.int16)
+
+
+def swap_fields(fields: np.ndarray, changed: np.ndarray, before: np.ndarray, after: np.ndarray) -> None:
+    """Swap the smoothed values of labels ``before`` and ``after`` at the flat nodes ``changed``
+    (in place): a node that changed label keeps its new label the largest there, so every
+    crossing between labels still lies where their difference changes sign along the edge (with
+    the values as they were, the crossings next to it fell on the edges' ends and folded
+    triangles over: a brain's grey matter then held points of its ventricles)."""
+    if len(changed):
+        flat = fields.reshape(fields.shape[0], -1)
+        flat[before, changed], flat[after, changed] = flat[after, changed], flat[before, changed].copy()
+
+
+def diagonal_faces(labels: np.ndarray) -> list[np.ndarray]:
+    """Per axis, the first corners (M, 3) of the faces normal to it that hold a label on one
+    diagonal only (what :func:`no_diagonal_faces` joins up; the test is the same for labels
+    and their ranks)."""
+    found = []
+    for axis in range(3):
+        u, v = [k for k in range(3) if k != axis]
+        shape = np.array(labels.shape)
+
+        def cut(du: int, dv: int, u=u, v=v) -> tuple:
+            shift = {u: du, v: dv}
+            return tuple(slice(shift.get(k, 0), shape[k] - 1 + shift.get(k, 0)) if k != axis else slice(None)
+                         for k in range(3))
+
+        a, b, c, d = (labels[cut(du, dv)] for du, dv in ((0, 0), (1, 0), (1, 1), (0, 1)))
+        first = (a == c) & (b != a) & (d != a)
+        second = (b == d) & (a != b) & (c != b)
+        found.append(np.argwhere(first | second))
+    return found
+
+
+class CellPieces:
+    """The surface-nets data of the cells and edges a block of nodes owns (what
+    :func:`assemble` takes; the chunked path concatenates the blocks' pieces).
+
+    ``used`` (U,) flat cell indices (sorted), ``axes`` (U,) bits of their crossed edges' axes,
+    ``sums`` (U, 3) and ``counts`` (U,) of their crossings (grid coordinates); per axis,
+    ``edges[axis] = (node, quad, a, b)``: each crossed edge's first node (flat, sorted), its four
+    cells (flat, in the order that faces from ``a`` to ``b``) and the labels at its ends."""
+
+    def __init__(self, used, axes, sums, counts, edges) -> None:
+        self.used, self.axes, self.sums, self.counts, self.edges = used, axes, sums, counts, edges
+
+    @classmethod
+    def empty(cls) -> "CellPieces":
+        none = np.zeros(0, dtype=np.int64)
+        return cls(none, np.zeros(0, np.uint8), np.zeros((0, 3)), np.zeros(0),
+                   [(none, np.zeros((0, 4), np.int64), none, none) for _ in range(3)])
+
+    @classmethod
+    def joined(cls, pieces: list) -> "CellPieces":
+        """The pieces of disjoint blocks as one, cells and edges in flat order."""
+        if not pieces:
+            return cls.empty()
+        used = np.concatenate([p.used for p in pieces])
+        order = np.argsort(used, kind="stable")
+        edges = []
+        for axis in range(3):
+            node = np.concatenate([p.edges[axis][0] for p in pieces])
+            by = np.argsort(node, kind="stable")
+            edges.append(tuple(np.concatenate([p.edges[axis][k] for p in pieces])[by] for k in range(4)))
+        return cls(used[order], np.concatenate([p.axes for p in pieces])[order],
+                   np.concatenate([p.sums for p in pieces])[order], np.concatenate([p.counts for p in pieces])[order],
+                   edges)
+
+
+def cell_pieces(fields: np.ndarray, labels: np.ndarray, offset, owned_lo, owned_hi, nodes) -> CellPieces:
+    """The crossings of a block of nodes (its first node at ``offset`` of a grid of ``nodes``
+    per axis), for the cells and edges whose first node lies in ``[owned_lo, owned_hi)``; the
+    block must hold the next node plane beyond them. Each cell's crossings are added in the
+    same order (axis, then corner) whatever the block, so its vertex has the same bits."""
+    offset, owned_lo, owned_hi = (np.asarray(x, dtype=np.int64) for x in (offset, owned_lo, owned_hi))
+    cells = tuple(int(n) - 1 for n in nodes)
+    cell_hi = np.minimum(owned_hi, np.array(cells))
+    edges, touched = [], []  # touched: per (axis, corner) the owned cells (flat) and the crossings
+    for axis in range(3):
+        block, a, b, fraction = _crossings(fields, labels, axis)
+        node = block + offset
+        own = np.all((node >= owned_lo) & (node < owned_hi), axis=1)
+        point = node.astype(np.float64)
+        point[:, axis] += fraction
+        (u, v), offsets = _AROUND[axis]
+        quad = np.empty((len(node), 4), dtype=np.int64)
+        for corner, (du, dv) in enumerate(offsets):
+            cell = node.copy()
+            cell[:, u] += du
+            cell[:, v] += dv
+            quad[:, corner] = np.ravel_multi_index(tuple(cell.T), cells, mode="clip")
+            mine = np.all((cell >= owned_lo) & (cell < cell_hi), axis=1)
+            touched.append((axis, quad[mine, corner], point[mine]))
+        edges.append((np.ravel_multi_index(tuple(node[own].T), tuple(int(n) for n in nodes)), quad[own], a[own], b[own]))
+    # the sums over the cells crossed only (a dense array of the block's cells took 33 bytes a
+    # cell: 550 MB at 256^3), added in the same order
+    used = np.unique(np.concatenate([t[1] for t in touched])) if touched else np.zeros(0, np.int64)
+    sums, counts = np.zeros((len(used), 3)), np.zeros(len(used))
+    axes = np.zeros(len(used), dtype=np.uint8)
+    for axis, cell, point in touched:
+        at = np.searchsorted(used, cell)
+        np.add.at(sums, at, point)
+        np.add.at(counts, at, 1.0)
+        axes[at] |= np.uint8(1 << axis)
+    return CellPieces(used.astype(np.int64), axes, sums, counts, edges)
+
+
+def assemble(pieces: CellPieces, nodes, spacing: np.ndarray, origin: np.ndarray, iterations: int = 0,
+             sharp: bool = True) -> LabelSurface:
+    """The label surface of the cells' pieces (the whole grid's) on a grid of ``nodes`` per
+    axis whose first node is at ``origin``: triangles of the quads, sharp planes, junctions
+    held, the rest relaxed (see the module). It holds only what the surface holds."""
+    cells = tuple(int(n) - 1 for n in nodes)
+    used = pieces.used
+    quads = np.concatenate([e[1] for e in pieces.edges])
+    inner = np.concatenate([e[2] for e in pieces.edges])
+    outer = np.concatenate([e[3] for e in pieces.edges])
+    quads = np.searchsorted(used, quads)
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    inner, outer = np.tile(inner, 2), np.tile(outer, 2)
+    points = pieces.sums / pieces.counts[:, None]
+    fixed, plane = np.zeros(len(used), dtype=bool), np.full(len(faces), -1, dtype=np.int64)
+    if sharp:
+        points, fixed, member = sharp_planes(used, pieces.axes, points, cells)
+        plane = _face_planes(faces, member)
+    if iterations:
+        cell = np.column_stack(np.unravel_index(used, cells)).astype(np.float64)
+        junction = _junctions(len(used), faces, inner, outer)
+        points = relaxed(points, faces, cell, junction | fixed, iterations)
+    return LabelSurface(origin + spacing * points, faces, inner, outer, plane)
+
+
+def clear_ring(labels: np.ndarray, offset, nodes, background: int) -> None:
+    """Give the nodes of a block (first node at ``offset``) on the grid's outer layer (a grid of
+    ``nodes`` per axis) the ``background`` label, in place: the pad stays background, so every
+    crossed edge has four cells around it."""
+    for axis in range(3):
+        for end in (0, int(nodes[axis]) - 1):
+            at = end - int(offset[axis])
+            if 0 <= at < labels.shape[axis]:
+                index = [slice(None)] * 3
+                index[axis] = at
+                labels[tuple(index)] = background
+
+
 def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: np.ndarray, sigma: float,
                   background: int, iterations: int = 0, sharp: bool = True) -> LabelSurface:
     """The shared interface surface of label indices ``0..count-1`` on a grid (see the module).
@@ -139,66 +289,16 @@ def label_surface(indices: np.ndarray, count: int, spacing: np.ndarray, origin: 
     ``sharp`` keeps the edges where large voxel-aligned planes meet (:mod:`.sharp`).
     """
     indices = np.pad(indices, 1, constant_values=background)
-    fields, labels = _smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
-    # the larger region takes a diagonal face's node (the smallest relative change of volume)
-    rank = np.argsort(np.argsort(np.bincount(labels.ravel(), minlength=count), kind="stable"), kind="stable").astype(np.int16)
-    joined = np.argsort(rank).astype(np.int16)[_no_diagonal_faces(rank[labels])]
-    # a node that changed label swaps its two labels' smoothed values, so that its new label is
-    # the largest there and every crossing between labels still lies where their difference
-    # changes sign along the edge (with the values as they were, the crossings next to it fell
-    # on the edges' ends and folded triangles over: a brain's grey matter then held points of
-    # its ventricles)
+    fields, labels = smoothed_labels(indices, count, sigma * float(spacing.min()) / spacing)
+    rank = label_rank(np.bincount(labels.ravel(), minlength=count))
+    joined = np.argsort(rank).astype(np.int16)[no_diagonal_faces(rank[labels])]
     changed = np.flatnonzero((joined != labels).ravel())
-    if len(changed):
-        flat = fields.reshape(count, -1)
-        before, after = labels.ravel()[changed], joined.ravel()[changed]
-        flat[before, changed], flat[after, changed] = flat[after, changed], flat[before, changed].copy()
+    swap_fields(fields, changed, labels.ravel()[changed], joined.ravel()[changed])
     labels = joined
-    for axis in range(3):  # the pad stays background, so every crossed edge has four cells around it
-        for end in (0, -1):
-            index = [slice(None)] * 3
-            index[axis] = end
-            labels[tuple(index)] = background
-    origin = origin - spacing
-    cells = np.array(labels.shape) - 1
-    sums = np.zeros((int(np.prod(cells)), 3))
-    counts = np.zeros(int(np.prod(cells)))
-    axes = np.zeros(int(np.prod(cells)), dtype=np.uint8)
-    found = []
-    for axis in range(3):
-        nodes, a, b, fraction = _crossings(fields, labels, axis)
-        point = nodes.astype(np.float64)
-        point[:, axis] += fraction
-        (u, v), offsets = _AROUND[axis]
-        quad = np.empty((len(nodes), 4), dtype=np.int64)
-        for corner, (du, dv) in enumerate(offsets):
-            cell = nodes.copy()
-            cell[:, u] += du
-            cell[:, v] += dv
-            quad[:, corner] = np.ravel_multi_index(tuple(cell.T), tuple(cells))
-            np.add.at(sums, quad[:, corner], point)
-            np.add.at(counts, quad[:, corner], 1.0)
-            axes[quad[:, corner]] |= np.uint8(1 << axis)
-        found.append((quad, a, b))
-    used = np.flatnonzero(counts)
-    number = np.full(len(counts), -1, dtype=np.int64)
-    number[used] = np.arange(len(used))
-    quads = np.concatenate([q for q, _, _ in found])
-    inner = np.concatenate([a for _, a, _ in found])
-    outer = np.concatenate([b for _, _, b in found])
-    quads = number[quads]
-    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
-    inner, outer = np.tile(inner, 2), np.tile(outer, 2)
-    points = sums[used] / counts[used, None]
-    fixed, plane = np.zeros(len(used), dtype=bool), np.full(len(faces), -1, dtype=np.int64)
-    if sharp:
-        points, fixed, member = sharp_planes(used, axes[used], points, tuple(int(c) for c in cells))
-        plane = _face_planes(faces, member)
-    if iterations:
-        cell = np.column_stack(np.unravel_index(used, tuple(cells))).astype(np.float64)
-        junction = _junctions(len(used), faces, inner, outer)
-        points = relaxed(points, faces, cell, junction | fixed, iterations)
-    return LabelSurface(origin + spacing * points, faces, inner, outer, plane)
+    nodes = labels.shape
+    clear_ring(labels, (0, 0, 0), nodes, background)
+    pieces = cell_pieces(fields, labels, (0, 0, 0), (0, 0, 0), nodes, nodes)
+    return assemble(pieces, nodes, spacing, origin - spacing, iterations, sharp)
 
 
 def _face_planes(faces: np.ndarray, member: np.ndarray) -> np.ndarray:
