@@ -507,3 +507,12 @@ def test_a_closed_piece_that_passes_through_itself_is_the_union_of_its_parts():
     assert model([0.0, 0.0, 0.0]) == pytest.approx(-r, abs=0.05 * r)
     outside = np.array([[0.0, 0.0, 1.2 * r], [2.0, 0.0, 0.0]])
     assert np.all(model(outside) > 0)
+
+
+def test_a_flat_surface_is_refused_as_flat(tmp_path):
+    sheet = pv.Plane(center=(5.0, 2.0, 0.0), i_resolution=8, j_resolution=4).triangulate()
+    path = tmp_path / "sheet.stl"
+    sheet.save(path)
+    for inside in ("closed", "winding"):
+        with pytest.raises(MeshInputError, match=r"sheet\.stl is flat: all its 45 vertices lie in one plane"):
+            sdf.mesh(path, inside=inside)
