@@ -475,3 +475,44 @@ def test_a_small_part_far_from_the_origin_has_its_volume_and_its_inside():
     far = sdf.mesh(pv.PolyData.from_regular_faces(points + [1e4, -1e4, 1e4], faces))
     assert far.volume == pytest.approx(near.volume, rel=1e-9)
     assert far([[1e4, -1e4, 1e4]])[0] == pytest.approx(near([[0.0, 0.0, 0.0]])[0], abs=1e-9)
+
+
+def _tube_along_a_figure_eight(a: float, r: float, along: int = 240, around: int = 24) -> pv.PolyData:
+    """One closed, consistently oriented piece that passes through itself: a tube of radius ``r``
+    about the lemniscate of Gerono ``(a cos t, a sin t cos t, 0)``, whose two arcs cross at the
+    origin at right angles (both straight there: an inflection)."""
+    t = np.linspace(0.0, 2 * np.pi, along, endpoint=False)
+    centre = np.column_stack([a * np.cos(t), a * np.sin(t) * np.cos(t), np.zeros_like(t)])
+    tangent = np.column_stack([-np.sin(t), np.cos(2 * t), np.zeros_like(t)])
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0], np.zeros_like(t)])
+    phi = np.linspace(0.0, 2 * np.pi, around, endpoint=False)
+    ring = np.cos(phi)[None, :, None] * normal[:, None] + np.sin(phi)[None, :, None] * np.array([0.0, 0.0, 1.0])
+    vertices = (centre[:, None] + r * ring).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(along), np.arange(around), indexing="ij")
+    corner = lambda di, dj: ((i + di) % along) * around + (j + dj) % around
+    quads = np.stack([corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)], axis=-1).reshape(-1, 4)
+    return from_arrays(vertices, np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]))
+
+
+def test_a_closed_piece_that_passes_through_itself_is_the_union_of_its_parts():
+    r = 0.5
+    tube = _tube_along_a_figure_eight(4.0, r)
+    model = sdf.mesh(tube)
+    # one closed, consistently oriented piece, yet the walls of one arc inside the other arc do
+    # not bound the solid: they are dropped (the model was 0 there, a wall of no thickness)
+    assert model.repaired.internal > 0 and not model.exact
+    on_the_other_wall = r * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)  # on one axis, on the other's wall
+    assert model(on_the_other_wall) == pytest.approx(-r, abs=0.05 * r)
+    assert model([0.0, 0.0, 0.0]) == pytest.approx(-r, abs=0.05 * r)
+    outside = np.array([[0.0, 0.0, 1.2 * r], [2.0, 0.0, 0.0]])
+    assert np.all(model(outside) > 0)
+
+
+def test_a_flat_surface_is_refused_as_flat(tmp_path):
+    sheet = pv.Plane(center=(5.0, 2.0, 0.0), i_resolution=8, j_resolution=4).triangulate()
+    path = tmp_path / "sheet.stl"
+    sheet.save(path)
+    for inside in ("closed", "winding"):
+        with pytest.raises(MeshInputError, match=r"sheet\.stl has no inside: it is flat, all its 45 vertices in one plane"):
+            sdf.mesh(path, inside=inside)

@@ -428,3 +428,19 @@ def test_a_faceted_surface_gets_the_curvature_of_the_surface_it_tessellates():
     faceted = size_field(facets, 0.08, 1.0)(probes)
     assert np.all(faceted <= 1.05 * exact) and np.all(faceted >= 0.75 * exact)
     assert faceted[2:].max() < faceted[:2].min() < 0.5  # smaller on the small ball
+
+
+def test_facet_curvature_of_facets_much_finer_than_the_scale_is_binned(monkeypatch):
+    # facets many times finer than the scale: the pairs would not fit in memory on a large
+    # model, so the facets are summed into bins of half the scale first; the binned curvature is
+    # the pairs' within 2%, 1/R on the ball of radius 1 within 10%
+    from fepre.sdf.meshmodel import facet_curvature
+
+    facets = sdf.mesh(fepre.isosurface(sdf.sphere(1.0), spacing=0.03))
+    probes = np.array([[-1.0, 0, 0], [0, 0.7071, 0.7071], [0.0, 0.0, 1.0]])
+    paired = facets.facet_curvature(probes, 0.4)
+    monkeypatch.setattr(facet_curvature, "MAX_FACET_PAIRS", 0)
+    facets = sdf.mesh(fepre.isosurface(sdf.sphere(1.0), spacing=0.03))
+    binned = facets.facet_curvature(probes, 0.4)
+    np.testing.assert_allclose(binned, paired, rtol=0.02)
+    np.testing.assert_allclose(binned, 1.0, rtol=0.1)

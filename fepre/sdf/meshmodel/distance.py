@@ -38,9 +38,11 @@ class TriangleDistance:
     pseudonormal : bool
         Sign by pseudonormals (the surface must be closed, consistently oriented and
         edge-manifold); otherwise by the winding number.
+    tree : TriangleTree, optional
+        The triangles' hierarchy if one is already built (else built on the first query).
     """
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, pseudonormal: bool) -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, pseudonormal: bool, tree: TriangleTree | None = None) -> None:
         self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         self.faces = np.ascontiguousarray(faces, dtype=np.int64)
         self.pseudonormal = bool(pseudonormal)
@@ -49,7 +51,7 @@ class TriangleDistance:
         radius = float(np.abs(self.vertices - self._centre).max()) if len(self.vertices) else 0.0
         self._near = NEAR_WINDING * radius
         self._lock = threading.Lock()
-        self._tree = None
+        self._tree = tree
         self._winding = None
         if self.pseudonormal:
             self._vertex_normals = _angle_weighted_normals(self.vertices, self.faces, self.normals)

@@ -20,10 +20,51 @@ import numpy as np
 
 from .tables import edge_table, manifold_pairs
 
-__all__ = ["facet_curvatures", "NOISE_FACETS"]
+__all__ = ["facet_curvatures", "NOISE_FACETS", "MAX_FACET_PAIRS"]
 
 #: The curvature is averaged over at least this many facet widths (the median edge length).
 NOISE_FACETS = 3.0
+#: Above this many (estimated) pairs of facets within the scale, the facets are first summed
+#: into bins of half the scale: a surface of facets 50 times finer than the scale (a winding
+#: number's spans on a scanned model: 2.2e9 pairs) would not fit in memory.
+MAX_FACET_PAIRS = 30_000_000
+#: facets whose neighbours are counted to estimate the pairs
+_ESTIMATE_SAMPLES = 2_000
+
+
+def _neighbour_estimate(tree, centroids: np.ndarray, scale: float) -> float:
+    """The number of pairs of facets within ``scale``, from the neighbours of a sample."""
+    sample = centroids[:: max(1, len(centroids) // _ESTIMATE_SAMPLES)]
+    counts = tree.query_ball_point(sample, scale, return_length=True)
+    return 0.5 * float(np.mean(counts)) * len(centroids)
+
+
+def _binned_average(tree, centroids, operators, patch, areas, scale) -> np.ndarray:
+    """The area-weighted mean operator over the facets within about ``scale``, summed first
+    per bin (cubes of half the scale, one per patch) and taken over the bins whose area-weighted
+    centre lies within ``scale`` (a facet's own bin always does: a bin is 0.87 scale across)."""
+    from scipy.sparse import coo_matrix
+    from scipy.spatial import cKDTree
+
+    cell = np.floor((centroids - centroids.min(axis=0)) / (0.5 * scale)).astype(np.int64)
+    keys = np.column_stack([cell, patch.astype(np.int64)])
+    bin_of = np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1)
+    count = int(bin_of.max()) + 1
+    bin_area = np.bincount(bin_of, weights=areas, minlength=count)
+    weight = np.maximum(bin_area, 1e-300)
+    bin_centre = np.column_stack([np.bincount(bin_of, weights=areas * centroids[:, k], minlength=count) for k in range(3)])
+    bin_centre /= weight[:, None]
+    flat = operators.reshape(-1, 9)
+    bin_operator = np.column_stack([np.bincount(bin_of, weights=areas * flat[:, k], minlength=count) for k in range(9)])
+    bin_patch = np.zeros(count, np.int64)
+    bin_patch[bin_of] = patch
+    pairs = tree.sparse_distance_matrix(cKDTree(bin_centre), scale, output_type="ndarray")
+    rows, cols = pairs["i"], pairs["j"]
+    same = patch[rows] == bin_patch[cols]
+    rows, cols = np.concatenate([rows[same], np.arange(len(bin_of))]), np.concatenate([cols[same], bin_of])
+    near = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(bin_of), count)).tocsr()
+    near.data[:] = 1.0  # a facet's own bin, found twice when its centre is within the scale, counts once
+    return (near @ bin_operator) / np.maximum(near @ bin_area, 1e-300)[:, None]
 
 
 def _shape_operators(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, patch: np.ndarray) -> np.ndarray:
@@ -111,12 +152,16 @@ def facet_curvatures(
     # deg to the grid: +28% on a ball); no curvature is measurable below a few facets
     edge = np.linalg.norm(vertices[faces[:, 0]] - vertices[faces[:, 1]], axis=1)
     scale = max(float(scale), NOISE_FACETS * float(np.median(edge)))
-    pairs = cKDTree(centroids).query_pairs(scale, output_type="ndarray")
-    pairs = pairs[patch[pairs[:, 0]] == patch[pairs[:, 1]]]
-    rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(len(faces))])
-    cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(len(faces))])
-    near = coo_matrix((areas[cols], (rows, cols)), shape=(len(faces),) * 2).tocsr()
-    weight = np.maximum(np.asarray(near.sum(axis=1)).ravel(), 1e-300)
-    averaged = (near @ operators.reshape(-1, 9)) / weight[:, None]
+    tree = cKDTree(centroids)
+    if _neighbour_estimate(tree, centroids, scale) <= MAX_FACET_PAIRS:
+        pairs = tree.query_pairs(scale, output_type="ndarray")
+        pairs = pairs[patch[pairs[:, 0]] == patch[pairs[:, 1]]]
+        rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(len(faces))])
+        cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(len(faces))])
+        near = coo_matrix((areas[cols], (rows, cols)), shape=(len(faces),) * 2).tocsr()
+        weight = np.maximum(np.asarray(near.sum(axis=1)).ravel(), 1e-300)
+        averaged = (near @ operators.reshape(-1, 9)) / weight[:, None]
+    else:
+        averaged = _binned_average(tree, centroids, operators, patch, areas, scale)
     eigenvalues = np.linalg.eigvalsh(averaged.reshape(-1, 3, 3))
     return np.abs(eigenvalues).max(axis=1)

@@ -42,7 +42,7 @@ class MeshModel(SDF):
         self.features = features
         vertices, faces = repaired.vertices, repaired.faces
         pseudonormal = repaired.closed and repaired.internal == 0
-        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal)
+        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal, tree=repaired.tree)
         normals = self._distance.normals
         if features > 0:
             self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas, repaired.filled)
@@ -267,6 +267,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0, inside: 
     if not 0.0 <= features < 180.0:
         raise ValueError(f"features must be an angle in degrees in [0, 180); got {features!r}")
     vertices, faces, name = read_triangles(source)
+    _check_not_flat(vertices, faces, name)
     if inside == "winding":
         if sign == "pseudonormal":
             raise MeshInputError(f"{name}: inside='winding' signs by the winding number; use sign='winding'")
@@ -314,6 +315,20 @@ def _warn_of_changes(repaired: Repair, given: np.ndarray, name: str) -> None:
     if changes:
         warn_user(f"{name}: closing holes changed the solid: {'; '.join(changes)}; close the holes in the "
                   "source if this is not the part", RepairWarning)
+
+
+def _check_not_flat(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
+    """A surface whose vertices all lie in one plane (a 2D mesh) has no inside."""
+    used = vertices[np.unique(faces)] if len(faces) else vertices
+    if len(used) < 3:
+        return
+    centred = used - used.mean(axis=0)
+    spread = np.linalg.svd(centred[:: max(1, len(centred) // 100_000)], compute_uv=False)
+    if spread[-1] <= 1e-9 * spread[0]:
+        lower, upper = used.min(axis=0), used.max(axis=0)
+        raise MeshInputError(
+            f"{name} has no inside: it is flat, all its {len(used)} vertices in one plane (bounds "
+            f"{_box(lower, upper)}); give the closed surface of a solid (a 2D mesh is not one)")
 
 
 def _check_solid(repaired: Repair, name: str) -> None:

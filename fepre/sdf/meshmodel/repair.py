@@ -14,7 +14,8 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
 4. drop triangles that do not separate inside from outside: where the generalised winding number
    is on the same side of 1/2 just in front of and just behind a triangle (the inner parts of
    overlapping shells, sheets hanging in or out of the solid), after splitting the triangles that
-   cross a seam. A surface that is one closed, consistently oriented piece skips this step.
+   cross a seam. A surface that is one closed, consistently oriented piece that does not cross
+   itself skips this step.
 
 The result records what was changed, for the model's summary and its ``exact`` flag.
 """
@@ -22,6 +23,7 @@ The result records what was changed, for the model's summary and its ``exact`` f
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import sparse
@@ -62,6 +64,9 @@ class Repair:
         Every edge is shared by exactly two triangles that traverse it in opposite directions.
     filled : ndarray
         (F,) bool: the triangles added to close holes.
+    tree : TriangleTree or None
+        The hierarchy of the returned triangles when the repair built one (to find a closed
+        piece crossing itself); the model's distance queries reuse it. Not pickled.
     """
 
     vertices: np.ndarray = field(repr=False)
@@ -78,6 +83,13 @@ class Repair:
     filled: np.ndarray = field(repr=False)
     flat_holes: int = 0
     hole_bulge: float = 0.0
+    tree: Any = field(default=None, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "tree": None}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     @property
     def changed(self) -> bool:
@@ -297,8 +309,23 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
     vertices = np.concatenate([vertices, pieces.reshape(-1, 3)])
     faces = np.concatenate([kept_faces, piece_faces])
+    # the pieces of one triangle, and of two that share a side, meet at the same midpoints (the
+    # same floats): joined, they are one surface (for patches, creases and curvature) and not
+    # thousands of loose triangles
+    vertices, faces, _ = _merge_vertices(vertices, faces)
     origin = np.concatenate([np.flatnonzero(keep), parent[piece_keep]])
     return vertices, faces, origin, int((~keep).sum()), int((backwards & keep).sum())
+
+
+def _crossing_check(vertices: np.ndarray, faces: np.ndarray) -> tuple[bool, Any]:
+    """Whether two triangles that share no vertex cross (a closed piece whose parts pass through
+    one another: a graphics model's tail through its leg; the parts inside the other's solid do
+    not separate inside from outside), and the hierarchy built to find out."""
+    from .bvh import TriangleTree
+    from .self_crossing import crossing_triangles
+
+    tree = TriangleTree(vertices, faces)
+    return len(crossing_triangles(vertices, faces, tree)) > 0, tree
 
 
 def _pieces(faces: np.ndarray) -> int:
@@ -370,9 +397,11 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     holes = fill_holes(vertices, faces)
     vertices, faces, open_edges = holes.vertices, holes.faces, holes.open_edges
     filled = np.arange(len(faces)) >= original
-    if _is_closed(faces) and _pieces(faces) == 1:
+    crosses, tree = _crossing_check(vertices, faces) if _is_closed(faces) and _pieces(faces) == 1 else (True, None)
+    if not crosses:
         internal = backwards = 0  # one closed, consistently oriented piece: every triangle separates
     else:
+        tree = None
         vertices, faces, origin, internal, backwards = _drop_internal(vertices, faces)
         filled = filled[origin]
     return Repair(
@@ -390,4 +419,5 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
         filled=filled,
         flat_holes=holes.flat,
         hole_bulge=holes.bulge,
+        tree=tree,
     )
