@@ -514,5 +514,5 @@ def test_a_flat_surface_is_refused_as_flat(tmp_path):
     path = tmp_path / "sheet.stl"
     sheet.save(path)
     for inside in ("closed", "winding"):
-        with pytest.raises(MeshInputError, match=r"sheet\.stl is flat: all its 45 vertices lie in one plane"):
+        with pytest.raises(MeshInputError, match=r"sheet\.stl has no inside: it is flat, all its 45 vertices in one plane"):
             sdf.mesh(path, inside=inside)

@@ -327,8 +327,8 @@ def _check_not_flat(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
     if spread[-1] <= 1e-9 * spread[0]:
         lower, upper = used.min(axis=0), used.max(axis=0)
         raise MeshInputError(
-            f"{name} is flat: all its {len(used)} vertices lie in one plane (bounds {_box(lower, upper)}), so it "
-            "has no inside; give the closed surface of a solid (a 2D mesh is not one)")
+            f"{name} has no inside: it is flat, all its {len(used)} vertices in one plane (bounds "
+            f"{_box(lower, upper)}); give the closed surface of a solid (a 2D mesh is not one)")
 
 
 def _check_solid(repaired: Repair, name: str) -> None:
