@@ -201,3 +201,22 @@ def test_broken_arrays_are_refused(sphere_raw):
         improve_arrays(points, tets + len(points), ball, 0.2)
     with pytest.raises(ValueError, match="h must be > 0"):
         improve_arrays(points, tets, ball, 0.0)
+
+
+def test_cells_that_overlap_after_a_move_refuse_the_run(sphere_raw, monkeypatch):
+    # a move that left a face in three cells (cow.obj at (D/100, D/50) once met it in a flip
+    # round) is a MeshingError of the stage, which distmesh turns into a skipped stage and a
+    # warning, not a ValueError from deep inside
+    from fepre.distmesh import slivers
+    from fepre.distmesh.tet_topology import NonManifoldCells
+
+    def overlapping(*args, **kwargs):
+        raise NonManifoldCells("tets must form a manifold mesh; a face is shared by more than two tetrahedra")
+
+    monkeypatch.setattr(slivers, "flip_round", overlapping)
+    points, tets = arrays(sphere_raw)
+    with pytest.raises(fepre.MeshingError, match="the quality stage broke the mesh topology: tets must form a manifold"):
+        improve_arrays(points, tets, sdf.sphere(1.0), 0.2)
+    with pytest.warns(fepre.ConvergenceWarning, match="the quality stage .* failed and was skipped: the quality stage broke"):
+        mesh = fepre.distmesh(sdf.sphere(1.0), 0.3)
+    assert mesh.volume == pytest.approx(4 / 3 * np.pi, rel=0.05)

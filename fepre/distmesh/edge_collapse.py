@@ -58,6 +58,23 @@ def _short_edges(points, tets, quality, threshold, on_boundary, inner: bool) -> 
     return edges[np.argsort(relative[first], kind="stable")]
 
 
+class _CellsOf:
+    """The cells holding given vertices, sorted (the cells' corners sorted by vertex once): the
+    stars of a round's candidate collapses without a scan of every cell per candidate (28,200
+    candidates on teapot.obj at D/50 scanned 50k cells each: 38 s of a 82 s mesh)."""
+
+    def __init__(self, tets: np.ndarray, n: int) -> None:
+        flat = tets.ravel()
+        self._cells = np.argsort(flat, kind="stable") // tets.shape[1]
+        self._starts = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=n))])
+
+    def __call__(self, vertices) -> np.ndarray:
+        vertices = np.atleast_1d(np.asarray(vertices, dtype=np.int64))
+        first, counts = self._starts[vertices], self._starts[vertices + 1] - self._starts[vertices]
+        offsets = np.repeat(first - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+        return np.unique(self._cells[offsets + np.arange(counts.sum())])
+
+
 def _surface_neighbours(faces: np.ndarray, vertex: int) -> set:
     return set(faces[(faces == vertex).any(axis=1)].ravel().tolist()) - {vertex}
 
@@ -68,17 +85,16 @@ def _boundary_faces_of(tets: np.ndarray, cells: np.ndarray, keys: np.ndarray, n:
     return faces[in_sorted(face_keys(faces, n), keys)]
 
 
-def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guard: SurfaceGuard):
+def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guard: SurfaceGuard, cells_of: _CellsOf):
     """The cells after collapsing ``v`` into ``u``, their scores and the boundary faces before and
     after around them, or None when not allowed."""
     n = points.shape[0]
-    star_v = np.flatnonzero((tets == v).any(axis=1))
-    star_u = np.flatnonzero((tets == u).any(axis=1))
+    star_v, star_u = cells_of(v), cells_of(u)
     faces = _boundary_faces_of(tets, np.union1d(star_u, star_v), keys, n)
     both = (tets[star_v] == u).any(axis=1)
     removed, changed = star_v[both], star_v[~both]
     if changed.size == 0:  # every cell of v holds u: v goes with its cells
-        return _remove_star(points, tets, removed, v, faces, keys, guard)
+        return _remove_star(points, tets, removed, v, faces, keys, guard, cells_of)
     new = tets[changed].copy()
     new[new == v] = u
     if (signed_volume(points[new]) <= 0).any():
@@ -109,19 +125,18 @@ def _try_collapse(points, tets, quality, u, v, keys, targets: ShapeTargets, guar
     if moved.shape[0] and not guard.faces_allowed(points[moved], points[after]).all():
         return None
     gone = faces[(faces == v).any(axis=1)]
-    if not _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n):
+    if not _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n, cells_of):
         return None
     return removed, changed, new, new_quality, gone, after
 
 
-def _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n: int) -> bool:
+def _boundary_as_kept(tets, removed, changed, new, around, keys, gone, after, n: int, cells_of: _CellsOf) -> bool:
     """True when the faces of ``u``'s new cells that are used once (counted over every cell
     touching them) are exactly those the collapse's bookkeeping keeps as boundary faces. A boundary
     vertex with three surface neighbours joined into one of them can leave its last face inside
     (on camelhead at (D/50, D/12): the stage then refused its own result and returned DistMesh's
     0.5 deg mesh)."""
-    vertices = np.unique(around)
-    ring = np.flatnonzero(np.isin(tets, vertices).any(axis=1))
+    ring = cells_of(np.unique(around))
     replaced = np.full(tets.shape[0], -1)
     replaced[changed] = np.arange(changed.size)
     ring = ring[~np.isin(ring, removed)]
@@ -144,7 +159,7 @@ def _inner_collapse(tets, stars, shell, removed, changed, new, new_quality, n: i
     return removed, changed, new, new_quality, empty, empty
 
 
-def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
+def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard, cells_of: _CellsOf):
     """Removing the cells of ``v`` when each holds ``u`` too: allowed when the faces it exposes
     (those opposite ``v``) are inner faces now, lie on the surface, every edge of theirs ends up
     on exactly two boundary faces and no vertex of the cells is pinched."""
@@ -158,8 +173,7 @@ def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard):
     gone = faces[(faces == v).any(axis=1)]
     if not guard.replacements_allowed(points[gone][None], points[exposed][None])[0]:
         return None
-    near = np.flatnonzero(np.isin(tets, cells).any(axis=1))
-    near = np.setdiff1d(near, removed)
+    near = np.setdiff1d(cells_of(np.unique(cells)), removed)
     new_keys = np.union1d(np.setdiff1d(keys, face_keys(gone, n)), exposed_keys)
     surface = _boundary_faces_of(tets, near, new_keys, n)
     edges = np.sort(surface[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
@@ -250,6 +264,7 @@ def collapse_round(
     n = points.shape[0]
     touched = np.zeros(n, dtype=bool)
     done = 0
+    cells_of = _CellsOf(tets, n)
     for u, v in _short_edges(points, tets, quality, threshold, on_boundary, inner):
         for keep, gone in ((u, v), (v, u)):
             if not removable[gone] or (locked is not None and locked[gone]):
@@ -258,7 +273,7 @@ def collapse_round(
                 continue
             if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
                 continue
-            result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard)
+            result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard, cells_of)
             if result is None:
                 continue
             removed, changed, new, new_quality, old_faces, new_faces = result
@@ -268,6 +283,7 @@ def collapse_round(
             alive = np.ones(tets.shape[0], dtype=bool)
             alive[removed] = False
             tets, quality = tets[alive], quality[alive]
+            cells_of = _CellsOf(tets, n)
             boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, face_keys(old_faces, n)),
                                             face_keys(new_faces, n))
             # every old face held v: its edges at v go, the new faces' edges come

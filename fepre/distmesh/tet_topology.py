@@ -85,19 +85,23 @@ def edge_keys(pairs: np.ndarray, n_points: int) -> np.ndarray:
     return lo * np.int64(n_points) + hi
 
 
+class NonManifoldCells(ValueError):
+    """A face is shared by more than two cells (overlapping cells, not a manifold mesh)."""
+
+
 def face_neighbours(tets: np.ndarray, n_points: int) -> np.ndarray:
     """(M, 4) index of the tetrahedron across the face opposite each vertex, -1 on the boundary.
 
     Raises
     ------
-    ValueError
-        If a face is shared by more than two tetrahedra (not a manifold mesh).
+    NonManifoldCells
+        (a ValueError) If a face is shared by more than two tetrahedra (not a manifold mesh).
     """
     from .._cell_kernels import face_uses
 
     mate, uses = face_uses(tets, n_points)
     if np.any(uses > 2):
-        raise ValueError("tets must form a manifold mesh; a face is shared by more than two tetrahedra")
+        raise NonManifoldCells("tets must form a manifold mesh; a face is shared by more than two tetrahedra")
     return np.where(mate >= 0, mate // 4, -1).reshape(-1, 4)
 
 

@@ -309,10 +309,6 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
     vertices = np.concatenate([vertices, pieces.reshape(-1, 3)])
     faces = np.concatenate([kept_faces, piece_faces])
-    # the pieces of one triangle, and of two that share a side, meet at the same midpoints (the
-    # same floats): joined, they are one surface (for patches, creases and curvature) and not
-    # thousands of loose triangles
-    vertices, faces, _ = _merge_vertices(vertices, faces)
     origin = np.concatenate([np.flatnonzero(keep), parent[piece_keep]])
     return vertices, faces, origin, int((~keep).sum()), int((backwards & keep).sum())
 
