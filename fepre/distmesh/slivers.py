@@ -258,19 +258,24 @@ def improve_arrays(
     _set_collapses(stage, collapse, inner_collapses)
     volume_before = float(volumes.sum())
     before = _extremes(stage.points, stage.tets)
-    try:
-        if not bad_cells_only:
-            stage.first_flips_and_relaxation()
-            stage.shape_rounds()
-        rounds = stage.target_rounds(maxiter, deadline, start)
-    except NonManifoldCells as exc:
-        # a move left cells that overlap (each positive, a face in three cells): cow.obj at
-        # (D/100, D/50) with its seam pieces joined met it in a flip round, raised as a ValueError
-        raise MeshingError(f"the quality stage broke the mesh topology: {exc}") from None
+    rounds = _all_rounds(stage, bad_cells_only, maxiter, deadline, start)
 
     _verify(stage.points, stage.tets, stage.quality, model, stage.on_boundary, fixed_mask, h, volume_before,
             stage.boundary_face_keys)
     return stage.points, stage.tets, _report(stage, before, rounds, maxiter, start)
+
+
+def _all_rounds(stage, bad_cells_only: bool, maxiter: int, deadline: float | None, start: float) -> int:
+    """The stage's rounds; returns the target rounds run. A move that left cells overlapping
+    (each positive, a face in three cells: cow.obj at (D/100, D/50) with its seam pieces joined
+    met it in a flip round, raised as a ValueError) refuses the run with a MeshingError."""
+    try:
+        if not bad_cells_only:
+            stage.first_flips_and_relaxation()
+            stage.shape_rounds()
+        return stage.target_rounds(maxiter, deadline, start)
+    except NonManifoldCells as exc:
+        raise MeshingError(f"the quality stage broke the mesh topology: {exc}") from None
 
 
 def _set_collapses(stage, collapse: Any, inner_collapses: bool) -> None:
