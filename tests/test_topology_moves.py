@@ -13,7 +13,7 @@ import pytest
 import fepre
 from fepre import sdf
 from fepre.distmesh.bad_cell_splits import split_candidates
-from fepre.distmesh.surface_refine import LONG_EDGE, split_long_boundary_edges
+from fepre.distmesh.surface_refine import LONG_EDGE, split_edges, split_long_boundary_edges
 from fepre.distmesh.tet_shape import signed_volume
 from fepre.distmesh.tet_topology import face_neighbours, faces_on_boundary, open_boundary_reason
 from fepre.mesh_metrics import tetra_cells
@@ -103,6 +103,41 @@ def test_a_wedges_inner_edge_is_the_first_to_split():
     # then each cell's longest edge, every edge once
     assert len(candidates) == len(np.unique(candidates, axis=0))
     assert {tuple(e) for e in candidates} >= {(0, 1), (0, 2), (1, 2), (2, 3)}
+
+
+def _largest_face_angles(points, faces):
+    """The largest angle (degrees) of each triangle ``faces`` (K, 3)."""
+    tri = points[faces]
+    sides = np.linalg.norm(tri[:, [1, 2, 0]] - tri[:, [2, 0, 1]], axis=2)  # side k opposite corner k
+    a = sides.max(axis=1)
+    b, c = np.sort(sides, axis=1)[:, 0], np.sort(sides, axis=1)[:, 1]
+    return np.degrees(np.arccos(np.clip((b * b + c * c - a * a) / (2 * b * c), -1, 1)))
+
+
+def test_a_caps_chord_is_split_not_the_cells_longest_inner_edge():
+    # nefertiti.obj at D/50: a cap on the rim of the crown's top (apex 0.13 h off a 1.74 h chord,
+    # the cell's fourth vertex 1.2 h inside, its longest edges inner ones of 1.84 h). Each round
+    # split an inner edge, the cap stayed and the worst cell stayed at 5.9 deg. Here: a pyramid
+    # over the top z = 0 (a, s, b, x) with its apex v deep below; the cap a b w (w 0.1 below ab's
+    # middle) is the only boundary face of its cell, whose longest edges are av and bv.
+    a, b, w, x, s, v = [-1, 0, 0], [1, 0, 0], [0, -0.1, 0], [0, 1, 0], [0, -1, 0], [0, 0, -2.5]
+    points = np.array([a, b, w, x, s, v], dtype=float)
+    tets = np.array([[0, 1, 2, 5], [0, 2, 4, 5], [2, 1, 4, 5], [1, 0, 3, 5]])
+    tets[signed_volume(points[tets]) < 0] = tets[signed_volume(points[tets]) < 0][:, [0, 1, 3, 2]]
+    faces = faces_on_boundary(tets, face_neighbours(tets, len(points)))
+    top = faces[np.abs(points[faces][:, :, 2]).max(axis=1) == 0]
+    assert _largest_face_angles(points, top).max() > 168.0  # the cap
+    assert np.isin(faces, [0, 1, 2]).all(axis=1).sum() == 1  # its cell holds no other boundary face
+    candidates = split_candidates(points, tets, np.array([0]), len(points))
+    assert candidates[0].tolist() == [0, 1]  # the chord, not av or bv (2.69 long against 2)
+    model = sdf.plane((0, 0, 1))
+    new_points, new_tets, split = split_edges(points, tets, model, 1.0, candidates[:1])
+    assert split == 1 and np.allclose(new_points[-1], [0, 0, 0])
+    faces = faces_on_boundary(new_tets, face_neighbours(new_tets, len(new_points)))
+    top = faces[np.abs(new_points[faces][:, :, 2]).max(axis=1) == 0]
+    assert len(top) == 6 and _largest_face_angles(new_points, top).max() < 96.0  # no cap left
+    at_new = top[(top == len(points)).any(axis=1)]  # a m w, m b w (right angles at m), a m x, m b x
+    assert len(at_new) == 4 and _largest_face_angles(new_points, at_new).max() == pytest.approx(90.0)
 
 
 def pedestal(resolution: int = 32):

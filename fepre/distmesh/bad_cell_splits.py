@@ -9,7 +9,9 @@ cartoon ear, a wall thinner than h), the right vertices are missing. Measured on
   edge joins two surface vertices through the material; no cell of the rim's edge reaches
   inside, so its dihedral angle there is set by the bend, not by any vertex position;
 * *caps and stretched faces*: a boundary face along a rim, 1.6-1.8 h long, with the cell's
-  fourth vertex 1.3 h inside.
+  fourth vertex 1.3 h inside. A cap's chord is split even when the cell's longest edge is an
+  inner one (nefertiti.obj at D/50: a cap on the crown's rim, apex 0.13 h off a 1.74 h chord,
+  inner edges of 1.84 h; splitting those left the cap and the cell at 5.9 deg round after round).
 
 :func:`split_bad_cells` splits one edge of each such cell at its midpoint (a wedge's inner edge;
 else its longest edge that can be split, a boundary edge's midpoint projected onto the zero
@@ -32,6 +34,9 @@ __all__ = ["split_bad_cells", "split_candidates", "knife_edge"]
 #: An edge between two surface vertices whose midpoint lies farther than this (times h) off the
 #: zero set is split first: the surface bends between its ends at the scale of h.
 OFF_SURFACE = 0.1
+#: A boundary face with an angle larger than this (degrees) is a cap: its apex lies near its longest
+#: edge, so every cell on it is flat whatever its fourth vertex, and its longest edge is split first.
+CAP_ANGLE = 120.0
 #: A vertex within this (times h) of the zero set counts as on it.
 SURFACE_NODE = 1e-3
 
@@ -46,8 +51,10 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     A cell's choices in order: its edge whose midpoint lies farthest off the surface when
     ``off_surface`` (C, 6) marks one (in the order of ``EDGE_OF_TET``; an edge bridging a
     valley or cutting a ridge at the scale of h), else its inner edge when it holds two boundary
-    faces (the edge joining the two vertices off their common edge); then its six edges longest
-    first. The list runs
+    faces (the edge joining the two vertices off their common edge), else the longest edge of
+    its one boundary face when that face is a cap (an angle over ``CAP_ANGLE``: the cell is flat
+    whatever its fourth vertex, and its own longest edge may be an inner one, whose split leaves
+    the cap); then its six edges longest first. The list runs
     through every cell's first choice before any second choice, so a cell's fall-back never
     takes the cells another's first choice needs; repeated edges keep their first place.
     """
@@ -64,6 +71,9 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     wedge = on_boundary.sum(axis=1) == 2
     opposite = np.sort(np.where(on_boundary, corners, -1), axis=1)[:, 2:]
     first = np.where(wedge[:, None], opposite, by_length[:, 0])
+    # a cell on one boundary face that is a cap (an angle over CAP_ANGLE): that face's longest edge
+    cap, chord = _cap_chords(points, corners, on_boundary)
+    first[cap] = chord
     if off_surface is not None:
         far = off_surface.max(axis=1) > 0
         first[far] = edges[far, np.argmax(off_surface[far], axis=1)]
@@ -71,6 +81,22 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
     _, index = np.unique(ordered, axis=0, return_index=True)
     return ordered[np.sort(index)]
+
+
+def _cap_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which cells ``corners`` (C, 4) hold exactly one boundary face that is a cap (a triangle
+    with an angle over ``CAP_ANGLE``), and that face's longest edge, (K, 2)."""
+    one = np.flatnonzero(on_boundary.sum(axis=1) == 1)
+    face = np.take_along_axis(corners[one], _FACE_OPPOSITE[np.argmax(on_boundary[one], axis=1)], axis=1)
+    sides = face[:, [[1, 2], [2, 0], [0, 1]]]  # (K, 3, 2), side k opposite corner k
+    length = np.linalg.norm(points[sides[..., 0]] - points[sides[..., 1]], axis=2)
+    longest = np.argmax(length, axis=1)
+    rows = np.arange(one.size)
+    a, b, c = length[rows, longest], length[rows, (longest + 1) % 3], length[rows, (longest + 2) % 3]
+    # the angle opposite the longest side, by the law of cosines
+    cosine = (b * b + c * c - a * a) / np.maximum(2.0 * b * c, 1e-300)
+    cap = cosine < np.cos(np.radians(CAP_ANGLE))
+    return one[cap], sides[rows, longest][cap]
 
 
 def split_bad_cells(
