@@ -37,6 +37,10 @@ __all__ = ["ModelFile", "ModelFileError", "load_model", "MESH_SUFFIXES"]
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh", ".msh", ".inp")
 
 
+#: CAD exchange formats (B-rep geometry): named in the error, with how to tessellate them
+CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".sat", ".x_t")
+
+
 class ModelFileError(ValueError):
     """A model file is missing, does not run, or does not define a usable ``model``."""
 
@@ -198,9 +202,12 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
         raise ModelFileError(f"model file {path}: --inside {inside} applies to surface mesh files "
                              f"({', '.join(MESH_SUFFIXES)}) only; a Python model file defines its solid itself")
     if path.suffix != ".py":
+        cad = path.suffix.lower() in CAD_SUFFIXES
         raise ModelFileError(
             f"model file {path} must be a Python file ending in .py, a surface mesh "
             f"({', '.join(MESH_SUFFIXES)}) or an image (.vti, .nii, .nii.gz, .tif, .zarr); got {path.suffix or 'no suffix'!r}"
+            + ("; fepre reads tessellated surfaces, not CAD geometry: export an STL from the CAD program, or "
+               f"tessellate it with gmsh (gmsh {path.name} -2 -format stl -o {path.stem}.stl)" if cad else "")
         )
     resolved = path.resolve()
     folder = str(resolved.parent)

@@ -516,3 +516,14 @@ def test_a_flat_surface_is_refused_as_flat(tmp_path):
     for inside in ("closed", "winding"):
         with pytest.raises(MeshInputError, match=r"sheet\.stl has no inside: it is flat, all its 45 vertices in one plane"):
             sdf.mesh(path, inside=inside)
+
+
+def test_a_cad_file_is_refused_with_how_to_tessellate_it(tmp_path):
+    step = tmp_path / "bracket.step"
+    step.write_text("ISO-10303-21;\n")
+    result = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(step), "--h", "2", "-o", str(tmp_path / "b.inp")],
+                            capture_output=True, text=True)
+    assert result.returncode == 1
+    assert "fepre reads tessellated surfaces, not CAD geometry" in result.stderr
+    assert "gmsh bracket.step -2 -format stl -o bracket.stl" in result.stderr
+    assert not (tmp_path / "b.inp").exists()
