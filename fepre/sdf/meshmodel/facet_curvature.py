@@ -39,7 +39,7 @@ def _neighbour_estimate(tree, centroids: np.ndarray, scale: float) -> float:
     return 0.5 * float(np.mean(counts)) * len(centroids)
 
 
-def _binned_average(tree, centroids, operators, patch, areas, scale) -> np.ndarray:
+def _binned_average(centroids, operators, patch, areas, scale) -> np.ndarray:
     """The area-weighted mean operator over the facets within about ``scale``, summed first
     per bin (cubes of half the scale, one per patch) and taken over the bins whose area-weighted
     centre lies within ``scale`` (a facet's own bin always does: a bin is 0.87 scale across)."""
@@ -58,10 +58,13 @@ def _binned_average(tree, centroids, operators, patch, areas, scale) -> np.ndarr
     bin_operator = np.column_stack([np.bincount(bin_of, weights=areas * flat[:, k], minlength=count) for k in range(9)])
     bin_patch = np.zeros(count, np.int64)
     bin_patch[bin_of] = patch
-    pairs = tree.sparse_distance_matrix(cKDTree(bin_centre), scale, output_type="ndarray")
-    rows, cols = pairs["i"], pairs["j"]
-    same = patch[rows] == bin_patch[cols]
-    rows, cols = np.concatenate([rows[same], np.arange(len(bin_of))]), np.concatenate([cols[same], bin_of])
+    # a fourth coordinate, the patch times more than the scale, keeps other patches' bins out of
+    # reach (beast.obj's seam pieces are 120,041 patches of one triangle, as dense as its facets)
+    lift = 4.0 * scale
+    facets = cKDTree(np.column_stack([centroids, lift * patch.astype(np.float64)]))
+    bins = cKDTree(np.column_stack([bin_centre, lift * bin_patch.astype(np.float64)]))
+    pairs = facets.sparse_distance_matrix(bins, scale, output_type="ndarray")
+    rows, cols = np.concatenate([pairs["i"], np.arange(len(bin_of))]), np.concatenate([pairs["j"], bin_of])
     near = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(bin_of), count)).tocsr()
     near.data[:] = 1.0  # a facet's own bin, found twice when its centre is within the scale, counts once
     return (near @ bin_operator) / np.maximum(near @ bin_area, 1e-300)[:, None]
@@ -162,6 +165,6 @@ def facet_curvatures(
         weight = np.maximum(np.asarray(near.sum(axis=1)).ravel(), 1e-300)
         averaged = (near @ operators.reshape(-1, 9)) / weight[:, None]
     else:
-        averaged = _binned_average(tree, centroids, operators, patch, areas, scale)
+        averaged = _binned_average(centroids, operators, patch, areas, scale)
     eigenvalues = np.linalg.eigvalsh(averaged.reshape(-1, 3, 3))
     return np.abs(eigenvalues).max(axis=1)
