@@ -41,6 +41,16 @@ MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh"
 CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".sat", ".x_t")
 
 
+def _not_a_model_file(path: Path) -> str:
+    """Why ``path`` is not a model file, with how to tessellate a CAD file."""
+    message = (f"model file {path} must be a Python file ending in .py, a surface mesh ({', '.join(MESH_SUFFIXES)}) "
+               f"or an image (.vti, .nii, .nii.gz, .tif, .zarr); got {path.suffix or 'no suffix'!r}")
+    if path.suffix.lower() in CAD_SUFFIXES:
+        message += ("; fepre reads tessellated surfaces, not CAD geometry: export an STL from the CAD program, or "
+                    f"tessellate it with gmsh (gmsh {path.name} -2 -format stl -o {path.stem}.stl)")
+    return message
+
+
 class ModelFileError(ValueError):
     """A model file is missing, does not run, or does not define a usable ``model``."""
 
@@ -202,13 +212,7 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
         raise ModelFileError(f"model file {path}: --inside {inside} applies to surface mesh files "
                              f"({', '.join(MESH_SUFFIXES)}) only; a Python model file defines its solid itself")
     if path.suffix != ".py":
-        cad = path.suffix.lower() in CAD_SUFFIXES
-        raise ModelFileError(
-            f"model file {path} must be a Python file ending in .py, a surface mesh "
-            f"({', '.join(MESH_SUFFIXES)}) or an image (.vti, .nii, .nii.gz, .tif, .zarr); got {path.suffix or 'no suffix'!r}"
-            + ("; fepre reads tessellated surfaces, not CAD geometry: export an STL from the CAD program, or "
-               f"tessellate it with gmsh (gmsh {path.name} -2 -format stl -o {path.stem}.stl)" if cad else "")
-        )
+        raise ModelFileError(_not_a_model_file(path))
     resolved = path.resolve()
     folder = str(resolved.parent)
     sys.path.insert(0, folder)  # lets a model file import its neighbours
