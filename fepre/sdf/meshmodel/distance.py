@@ -50,6 +50,9 @@ class TriangleDistance:
         self._centre = 0.5 * (self.vertices.min(axis=0) + self.vertices.max(axis=0)) if len(self.vertices) else np.zeros(3)
         radius = float(np.abs(self.vertices - self._centre).max()) if len(self.vertices) else 0.0
         self._near = NEAR_WINDING * radius
+        # what counts as on the surface, relative to the coordinates (taken once: on a surface of
+        # millions of vertices the largest coordinate cost more than the query it scaled)
+        self._on_surface = 1e-12 * max(float(np.abs(self.vertices).max()) if len(self.vertices) else 0.0, 1e-300)
         self._lock = threading.Lock()
         self._tree = tree
         self._winding = None
@@ -165,8 +168,7 @@ class TriangleDistance:
         normal = self.surface_normals(face, region)
         inside = self._inside(points, offset, face, region, normal)
         sign = np.where(inside, -1.0, 1.0)
-        scale = max(float(np.abs(self.vertices).max()), 1e-300)
-        on_surface = distance <= 1e-12 * scale
+        on_surface = distance <= self._on_surface
         safe = np.where(on_surface, 1.0, distance)
         direction = np.where(on_surface[:, None], _unit(normal), offset * (sign / safe)[:, None])
         return sign * distance, face, closest, direction
