@@ -42,7 +42,8 @@ class MeshModel(SDF):
         self.features = features
         vertices, faces = repaired.vertices, repaired.faces
         pseudonormal = repaired.closed and repaired.internal == 0
-        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal, tree=repaired.tree)
+        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal, tree=repaired.tree,
+                                           face_sign=inside == "closed")
         normals = self._distance.normals
         if features > 0:
             self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas, repaired.filled)
