@@ -210,6 +210,36 @@ def test_overlapping_shells_are_united():
     assert grid.fepre.isosurface().volume == pytest.approx(2.0 - 0.125, rel=0.01)
 
 
+
+def test_clean_triangles_sign_by_their_normal_as_the_winding_number_does():
+    from fepre.sdf.meshmodel.bvh import REGION_FACE
+    from fepre.sdf.meshmodel.distance import TriangleDistance
+    from fepre.sdf.meshmodel.self_crossing import crossing_triangles
+
+    ball = lambda x: pv.Sphere(radius=1.0, center=(x, 0, 0), theta_resolution=64, phi_resolution=64)
+    model = sdf.mesh(ball(0.0) + ball(1.0))  # united: the seam is the circle x = 0.5, r = 0.866
+    vertices, faces = model.vertices, model.faces
+    by_face = TriangleDistance(vertices, faces, pseudonormal=False, face_sign=True)
+    by_winding = TriangleDistance(vertices, faces, pseudonormal=False)
+    centroid = vertices[faces].mean(axis=1)
+    seam = np.hypot(centroid[:, 0] - 0.5, np.hypot(centroid[:, 1], centroid[:, 2]) - np.sqrt(0.75))
+    clean = by_face.clean_faces
+    assert not clean[seam < 0.02].any()  # the seam's pieces and the triangles crossing it
+    assert clean[seam > 0.15].mean() > 0.99
+    assert set(crossing_triangles(vertices, faces)) < set(crossing_triangles(vertices, faces, both=True))
+    rng = np.random.default_rng(4)
+    off = lambda size: rng.normal(size=(size, 3)) * rng.choice([1e-9, 1e-4, 1e-2, 0.3], size)[:, None]
+    points = np.concatenate([rng.uniform(-1.2, 2.2, (20000, 3)), centroid[rng.integers(0, len(faces), 20000)] + off(20000)])
+    union = np.minimum(np.linalg.norm(points, axis=1), np.linalg.norm(points - [1, 0, 0], axis=1)) - 1.0
+    signed_by_face, signed_by_winding = by_face.values(points)[0], by_winding.values(points)[0]
+    _, face, _, region = by_face._query(points)
+    decided_by_face = (region == REGION_FACE) & clean[face]
+    assert decided_by_face.mean() > 0.3
+    assert np.array_equal(np.sign(signed_by_face), np.sign(signed_by_winding))
+    clear = np.abs(union) > 2e-3  # beyond the facets' sagitta
+    assert np.array_equal(signed_by_face[clear] < 0, union[clear] < 0)
+    assert np.array_equal(np.abs(signed_by_face), np.abs(signed_by_winding))
+
 def test_non_manifold_edge():
     a = pv.Cube(center=(0, 0, 0))
     b = pv.Cube(center=(1, 1, 0))  # shares the edge x = y = 0.5

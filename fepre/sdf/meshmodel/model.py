@@ -13,7 +13,7 @@ from ..core import SDF, Coords
 from .distance import TriangleDistance
 from .patches import PatchPlanes, segment_patches
 from .read import MeshInputError, read_triangles
-from .tables import enclosed_volume
+from .tables import enclosed_volume, used_vertices
 from .openings import span_openings
 from .repair import MAX_HOLE_FRACTION, Repair, repair
 from .tables import face_normals
@@ -42,14 +42,15 @@ class MeshModel(SDF):
         self.features = features
         vertices, faces = repaired.vertices, repaired.faces
         pseudonormal = repaired.closed and repaired.internal == 0
-        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal, tree=repaired.tree)
+        self._distance = TriangleDistance(vertices, faces, pseudonormal=pseudonormal, tree=repaired.tree,
+                                           face_sign=inside == "closed")
         normals = self._distance.normals
         if features > 0:
             self._face_patch, self._patch_count = segment_patches(faces, normals, features, self._distance.areas, repaired.filled)
         else:
             self._face_patch, self._patch_count = np.zeros(len(faces), np.int64), 1
         self._planes = PatchPlanes(vertices, faces, normals, self._face_patch)
-        used = vertices[np.unique(faces)]
+        used = vertices[used_vertices(faces, len(vertices))]
         super().__init__(
             bounds=(tuple(used.min(axis=0)), tuple(used.max(axis=0))),
             # the distance is to the solid's boundary unless triangles were dropped from inside it
@@ -276,7 +277,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0, inside: 
     else:
         repaired = repair(vertices, faces)
         _check_solid(repaired, name)
-        _warn_of_changes(repaired, vertices[np.unique(faces)], name)
+        _warn_of_changes(repaired, vertices[used_vertices(faces, len(vertices))], name)
     if sign == "pseudonormal" and not (repaired.closed and repaired.internal == 0):
         raise MeshInputError(
             f"{name}: sign='pseudonormal' needs a closed, consistently oriented surface, and this one is not "
@@ -299,7 +300,7 @@ def _warn_of_changes(repaired: Repair, given: np.ndarray, name: str) -> None:
     """Warn when the hole patches change the solid by more than REPAIR_VOLUME_WARNING of its
     volume beyond flat caps, or reach past the input's bounds."""
     volume = abs(enclosed_volume(repaired.vertices, repaired.faces))
-    used = repaired.vertices[np.unique(repaired.faces)]
+    used = repaired.vertices[used_vertices(repaired.faces, len(repaired.vertices))]
     lower, upper = given.min(axis=0), given.max(axis=0)
     reach = float(np.maximum(lower - used.min(axis=0), used.max(axis=0) - upper).max())
     changes = []
@@ -319,7 +320,7 @@ def _warn_of_changes(repaired: Repair, given: np.ndarray, name: str) -> None:
 
 def _check_not_flat(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
     """A surface whose vertices all lie in one plane (a 2D mesh) has no inside."""
-    used = vertices[np.unique(faces)] if len(faces) else vertices
+    used = vertices[used_vertices(faces, len(vertices))] if len(faces) else vertices
     if len(used) < 3:
         return
     centred = used - used.mean(axis=0)
@@ -352,6 +353,6 @@ def _check_volume(repaired: Repair, name: str) -> None:
     if len(repaired.faces) == 0:
         raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
     volume = enclosed_volume(repaired.vertices, repaired.faces)
-    extent = np.ptp(repaired.vertices[np.unique(repaired.faces)], axis=0)
+    extent = np.ptp(repaired.vertices[used_vertices(repaired.faces, len(repaired.vertices))], axis=0)
     if volume <= 1e-9 * float(np.prod(np.maximum(extent, 1e-300))) or not np.isfinite(volume):
         raise MeshInputError(f"{name} has no inside: the surface encloses a volume of {volume:.3g}")

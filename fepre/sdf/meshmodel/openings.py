@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .repair import Repair, _drop_degenerate_and_duplicates, _drop_internal, _merge_vertices, _orient
-from .tables import edge_table, face_normals, winding_numbers
+from .tables import edge_table, face_normals, used_vertices, winding_numbers
 
 __all__ = ["span_openings", "OPENING_CELLS", "SHEET_GAP"]
 
@@ -134,7 +134,7 @@ def _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells: int):
     tree = TriangleTree(vertices, faces)
     sheet_edges = _open_edges(sheet_faces)
     rim = (sheet_vertices[sheet_edges[:, 0]], sheet_vertices[sheet_edges[:, 1]])
-    grid, spacing = _grid(vertices[np.unique(faces)], cells)
+    grid, spacing = _grid(vertices[used_vertices(faces, len(vertices))], cells)
     grid.point_data["w"], refined, coarse_axes = _winding_grid(vertices, faces, grid, tree, rim)
     contour = grid.contour([0.5], scalars="w", method="flying_edges").triangulate().clean()
     if contour.n_cells == 0:

@@ -30,7 +30,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .hole_fill import fill_holes
-from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, winding_numbers
+from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, used_vertices, winding_numbers
 
 __all__ = ["Repair", "repair"]
 
@@ -113,7 +113,7 @@ class Repair:
 
 
 def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    used = np.unique(faces)
+    used = used_vertices(faces, len(vertices))
     points = vertices[used]
     order = np.lexsort(points.T[::-1])
     ordered = points[order]

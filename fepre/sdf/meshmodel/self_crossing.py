@@ -33,8 +33,9 @@ def _cross(a, b, tol):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True)
-def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start, flags):  # pragma: no cover - compiled
-    """``flags[i]``: triangle ``i`` (tree order) crosses a later triangle sharing no vertex."""
+def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start, both, flags):  # pragma: no cover - compiled
+    """``flags[i]``: triangle ``i`` (tree order) crosses a later triangle sharing no vertex (any
+    other triangle with ``both``)."""
     for i in prange(triangles.shape[0]):
         tri = triangles[i]
         lo0, lo1, lo2 = min(tri[0, 0], tri[1, 0], tri[2, 0]), min(tri[0, 1], tri[1, 1], tri[2, 1]), min(tri[0, 2], tri[1, 2], tri[2, 2])
@@ -54,7 +55,10 @@ def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start
                 stack[top + 1] = 2 * node + 1
                 top += 2
                 continue
-            for t in range(max(leaf_start[node - width], i + 1), leaf_start[node - width + 1]):
+            for t in range(leaf_start[node - width] if both else max(leaf_start[node - width], i + 1),
+                           leaf_start[node - width + 1]):
+                if t == i:
+                    continue
                 shared = False
                 for a in range(3):
                     for b in range(3):
@@ -69,11 +73,13 @@ def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start
         flags[i] = found
 
 
-def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTree | None = None) -> np.ndarray:
+def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTree | None = None, *,
+                       both: bool = False) -> np.ndarray:
     """Triangles that cross another triangle of the surface with which they share no vertex.
 
     Each crossing pair is found once: the flag is on one of its two triangles (the one the tree
-    visits first), so the result is empty exactly when the surface does not cross itself.
+    visits first), so the result is empty exactly when the surface does not cross itself. With
+    ``both``, every triangle of a crossing pair is returned (about twice the work).
 
     Parameters
     ----------
@@ -81,6 +87,8 @@ def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTr
     faces : (F, 3) int array
     tree : TriangleTree, optional
         The surface's hierarchy, if it is already built (else one is built).
+    both : bool
+        Return both triangles of each crossing pair.
 
     Returns
     -------
@@ -93,6 +101,8 @@ def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTr
     >>> vertices = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0]], float)
     >>> crossing_triangles(vertices, np.array([[0, 1, 2], [3, 4, 5]])).size
     1
+    >>> crossing_triangles(vertices, np.array([[0, 1, 2], [3, 4, 5]]), both=True).tolist()
+    [0, 1]
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
@@ -102,5 +112,5 @@ def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTr
     flags = np.zeros(len(faces), np.bool_)
     with kernel_threads(len(faces), 2e-7):
         _crossing_flags(tree.box_lower, tree.box_upper, tree.triangles, tree.spheres, np.ascontiguousarray(faces[tree.order]),
-                        tree.width, tree.leaf_start, flags)
+                        tree.width, tree.leaf_start, bool(both), flags)
     return np.sort(tree.order[flags])
