@@ -1,5 +1,5 @@
 """The quality stage's second series of insertions: inner vertices crowding another collapsed,
-chords off the surface split first; and Delaunay's repeated points."""
+chords off the surface split first; a flap removed with its apex; and Delaunay's repeated points."""
 
 from __future__ import annotations
 
