@@ -16,8 +16,17 @@ others take ``u`` for ``v``. A collapse is kept only when
   that changes stays on the surface
   (:meth:`~fepre.distmesh.surface_guard.SurfaceGuard.faces_allowed`).
 
+A *flap* is removed first, whatever its edges' lengths: a bad cell with three boundary faces,
+whose common vertex (the apex) is in no other cell. Its faces fold the surface over itself where
+the part is thinner than h (teapot.obj's spout tip at D/50, under a flat hole fill 0.4-0.8 h from
+the wall: flaps of 3.0-4.6 deg with edges 0.5-0.8 of their longest and the apex pinned as a crease
+node, its folded faces' normals disagreeing). The apex goes with the cell and the face under it
+becomes a boundary face again (:func:`_remove_star`: the surface guard judges the one new face
+against the three it replaces), even when the apex is pinned on a crease: no vertex moves onto
+or along the crease.
+
 The collapses of a round are tried one after the other, so each sees the mesh the previous one
-left; a round holds as many as there are bad cells with a short boundary edge (a handful).
+left; a round holds as many as there are flaps and bad cells with a short boundary edge (a handful).
 """
 
 from __future__ import annotations
@@ -38,6 +47,8 @@ SHORT_EDGE = 0.4
 SHORT_EDGE_RESHAPING = 0.5
 #: A collapse must raise the worst score of the cells it touches by at least this (degrees).
 MIN_GAIN = 1e-3
+#: The local faces of a cell, each opposite the vertex of the same index.
+_OPPOSITE = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 
 
 def _short_edges(points, tets, quality, threshold, on_boundary, inner: bool) -> np.ndarray:
@@ -56,6 +67,25 @@ def _short_edges(points, tets, quality, threshold, on_boundary, inner: bool) -> 
     edges, relative = np.sort(pairs[short], axis=1), relative[short]
     edges, first = np.unique(edges, axis=0, return_index=True)
     return edges[np.argsort(relative[first], kind="stable")]
+
+
+def _flap_apexes(points, corners, keys) -> np.ndarray:
+    """The flaps among cells ``corners`` (C, 4): cells with three boundary faces, whose common
+    vertex (the apex, opposite the one inner face) is in no other cell on a manifold boundary.
+    Returns (K, 2): each flap's apex and its nearest corner (the collapse that removes the apex
+    with its cell, :func:`_remove_star`)."""
+    n = points.shape[0]
+    on = np.stack([in_sorted(face_keys(corners[:, _OPPOSITE[k]], n), keys) for k in range(4)], axis=1)
+    flap = np.flatnonzero(on.sum(axis=1) == 3)
+    if flap.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    cells = corners[flap]
+    rows = np.arange(flap.size)
+    apex_local = np.argmin(on[flap], axis=1)
+    apex = cells[rows, apex_local]
+    length = np.linalg.norm(points[cells] - points[apex][:, None], axis=2)
+    length[rows, apex_local] = np.inf
+    return np.stack([apex, cells[rows, np.argmin(length, axis=1)]], axis=1)
 
 
 class _CellsOf:
@@ -205,7 +235,8 @@ def collapse_round(
     locked: np.ndarray | None = None,
     inner: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
-    """One round of edge collapses on the short boundary edges of the bad cells.
+    """One round of edge collapses: the bad flaps' apexes removed with their cells, then the short
+    boundary edges of the bad cells.
 
     Parameters
     ----------
@@ -217,7 +248,8 @@ def collapse_round(
         updated in place for the removed vertices
     removable : (N,) bool, the vertices that may be removed (not the user's fixed points nor the
         feature corners); a vertex that may not move (on a crease or a feature curve) is only
-        removed into another such vertex, which keeps the crease; updated in place
+        removed into another such vertex, which keeps the crease (a flap's apex goes with its
+        cell whatever its neighbours); updated in place
     targets : ShapeTargets
     guard : SurfaceGuard
     locked : (N,) bool, optional
@@ -265,13 +297,19 @@ def collapse_round(
     touched = np.zeros(n, dtype=bool)
     done = 0
     cells_of = _CellsOf(tets, n)
-    for u, v in _short_edges(points, tets, quality, threshold, on_boundary, inner):
-        for keep, gone in ((u, v), (v, u)):
+    flaps = _flap_apexes(points, tets[quality < threshold], boundary_face_keys)
+    shorts = _short_edges(points, tets, quality, threshold, on_boundary, inner)
+    tries = [((u, v),) for v, u in flaps] + [((u, v), (v, u)) for u, v in shorts]
+    for k, pairs in enumerate(tries):
+        flap = k < len(flaps)
+        for keep, gone in pairs:
             if not removable[gone] or (locked is not None and locked[gone]):
                 continue
             if on_boundary[gone] and not on_boundary[keep]:
                 continue
-            if not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
+            if flap and cells_of(gone).size != 1:  # a flap's apex goes with its one cell, nothing else
+                continue
+            if not flap and not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
                 continue
             result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard, cells_of)
             if result is None:
