@@ -349,5 +349,5 @@ def test_final_mesh_names_where_the_chosen_cells_pinch(monkeypatch):
     pinched = tets[[first, second]]
     monkeypatch.setattr(finalize, "_attempts", lambda model, state, previous, backend, h, geps: (state, pinched, True, np.zeros(0, np.int64)))
     box = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5))
-    with pytest.raises(MeshingError, match=r"1 pinched vertices.*the first at \(([-0-9.e]+, ){2}[-0-9.e]+\), where the cells chosen meet"):
+    with pytest.raises(MeshingError, match=r"1 pinched vertices.*a pinch at \(([-0-9.e]+, ){2}[-0-9.e]+\), where the cells chosen meet"):
         finalize.final_mesh(box, points, np.zeros(len(points), bool), H, 0.001, "scipy")
