@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
+import fepre
 from fepre import sdf
 from fepre.distmesh import finalize
 from fepre.distmesh.job import MeshingJob
@@ -315,3 +316,38 @@ def test_final_mesh_releases_a_pinch_held_by_interior_stars():
     hmin = float(re.search(r"mesh with h <= ([0-9.e-]+)", thin[0]).group(1))
     assert hmin < 0.1 < h  # the fins are 0.08 thick
     assert f"h=({hmin:.2g}, {h:.4g})" in thin[0]  # the automatic size field's hmin
+
+
+@pytest.mark.slow
+def test_a_mesh_refused_for_its_volume_names_the_thin_parts_and_the_h_that_keeps_them():
+    """A cube with a fin 0.08 thick at h = 0.25: the fin is lost (-24% of the volume), the mesh is
+    refused, and the error says where the part is thin and which h keeps it (was: "try a
+    smaller h")."""
+    part = sdf.box((1, 1, 1)) | sdf.box((3, 3, 0.08), center=(0, 0, 0.5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(MeshingError) as caught:
+            fepre.distmesh(part, h=0.25)
+    message = str(caught.value)
+    assert "volume: mesh volume" in message and "try a smaller h" not in message
+    thickness = [float(t) for t in re.findall(r"([0-9.]+) thick", message)]
+    assert thickness and all(0.04 <= t <= 0.08 for t in thickness)  # the fin, not the cube
+    finest = float(re.search(r"mesh with h <= ([0-9.e-]+)", message).group(1))
+    assert finest <= 0.04 and f"h=({finest:.2g}, 0.25)" in message
+
+
+def test_final_mesh_names_where_the_chosen_cells_pinch(monkeypatch):
+    """Two cells of the block's triangulation that meet only at a vertex: refused, naming it."""
+    points, tets = block()
+    points = points + np.random.default_rng(0).normal(0, 1e-4, points.shape)
+    shared = np.bincount(tets.ravel())
+    counts = [(i, j) for i in range(len(tets)) for j in range(i + 1, len(tets))
+              if len(np.intersect1d(tets[i], tets[j])) == 1]
+    first, second = counts[0]
+    vertex = int(np.intersect1d(tets[first], tets[second])[0])
+    assert shared[vertex] > 2
+    pinched = tets[[first, second]]
+    monkeypatch.setattr(finalize, "_attempts", lambda model, state, previous, backend, h, geps: (state, pinched, True, np.zeros(0, np.int64)))
+    box = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5))
+    with pytest.raises(MeshingError, match=r"1 pinched vertices.*a pinch at \(([-0-9.e]+, ){2}[-0-9.e]+\), where the cells chosen meet"):
+        finalize.final_mesh(box, points, np.zeros(len(points), bool), H, 0.001, "scipy")

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import MeshingError
 from ..quality import signed_volumes
 from .delaunay import sorted_cells, tetrahedralize
-from .topology import boundary_faces, check_topology, repair_selection
+from .topology import boundary_faces, check_topology, nonmanifold_items, repair_selection
 
 __all__ = ["final_mesh", "compact", "crease_nodes"]
 
@@ -501,10 +501,16 @@ def final_mesh(
     off = np.abs(model(points_out[boundary])) > state.tol
     if not report.ok or off.any():
         where = ""
+        if report.nonmanifold_edges or report.pinched_vertices:
+            edges, pinched = nonmanifold_items(report.boundary_faces, len(points_out))
+            node = pinched[0] if len(pinched) else edges[0, 0]
+            where = (f", a pinch at ({', '.join(f'{v:.6g}' for v in points_out[node])}), where the cells chosen "
+                     "meet along an edge or at a point: parts of the surface closer than h there, or a concave "
+                     "region bridged")
         if off.any():  # a fixed node off the zero set is an interior node to the choice
             node = boundary[off][int(np.argmax(np.abs(model(points_out[boundary[off]]))))]
             kind = "a fixed node" if fixed_out[node] else "a node"
-            where = f", the farthest {kind} at ({', '.join(f'{v:.6g}' for v in points_out[node])})"
+            where += f", the farthest {kind} at ({', '.join(f'{v:.6g}' for v in points_out[node])})"
         raise MeshingError(
             "DistMesh could not choose a valid solid from the final triangulation "
             f"({report.nonmanifold_edges} non-manifold edges, {report.pinched_vertices} pinched vertices, "

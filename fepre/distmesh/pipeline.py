@@ -232,9 +232,25 @@ def validate_mesh(job: MeshingJob) -> None:
     job.unimproved = None
     if found:
         raise MeshingError(f"distmesh: the mesh is not a valid solid and was not returned: "
-                           f"{defects_message(found, job.frame_offset)}; try a smaller h")
+                           f"{defects_message(found, job.frame_offset)}; {_smaller_h(job, found)}")
     job.boundary = (job.tets, reuse["boundary_faces"])  # for the output, if the cells stay the same
     job.seconds["validate"] = time.perf_counter() - started
+
+
+def _smaller_h(job: MeshingJob, found: list) -> str:
+    """What to try when the mesh is refused: where the volume is off, the parts thinner than
+    ``h`` that the mesh left out and the ``h`` (or ``h=(hmin, hmax)``) that keeps them."""
+    from .lost_material import lost_material_message, material_checks
+
+    if not job.options.check_resolution or not any(defect.check == "volume" for defect in found):
+        return "try a smaller h"
+    local = job.size if job.absolute else None
+    lost, _ = material_checks(job.model, job.points, job.tets, job.h, local)
+    if not lost:
+        return "try a smaller h"
+    if job.frame_offset.any():
+        lost = [replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in lost]
+    return lost_material_message(lost, None if job.absolute else job.h)
 
 
 def check_mesh(job: MeshingJob) -> None:

@@ -548,8 +548,10 @@ def union(*shapes: SDF, k: float = 0.0) -> SDF:
     whose sides lie in one plane) stand ``k/4`` proud of their plane, and near a seam where two
     coplanar faces meet the face bulges by up to ``k/4`` too (issue 33: a bracket joined with
     ``k=6`` gained 2.3% of volume). Each further operand lowers the value by up to
-    another ``k/4``; the bounds grow by that much. For a blend that leaves the faces where they
-    are, see :func:`fillet_union`.
+    another ``k/4``; the bounds grow by that much. No blend of the two distances alone can round
+    a concave junction and leave coplanar faces in place (on a right angle's bisector the fillet
+    has ``a = b = r (1 - 1/sqrt 2)``, on coplanar faces ``a = b = 0``): keep ``k`` small against
+    the part, or trim the result by its sharp union's box.
 
     Examples
     --------
