@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface_refine import split_edges
+from .surface_refine import split_edges, split_scores
 from .tet_shape import ShapeTargets
-from .tet_topology import EDGE_OF_TET, face_keys, face_neighbours, faces_on_boundary, in_sorted
+from .tet_topology import EDGE_OF_TET, edge_keys, face_keys, face_neighbours, faces_on_boundary, in_sorted
 
-__all__ = ["split_bad_cells", "split_candidates", "knife_edge"]
+__all__ = ["split_bad_cells", "split_candidates", "knife_edge", "stable_edge_keys"]
 
 #: An edge between two surface vertices whose midpoint lies farther than this (times h) off the
 #: zero set is split first: the surface bends between its ends at the scale of h.
@@ -77,6 +77,10 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     if off_surface is not None:
         far = off_surface.max(axis=1) > 0
         first[far] = edges[far, np.argmax(off_surface[far], axis=1)]
+    # a wedge whose two boundary faces meet on a cap's chord: the chord (its inner edge may lie
+    # off the surface too, but no vertex on it mends the cap, which leaves every cell on it flat)
+    capped, shared = _wedge_chords(points, corners, on_boundary)
+    first[capped] = shared
     choices = np.concatenate([first[:, None], by_length], axis=1)  # (C, 7, 2)
     ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
     _, index = np.unique(ordered, axis=0, return_index=True)
@@ -99,6 +103,25 @@ def _cap_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray
     return one[cap], sides[rows, longest][cap]
 
 
+def _wedge_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which cells ``corners`` (C, 4) hold two boundary faces whose common edge is a cap's chord
+    (the angle opposite it over ``CAP_ANGLE`` in either face), and that edge, (K, 2).
+
+    The faces on the boundary are those opposite the two corners off the common edge (the
+    faces' apexes); the common edge joins the corners whose opposite faces are inner ones.
+    """
+    two = np.flatnonzero(on_boundary.sum(axis=1) == 2)
+    order = np.argsort(on_boundary[two], axis=1, kind="stable")  # the edge's ends, then the apexes
+    vertices = np.take_along_axis(corners[two], order, axis=1)
+    a, b = points[vertices[:, 0]], points[vertices[:, 1]]
+    capped = np.zeros(two.size, dtype=bool)
+    for apex in points[vertices[:, 2]], points[vertices[:, 3]]:
+        u, v = a - apex, b - apex
+        norms = np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1)
+        capped |= np.einsum("ij,ij->i", u, v) < np.cos(np.radians(CAP_ANGLE)) * norms
+    return two[capped], vertices[capped, :2]
+
+
 def split_bad_cells(
     points: np.ndarray,
     tets: np.ndarray,
@@ -106,6 +129,7 @@ def split_bad_cells(
     h: float,
     targets: ShapeTargets | None = None,
     off_surface_first: bool = False,
+    tried: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Split one edge of every cell whose score is below ``targets`` (see :func:`split_candidates`).
 
@@ -122,6 +146,10 @@ def split_bad_cells(
     off_surface_first : bool
         Split first a cell's edge between two surface vertices whose midpoint lies more than
         ``OFF_SURFACE`` h off the zero set (a chord across a valley or through a ridge).
+    tried : int64 array, optional
+        The :func:`stable_edge_keys` of edges split before whose splits the stage undid (the
+        edge is back): they come after every other candidate, so that a cell whose first choice
+        was undone gets its next one (the same split would give the same mesh again).
 
     Returns
     -------
@@ -152,7 +180,34 @@ def split_bad_cells(
     bad = bad[np.argsort(score[bad], kind="stable")]
     off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
     edges = split_candidates(points, tets, bad, points.shape[0], off)
+    mending = _mending_splits(points, tets, model, h, bad, score[bad])
+    if len(mending):
+        ordered = np.concatenate([mending, edges])
+        _, index = np.unique(ordered, axis=0, return_index=True)
+        edges = ordered[np.sort(index)]
+    if tried is not None and len(tried):
+        again = np.isin(stable_edge_keys(edges), tried)
+        edges = np.concatenate([edges[~again], edges[again]])
     return split_edges(points, tets, model, h, edges)
+
+
+def stable_edge_keys(pairs: np.ndarray) -> np.ndarray:
+    """One int64 per (K, 2) vertex pair, whatever the order of its ends and the number of points
+    (vertex numbers below 2**31)."""
+    return edge_keys(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), 2**31)
+
+
+def _mending_splits(points: np.ndarray, tets: np.ndarray, model, h: float, cells: np.ndarray,
+                    score: np.ndarray) -> np.ndarray:
+    """For each of ``cells`` (scoring ``score``), its edge whose split alone makes cells all
+    scoring above the cell's score now, the best such edge (sorted ends), in the order of
+    ``cells``; cells without one are left out, (K, 2)."""
+    edges = np.sort(tets[cells][:, EDGE_OF_TET], axis=2)  # (C, 6, 2)
+    made = split_scores(points, tets, model, h, edges.reshape(-1, 2)).reshape(-1, 6)
+    best = np.argmax(made, axis=1)
+    rows = np.arange(cells.size)
+    mends = made[rows, best] > score
+    return edges[rows, best][mends]
 
 
 def _off_surface(points: np.ndarray, corners: np.ndarray, model, h: float) -> np.ndarray:

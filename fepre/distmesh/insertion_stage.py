@@ -23,9 +23,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceWarning, MeshingError
-from .bad_cell_splits import knife_edge, split_bad_cells
+from .bad_cell_splits import knife_edge, split_bad_cells, stable_edge_keys
 from .improve_mesh import stage_pins
 from .tet_shape import ShapeTargets
+from .tet_topology import EDGE_OF_TET
 
 __all__ = ["stage_with_insertions", "INSERTION_ROUNDS"]
 
@@ -93,13 +94,15 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
     series, 30.7 after the second; bunny_small at D/25: 7.4 and 26.3).
     """
     _, points, tets, job.fixed_mask, _, info = first
+    tried = np.zeros(0, dtype=np.int64)
     for _ in range(INSERTION_ROUNDS):
         if info["converged"] or _too_many_bad(points, tets, targets) or _worst_at_knife(points, tets, job.model, targets):
             break
         job.points, job.tets, split = split_bad_cells(points, tets, job.model, job.h, targets,
-                                                      off_surface_first=reshaping)
+                                                      off_surface_first=reshaping, tried=tried)
         if split == 0:
             break
+        tried = np.union1d(tried, _split_away(points, tets, job.tets, targets))
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
         pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, job.h)
         try:
@@ -110,6 +113,14 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
         if worst > best[0] and _valid(job, points, tets):
             best = (worst, points, tets, job.fixed_mask, caught, info)
     return best
+
+
+def _split_away(points, tets, new_tets, targets) -> np.ndarray:
+    """The stable keys of the bad cells' edges of ``tets`` that ``new_tets`` no longer has (the
+    edges a round split); when one comes back, the stage undid its split."""
+    bad = tets[targets.score(points[tets]) < targets.min_dihedral]
+    keys = np.unique(stable_edge_keys(bad[:, EDGE_OF_TET]))
+    return keys[~np.isin(keys, stable_edge_keys(new_tets[:, EDGE_OF_TET]))]
 
 
 def _too_many_bad(points, tets, targets) -> bool:
