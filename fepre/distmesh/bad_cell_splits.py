@@ -18,7 +18,11 @@ else its longest edge that can be split, a boundary edge's midpoint projected on
 set) with :func:`~fepre.distmesh.surface_refine.split_edges`, and the stage runs again: the new
 vertex gives the rim's edge a cell reaching inside, or halves the stretched face. On the two
 models above this takes the worst dihedral angle from 16.3 and 17.3 deg to 30.6 and 25.2 deg
-with 4 and 6 new vertices.
+with 4 and 6 new vertices. Before those choices comes a split that mends the cell at once (its
+new cells all score better than the cell: cow.obj's lone cell at an ear's tip, 21.5 deg, whose
+vertices are pinned feature nodes; the split of one edge gives two of 28 and 29 deg, the
+choice before, an edge off the surface, 4 deg), and after them every edge split before whose
+split the stage undid.
 """
 
 from __future__ import annotations
@@ -54,7 +58,9 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     faces (the edge joining the two vertices off their common edge), else the longest edge of
     its one boundary face when that face is a cap (an angle over ``CAP_ANGLE``: the cell is flat
     whatever its fourth vertex, and its own longest edge may be an inner one, whose split leaves
-    the cap); then its six edges longest first. The list runs
+    the cap); a wedge whose two boundary faces are caps on their common edge takes that chord
+    before any of these (its inner edge may lie off the surface, but a vertex there leaves the
+    caps); then its six edges longest first. The list runs
     through every cell's first choice before any second choice, so a cell's fall-back never
     takes the cells another's first choice needs; repeated edges keep their first place.
     """
