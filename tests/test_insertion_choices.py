@@ -1,6 +1,6 @@
 """Which edge of a cell left bad the insertion rounds split (issue 32, cow.obj at D/50): a wedge
-of two caps splits their chord, a split that mends a cell at once goes first, and an edge whose
-split the stage undid comes after every other choice."""
+of two caps splits their chord, and an edge whose split the stage undid comes after every other
+choice."""
 
 from __future__ import annotations
 
@@ -8,10 +8,8 @@ import numpy as np
 
 from fepre import sdf
 from fepre.distmesh.bad_cell_splits import split_bad_cells, split_candidates, stable_edge_keys
-from fepre.distmesh.surface_refine import split_scores
 from fepre.distmesh.tet_shape import ShapeTargets, signed_volume
 from fepre.distmesh.tet_topology import face_neighbours, faces_on_boundary
-from fepre.quality import tet_quality
 
 
 def _positive(points, tets):
@@ -54,31 +52,6 @@ def test_a_wedge_of_two_caps_splits_their_chord_not_its_inner_edge():
     top = faces[np.abs(new_points[faces][:, :, 2]).max(axis=1) < 0.1]
     assert len(top) == 4 and _largest_face_angle(new_points, top) < 90.5
     assert _largest_face_angle(points, np.array([[0, 1, 2]])) > 145.0  # the cap before
-
-
-def _lone_cell():
-    # cow.obj at D/50, an ear's tip: one cell apart from the rest (all four faces on the
-    # boundary), its vertices on the surface (here: its circumsphere), in units of h
-    points = np.array([[-0.243, -0.194, -0.634], [0.017, 0.546, -0.086], [-0.297, -0.606, 0.035],
-                       [0.523, 0.254, 0.684]])
-    rows = 2.0 * (points[1:] - points[0])
-    centre = np.linalg.solve(rows, (points[1:] ** 2).sum(axis=1) - (points[0] ** 2).sum())
-    radius = float(np.linalg.norm(points[0] - centre))
-    return points, _positive(points, [[0, 1, 2, 3]]), sdf.sphere(radius).translate(tuple(centre))
-
-
-def test_a_lone_cell_takes_the_split_that_mends_it():
-    points, tets, model = _lone_cell()
-    assert tet_quality(points, tets)["min_dihedral_angle"][0] < 22.0
-    # its longest edge's midpoint projects too far; the next longest (the old choice) makes a
-    # 2.4 deg cell; the split of edge 1 2 makes two cells of 39 and 45 deg
-    made = split_scores(points, tets, model, 1.0, np.array([[0, 3], [2, 3], [1, 2]]))
-    assert made[0] == -np.inf and made[1] < 5.0 and made[2] > 35.0
-    new_points, new_tets, split = split_bad_cells(points, tets, model, 1.0)
-    assert split == 1 and abs(model(new_points[-1:])[0]) < 1e-6
-    angles = tet_quality(new_points, new_tets)["min_dihedral_angle"]
-    assert len(new_tets) == 2 and angles.min() > 38.0
-    assert sorted(map(sorted, new_tets.tolist())) == [[0, 1, 3, 4], [0, 2, 3, 4]]  # edge 1 2 split
 
 
 def test_an_undone_split_comes_after_the_other_choices():

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface_refine import split_edges, split_scores
+from .surface_refine import split_edges
 from .tet_shape import ShapeTargets
 from .tet_topology import EDGE_OF_TET, edge_keys, face_keys, face_neighbours, faces_on_boundary, in_sorted
 
@@ -186,11 +186,6 @@ def split_bad_cells(
     bad = bad[np.argsort(score[bad], kind="stable")]
     off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
     edges = split_candidates(points, tets, bad, points.shape[0], off)
-    mending = _mending_splits(points, tets, model, h, bad, score[bad])
-    if len(mending):
-        ordered = np.concatenate([mending, edges])
-        _, index = np.unique(ordered, axis=0, return_index=True)
-        edges = ordered[np.sort(index)]
     if tried is not None and len(tried):
         again = np.isin(stable_edge_keys(edges), tried)
         edges = np.concatenate([edges[~again], edges[again]])
@@ -201,19 +196,6 @@ def stable_edge_keys(pairs: np.ndarray) -> np.ndarray:
     """One int64 per (K, 2) vertex pair, whatever the order of its ends and the number of points
     (vertex numbers below 2**31)."""
     return edge_keys(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), 2**31)
-
-
-def _mending_splits(points: np.ndarray, tets: np.ndarray, model, h: float, cells: np.ndarray,
-                    score: np.ndarray) -> np.ndarray:
-    """For each of ``cells`` (scoring ``score``), its edge whose split alone makes cells all
-    scoring above the cell's score now, the best such edge (sorted ends), in the order of
-    ``cells``; cells without one are left out, (K, 2)."""
-    edges = np.sort(tets[cells][:, EDGE_OF_TET], axis=2)  # (C, 6, 2)
-    made = split_scores(points, tets, model, h, edges.reshape(-1, 2)).reshape(-1, 6)
-    best = np.argmax(made, axis=1)
-    rows = np.arange(cells.size)
-    mends = made[rows, best] > score
-    return edges[rows, best][mends]
 
 
 def _off_surface(points: np.ndarray, corners: np.ndarray, model, h: float) -> np.ndarray:

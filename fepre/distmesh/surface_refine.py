@@ -25,7 +25,7 @@ import numpy as np
 from .tet_shape import ShapeTargets, signed_volume
 from .tet_topology import EDGE_OF_TET, edge_keys, face_neighbours, faces_on_boundary
 
-__all__ = ["split_long_boundary_edges", "split_edges", "split_scores", "LONG_EDGE"]
+__all__ = ["split_long_boundary_edges", "split_edges", "LONG_EDGE"]
 
 #: Edges longer than this many local sizes (times the mesh's own scale, when above 1) are split.
 LONG_EDGE = 1.8
@@ -142,13 +142,16 @@ def _crossing_new_vertices(points: np.ndarray, tets: np.ndarray, first_new: int)
     return new
 
 
-def _planned_splits(points, tets, model, h: float, edges: np.ndarray):
-    """The splits of ``edges`` as they would be made, before any is chosen: the indices of the
-    edges that can be split (their new vertex near the edge, on the zero set or inside), the
-    new vertices, and for each cell around such an edge its owner (into those indices), the
-    cell and its two halves (numbering the new vertices from ``len(points)`` in that order).
-    None when no edge can be split."""
+def _split_chosen(points, tets, model, h: float, edges: np.ndarray, allowed: np.ndarray):
+    """The splits of the ``allowed`` edges (see :func:`split_edges`): the points with the new
+    vertices appended, the cells, and the indices into ``edges`` of the edges split, in the
+    order of their new vertices."""
     n = points.shape[0]
+    empty = np.zeros(0, dtype=np.int64)
+    index_of = np.flatnonzero(allowed)
+    edges = edges[index_of]
+    if edges.shape[0] == 0:
+        return points, tets, empty
     middle = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
     length = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
     # everything below looks at the cells at the long edges' ends only: every cell around such
@@ -166,10 +169,9 @@ def _planned_splits(points, tets, model, h: float, edges: np.ndarray):
     near = np.linalg.norm(new - middle, axis=1) <= MAX_PROJECTION * length
     values = model(new)
     near &= np.where(on_surface, np.abs(values) <= 1e-3 * h, values < 0)
-    kept = np.flatnonzero(near)
-    edges, new = edges[near], new[near]
+    edges, new, index_of = edges[near], new[near], index_of[near]
     if edges.shape[0] == 0:
-        return None
+        return points, tets, empty
     # the cells around each edge
     all_keys = edge_keys(sub[:, EDGE_OF_TET].reshape(-1, 2), n)
     order = np.argsort(all_keys, kind="stable")
@@ -187,59 +189,6 @@ def _planned_splits(points, tets, model, h: float, edges: np.ndarray):
     rows = np.arange(cells.size)
     first[rows, local_edge[:, 0]] = index
     second[rows, local_edge[:, 1]] = index
-    return kept, new, owner, cells, first, second
-
-
-def split_scores(points: np.ndarray, tets: np.ndarray, model, h: float, edges: np.ndarray) -> np.ndarray:
-    """The score (:class:`~fepre.distmesh.tet_shape.ShapeTargets`) of the worst cell each of
-    ``edges`` (E, 2) would make if split alone at its midpoint (as :func:`split_edges` splits
-    it), before any vertex moves; -inf where the split cannot be made (its new vertex far off
-    the edge or outside, or a new cell inverted).
-
-    Examples
-    --------
-    A cell of a ball's mesh: the split of its edge from the centre gives cells scoring above 0.
-
-    >>> import numpy as np
-    >>> from fepre import sdf
-    >>> r = 1 / np.sqrt(3)
-    >>> points = np.array([[0.0, 0.0, 0.0], [r, r, r], [r, -r, -r], [-r, r, -r], [-r, -r, r]])
-    >>> tets = np.array([[0, 1, 2, 3], [0, 1, 4, 2], [0, 1, 3, 4], [0, 2, 4, 3]])
-    >>> bool(split_scores(points, tets, sdf.sphere(1.0), 1.0, np.array([[0, 1]]))[0] > 0)
-    True
-    """
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    worst = np.full(edges.shape[0], -np.inf)
-    planned = _planned_splits(points, tets, model, h, edges) if edges.shape[0] else None
-    if planned is None:
-        return worst
-    kept, new, owner, _, first, second = planned
-    all_points = np.concatenate([points, new])
-    scores = ShapeTargets()
-    cell_worst = np.minimum(scores.score(all_points[first]), scores.score(all_points[second]))
-    positive = (signed_volume(all_points[first]) > 0) & (signed_volume(all_points[second]) > 0)
-    cell_worst = np.where(positive, cell_worst, -np.inf)
-    found = np.full(kept.size, np.inf)
-    np.minimum.at(found, owner, cell_worst)
-    worst[kept] = found
-    return worst
-
-
-def _split_chosen(points, tets, model, h: float, edges: np.ndarray, allowed: np.ndarray):
-    """The splits of the ``allowed`` edges (see :func:`split_edges`): the points with the new
-    vertices appended, the cells, and the indices into ``edges`` of the edges split, in the
-    order of their new vertices."""
-    n = points.shape[0]
-    empty = np.zeros(0, dtype=np.int64)
-    index_of = np.flatnonzero(allowed)
-    edges = edges[index_of]
-    if edges.shape[0] == 0:
-        return points, tets, empty
-    planned = _planned_splits(points, tets, model, h, edges)
-    if planned is None:
-        return points, tets, empty
-    kept, new, owner, cells, first, second = planned
-    edges, index_of = edges[kept], index_of[kept]
     all_points = np.concatenate([points, new])
     # a cell of zero score (flat to rounding) is refused too: the quality stage cannot start from it
     scores = ShapeTargets()
