@@ -18,7 +18,11 @@ else its longest edge that can be split, a boundary edge's midpoint projected on
 set) with :func:`~fepre.distmesh.surface_refine.split_edges`, and the stage runs again: the new
 vertex gives the rim's edge a cell reaching inside, or halves the stretched face. On the two
 models above this takes the worst dihedral angle from 16.3 and 17.3 deg to 30.6 and 25.2 deg
-with 4 and 6 new vertices.
+with 4 and 6 new vertices. Before those choices comes a split that mends the cell at once (its
+new cells all score better than the cell: cow.obj's lone cell at an ear's tip, 21.5 deg, whose
+vertices are pinned feature nodes; the split of one edge gives two of 28 and 29 deg, the
+choice before, an edge off the surface, 4 deg), and after them every edge split before whose
+split the stage undid.
 """
 
 from __future__ import annotations
@@ -27,9 +31,9 @@ import numpy as np
 
 from .surface_refine import split_edges
 from .tet_shape import ShapeTargets
-from .tet_topology import EDGE_OF_TET, face_keys, face_neighbours, faces_on_boundary, in_sorted
+from .tet_topology import EDGE_OF_TET, edge_keys, face_keys, face_neighbours, faces_on_boundary, in_sorted
 
-__all__ = ["split_bad_cells", "split_candidates", "knife_edge"]
+__all__ = ["split_bad_cells", "split_candidates", "knife_edge", "stable_edge_keys"]
 
 #: An edge between two surface vertices whose midpoint lies farther than this (times h) off the
 #: zero set is split first: the surface bends between its ends at the scale of h.
@@ -54,7 +58,9 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     faces (the edge joining the two vertices off their common edge), else the longest edge of
     its one boundary face when that face is a cap (an angle over ``CAP_ANGLE``: the cell is flat
     whatever its fourth vertex, and its own longest edge may be an inner one, whose split leaves
-    the cap); then its six edges longest first. The list runs
+    the cap); a wedge whose two boundary faces are caps on their common edge takes that chord
+    before any of these (its inner edge may lie off the surface, but a vertex there leaves the
+    caps); then its six edges longest first. The list runs
     through every cell's first choice before any second choice, so a cell's fall-back never
     takes the cells another's first choice needs; repeated edges keep their first place.
     """
@@ -77,6 +83,10 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     if off_surface is not None:
         far = off_surface.max(axis=1) > 0
         first[far] = edges[far, np.argmax(off_surface[far], axis=1)]
+    # a wedge whose two boundary faces meet on a cap's chord: the chord (its inner edge may lie
+    # off the surface too, but no vertex on it mends the cap, which leaves every cell on it flat)
+    capped, shared = _wedge_chords(points, corners, on_boundary)
+    first[capped] = shared
     choices = np.concatenate([first[:, None], by_length], axis=1)  # (C, 7, 2)
     ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
     _, index = np.unique(ordered, axis=0, return_index=True)
@@ -99,6 +109,25 @@ def _cap_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray
     return one[cap], sides[rows, longest][cap]
 
 
+def _wedge_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which cells ``corners`` (C, 4) hold two boundary faces whose common edge is a cap's chord
+    (the angle opposite it over ``CAP_ANGLE`` in either face), and that edge, (K, 2).
+
+    The faces on the boundary are those opposite the two corners off the common edge (the
+    faces' apexes); the common edge joins the corners whose opposite faces are inner ones.
+    """
+    two = np.flatnonzero(on_boundary.sum(axis=1) == 2)
+    order = np.argsort(on_boundary[two], axis=1, kind="stable")  # the edge's ends, then the apexes
+    vertices = np.take_along_axis(corners[two], order, axis=1)
+    a, b = points[vertices[:, 0]], points[vertices[:, 1]]
+    capped = np.zeros(two.size, dtype=bool)
+    for apex in points[vertices[:, 2]], points[vertices[:, 3]]:
+        u, v = a - apex, b - apex
+        norms = np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1)
+        capped |= np.einsum("ij,ij->i", u, v) < np.cos(np.radians(CAP_ANGLE)) * norms
+    return two[capped], vertices[capped, :2]
+
+
 def split_bad_cells(
     points: np.ndarray,
     tets: np.ndarray,
@@ -106,6 +135,7 @@ def split_bad_cells(
     h: float,
     targets: ShapeTargets | None = None,
     off_surface_first: bool = False,
+    tried: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Split one edge of every cell whose score is below ``targets`` (see :func:`split_candidates`).
 
@@ -122,6 +152,10 @@ def split_bad_cells(
     off_surface_first : bool
         Split first a cell's edge between two surface vertices whose midpoint lies more than
         ``OFF_SURFACE`` h off the zero set (a chord across a valley or through a ridge).
+    tried : int64 array, optional
+        The :func:`stable_edge_keys` of edges split before whose splits the stage undid (the
+        edge is back): they come after every other candidate, so that a cell whose first choice
+        was undone gets its next one (the same split would give the same mesh again).
 
     Returns
     -------
@@ -152,7 +186,16 @@ def split_bad_cells(
     bad = bad[np.argsort(score[bad], kind="stable")]
     off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
     edges = split_candidates(points, tets, bad, points.shape[0], off)
+    if tried is not None and len(tried):
+        again = np.isin(stable_edge_keys(edges), tried)
+        edges = np.concatenate([edges[~again], edges[again]])
     return split_edges(points, tets, model, h, edges)
+
+
+def stable_edge_keys(pairs: np.ndarray) -> np.ndarray:
+    """One int64 per (K, 2) vertex pair, whatever the order of its ends and the number of points
+    (vertex numbers below 2**31)."""
+    return edge_keys(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), 2**31)
 
 
 def _off_surface(points: np.ndarray, corners: np.ndarray, model, h: float) -> np.ndarray:

@@ -12,7 +12,11 @@ one repairs them (libigl's arm at D/50: 17.5 deg after the stage, 15.0 after the
 wedge's tip: 8.4 deg before and after, and a round that pinched a boundary vertex). The rounds
 are counted, not timed, so the same input gives the same mesh on a busy machine. When the
 worst cell fills a knife edge of the model (:func:`~fepre.distmesh.bad_cell_splits.knife_edge`),
-no round starts (no vertex helps there) and the warning says so.
+no round starts (no vertex helps there) and the warning says so. An edge a round split that
+is back after the stage (the stage collapsed its vertex) is split after every other choice in
+the later rounds of the series: the same split gives the same mesh again (cow.obj at D/50: an
+ear cell's inner edge split and collapsed four rounds running, 21.0 deg; with the next choice
+the series converged).
 """
 
 from __future__ import annotations
@@ -23,9 +27,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceWarning, MeshingError
-from .bad_cell_splits import knife_edge, split_bad_cells
+from .bad_cell_splits import knife_edge, split_bad_cells, stable_edge_keys
 from .improve_mesh import stage_pins
 from .tet_shape import ShapeTargets
+from .tet_topology import EDGE_OF_TET
 
 __all__ = ["stage_with_insertions", "INSERTION_ROUNDS"]
 
@@ -93,13 +98,15 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
     series, 30.7 after the second; bunny_small at D/25: 7.4 and 26.3).
     """
     _, points, tets, job.fixed_mask, _, info = first
+    tried = np.zeros(0, dtype=np.int64)
     for _ in range(INSERTION_ROUNDS):
         if info["converged"] or _too_many_bad(points, tets, targets) or _worst_at_knife(points, tets, job.model, targets):
             break
         job.points, job.tets, split = split_bad_cells(points, tets, job.model, job.h, targets,
-                                                      off_surface_first=reshaping)
+                                                      off_surface_first=reshaping, tried=tried)
         if split == 0:
             break
+        tried = np.union1d(tried, _split_away(points, tets, job.tets, targets))
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
         pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, job.h)
         try:
@@ -110,6 +117,14 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
         if worst > best[0] and _valid(job, points, tets):
             best = (worst, points, tets, job.fixed_mask, caught, info)
     return best
+
+
+def _split_away(points, tets, new_tets, targets) -> np.ndarray:
+    """The stable keys of the bad cells' edges of ``tets`` that ``new_tets`` no longer has (the
+    edges a round split); when one comes back, the stage undid its split."""
+    bad = tets[targets.score(points[tets]) < targets.min_dihedral]
+    keys = np.unique(stable_edge_keys(bad[:, EDGE_OF_TET]))
+    return keys[~np.isin(keys, stable_edge_keys(new_tets[:, EDGE_OF_TET]))]
 
 
 def _too_many_bad(points, tets, targets) -> bool:
