@@ -267,6 +267,12 @@ def check_mesh(job: MeshingJob) -> None:
         warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
     if added:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
+    if o.check_resolution:
+        from .pieces import mesh_pieces, small_pieces_message
+
+        message = small_pieces_message(job.points, job.tets, *mesh_pieces(job.tets, len(job.points)), job.frame_offset)
+        if message:
+            warn_user(f"distmesh: {message}", ResolutionWarning)
     if o.check_resolution and not any(value is not None for value in job.keywords.values()):  # not a cut cell
         message = volume_message(job.given_model, job.model, job.points, job.tets, job.lower, job.upper, h,
                                  job.absolute or job.size is not None)
