@@ -142,6 +142,25 @@ def test_a_triangle_mesh_model_meshed_short_of_its_volume_warns_with_the_h_that_
     assert named[0] == pytest.approx(h * np.sqrt(0.005 / abs(error)), rel=0.02)
 
 
+def test_the_volume_warning_holds_far_from_the_origin_and_through_transforms():
+    """A part far from the origin is meshed as its translation, which hid the triangle-mesh
+    model from the check (a pulley STL at 1e4 came out 1.7% over with no warning); a scaled
+    model's exact volume is the model's times the scale cubed."""
+    import pyvista as pv
+
+    rod = pv.Cylinder(radius=0.12, height=2.0, resolution=16, capping=True).triangulate().clean()
+    rod.points = rod.points.astype(np.float64)  # float32 at 1e4 would move the facets
+    far = sdf.mesh(rod.translate((1e4, -1e4, 1e4)))
+    h = float(np.linalg.norm(np.subtract(*far.bounds[::-1]))) / 25
+    mesh, lines, named = _volume_warning(far, h)
+    error = mesh.volume / far.volume - 1
+    assert len(lines) == 1 and f"{100 * abs(error):.1f}% short of the model's" in lines[0]
+    near = sdf.mesh(rod)
+    assert far.volume == pytest.approx(near.volume, rel=1e-9)
+    mesh, lines, _ = _volume_warning(near.scale(2.0), 2 * h)
+    assert len(lines) == 1 and f"{mesh.volume:.4g} against {8 * near.volume:.4g}" in lines[0]
+
+
 @pytest.mark.slow  # about 10 s
 def test_the_h_named_for_the_volume_keeps_it():
     """At the h named the volume is within 1% and nothing warns."""

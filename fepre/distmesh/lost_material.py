@@ -324,6 +324,19 @@ VOLUME_TOLERANCE = 0.01
 VOLUME_AIM = 0.005
 
 
+def _mesh_model_volume(model) -> float | None:
+    """The exact volume of a triangle-mesh model, or of one seen through affine maps (a part
+    placed far from the origin is meshed as its translation), else None."""
+    from ..sdf.meshmodel import MeshModel
+    from ..sdf.transforms import Affine
+
+    factor = 1.0
+    while isinstance(model, Affine):
+        factor *= abs(float(np.linalg.det(model.matrix[:3, :3])))
+        model = model.children[0]
+    return factor * abs(model.volume) if isinstance(model, MeshModel) else None
+
+
 def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, upper, h: float, graded: bool) -> str | None:
     """A line when the cells' volume is more than ``VOLUME_TOLERANCE`` off the exact volume of
     ``given``, a triangle-mesh model (None otherwise, or when ``given`` is not one, or when the
@@ -347,14 +360,13 @@ def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, up
     "the mesh's volume is 68.1% short of the model"
     """
     from ..quality import signed_volumes
-    from ..sdf.meshmodel import MeshModel
 
-    if not isinstance(given, MeshModel) or len(tets) == 0 or model.bounds is None:
+    exact = _mesh_model_volume(given)
+    if exact is None or len(tets) == 0 or model.bounds is None:
         return None
     bounds_lower, bounds_upper = (np.asarray(b, np.float64) for b in model.bounds)
     if (np.asarray(lower) > bounds_lower + 1e-9 * h).any() or (np.asarray(upper) < bounds_upper - 1e-9 * h).any():
         return None
-    exact = abs(given.volume)
     meshed = float(signed_volumes(points, tets).sum())
     error = meshed / exact - 1.0
     if abs(error) <= VOLUME_TOLERANCE:
