@@ -240,29 +240,34 @@ def validate_mesh(job: MeshingJob) -> None:
 def _smaller_h(job: MeshingJob, found: list) -> str:
     """What to try when the mesh is refused: where the volume is off, the parts thinner than
     ``h`` that the mesh left out and the ``h`` (or ``h=(hmin, hmax)``) that keeps them."""
-    from .lost_material import lost_material_message, material_checks
+    from .lost_material import lost_material_message
 
     if not job.options.check_resolution or not any(defect.check == "volume" for defect in found):
         return "try a smaller h"
-    local = job.size if job.absolute else None
-    lost, _ = material_checks(job.model, job.points, job.tets, job.h, local)
+    lost, _ = _material_checks(job)
     if not lost:
         return "try a smaller h"
-    if job.frame_offset.any():
-        lost = [replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in lost]
     return lost_material_message(lost, None if job.absolute else job.h)
+
+
+def _material_checks(job: MeshingJob) -> tuple[list, list]:
+    """The regions of material lost and added (:func:`~fepre.distmesh.lost_material.material_checks`),
+    their places in the user's frame."""
+    from .lost_material import material_checks
+
+    lost, added = material_checks(job.model, job.points, job.tets, job.h, job.size if job.absolute else None)
+    if job.frame_offset.any():
+        lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
+                       for found in (lost, added))
+    return lost, added
 
 
 def check_mesh(job: MeshingJob) -> None:
     """The resolution check (material lost or added), the history, the constraints' checks."""
-    from .lost_material import added_material_message, lost_material_message, material_checks, volume_message
+    from .lost_material import added_material_message, lost_material_message, volume_message
 
     o, loop, h = job.options, job.loop, job.h
-    local = job.size if job.absolute else None
-    lost, added = material_checks(job.model, job.points, job.tets, h, local) if o.check_resolution else ([], [])
-    if job.frame_offset.any():  # the places named in the user's frame
-        lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
-                       for found in (lost, added))
+    lost, added = _material_checks(job) if o.check_resolution else ([], [])
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
     if added:
