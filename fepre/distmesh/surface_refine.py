@@ -37,6 +37,9 @@ MAX_PROJECTION = 0.3
 MAX_PASSES = 4
 #: Times the splits are made again without those whose faces crossed the boundary.
 MAX_RETRIES = 4
+#: Long edges left after the passes that are split into cavities at most (each one costs a few
+#: tens of milliseconds; a DistMesh mesh leaves a handful).
+MAX_CAVITIES = 64
 
 
 def _boundary_edges(tets: np.ndarray, n_points: int) -> np.ndarray:
@@ -272,4 +275,21 @@ def split_long_boundary_edges(
         total += splits
         if splits == 0:
             break
-    return points, tets, total
+    points, tets, splits = _cavity_pass(points, tets, model, h, size, scale)
+    return points, tets, total + splits
+
+
+def _cavity_pass(points, tets, model, h, size, scale: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """The long edges the passes left (their split would invert a cell: a chord across a
+    valley of a wall thinner than 2 h) split into cavities, longest first, at most
+    ``MAX_CAVITIES`` (:func:`~fepre.distmesh.cavity_split.cavity_split`); a split whose new
+    boundary faces cross the boundary is undone."""
+    from .cavity_split import cavity_split
+
+    edges, _, _ = _long_edges(points, tets, h, size, scale)
+    done = 0
+    for edge in edges[:MAX_CAVITIES]:
+        new_points, new_tets, split = cavity_split(points, tets, model, h, edge, MAX_PROJECTION)
+        if split and not _crossing_new_vertices(new_points, new_tets, points.shape[0]).any():
+            points, tets, done = new_points, new_tets, done + 1
+    return points, tets, done
