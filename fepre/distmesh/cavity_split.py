@@ -33,8 +33,16 @@ __all__ = ["cavity_split", "CAVITY_CELLS"]
 CAVITY_CELLS = 48
 
 
-def cavity_split(points: np.ndarray, tets: np.ndarray, model, h: float, edge, max_projection: float = 0.3,
-                 neighbours: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
+def cavity_split(
+    points: np.ndarray,
+    tets: np.ndarray,
+    model,
+    h: float,
+    edge,
+    max_projection: float = 0.3,
+    neighbours: np.ndarray | None = None,
+    beyond_ring: bool = False,
+) -> tuple[np.ndarray, np.ndarray, bool]:
     """Split ``edge`` (its two vertex numbers) at its midpoint (projected onto the model's zero set
     when it is a boundary edge) into a star-shaped cavity of cells grown from its ring.
 
@@ -51,6 +59,9 @@ def cavity_split(points: np.ndarray, tets: np.ndarray, model, h: float, edge, ma
         The new vertex may lie at most this fraction of the edge's length from its midpoint.
     neighbours : (M, 4) int array, optional
         ``face_neighbours(tets, N)``, when the caller has it.
+    beyond_ring : bool
+        Refuse the split when the edge's ring is the cavity (a plain split, which
+        :func:`~fepre.distmesh.surface_refine.split_edges` makes).
 
     Returns
     -------
@@ -97,7 +108,7 @@ def cavity_split(points: np.ndarray, tets: np.ndarray, model, h: float, edge, ma
     if np.linalg.norm(new - middle) > max_projection * length or (abs(value) > 1e-3 * h if boundary else value >= 0):
         return refused
     cavity = _grow(points, tets, neighbours, ring, new, u, v)
-    if cavity is None:
+    if cavity is None or (beyond_ring and cavity.size == ring.size):
         return refused
     cones, kept_vertices = _cones(tets, neighbours, cavity, n, u, v)
     removed = np.unique(tets[cavity])
@@ -116,6 +127,19 @@ def cavity_split(points: np.ndarray, tets: np.ndarray, model, h: float, edge, ma
     return all_points, new_tets, True
 
 
+def _border(tets, neighbours, cavity: np.ndarray, u: int, v: int):
+    """The faces of the cavity's border the new vertex is joined to (all but the boundary faces
+    on the edge), as (cells, local vertex opposite, cell across) of those faces."""
+    cells = np.repeat(cavity, 4)
+    local = np.tile(np.arange(4), cavity.size)
+    across = neighbours[cells, local]
+    corners = tets[cells]
+    opposite = corners[np.arange(cells.size), local]
+    holds_edge = (corners == u).any(axis=1) & (corners == v).any(axis=1) & (opposite != u) & (opposite != v)
+    face = ~np.isin(across, cavity) & ~(holds_edge & (across < 0))
+    return cells[face], local[face], across[face]
+
+
 def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v: int) -> np.ndarray | None:
     """The cavity: the ring and every cell across a face the new vertex does not see from inside
     (the cone on it would not be positive), until none is left; None when such a face is on the
@@ -123,16 +147,10 @@ def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v
     cavity = ring
     scale = float(np.linalg.norm(points[u] - points[v])) ** 3
     while cavity.size <= CAVITY_CELLS:
-        cells = np.repeat(cavity, 4)
-        local = np.tile(np.arange(4), cavity.size)
-        across = neighbours[cells, local]
-        border = ~np.isin(across, cavity)
-        corners = tets[cells]
-        holds_edge = (corners == u).any(axis=1) & (corners == v).any(axis=1) & (corners[np.arange(cells.size), local] != u) \
-            & (corners[np.arange(cells.size), local] != v)
-        cone = points[corners].copy()
+        cells, local, across = _border(tets, neighbours, cavity, u, v)
+        cone = points[tets[cells]]
         cone[np.arange(cells.size), local] = new
-        blind = border & ~(holds_edge & (across < 0)) & (signed_volume(cone) <= 1e-9 * scale)
+        blind = signed_volume(cone) <= 1e-9 * scale
         if not blind.any():
             return cavity
         if (across[blind] < 0).any():
@@ -144,13 +162,7 @@ def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v
 def _cones(tets, neighbours, cavity: np.ndarray, n: int, u: int, v: int) -> tuple[np.ndarray, np.ndarray]:
     """The new cells (the new vertex, numbered ``n``, joined to each face of the cavity's border
     but the boundary faces on the edge) and the vertices they use."""
-    cells = np.repeat(cavity, 4)
-    local = np.tile(np.arange(4), cavity.size)
-    across = neighbours[cells, local]
-    corners = tets[cells]
-    opposite = corners[np.arange(cells.size), local]
-    holds_edge = (corners == u).any(axis=1) & (corners == v).any(axis=1) & (opposite != u) & (opposite != v)
-    face = ~np.isin(across, cavity) & ~(holds_edge & (across < 0))
-    cones = corners[face].copy()
-    cones[np.arange(cones.shape[0]), local[face]] = n
+    cells, local, _ = _border(tets, neighbours, cavity, u, v)
+    cones = tets[cells].copy()
+    cones[np.arange(cells.size), local] = n
     return cones, np.unique(cones[cones < n])
