@@ -13,10 +13,7 @@ boundary edges longer than 1.6 h (up to 3.1 h), against none over 1.8 h on a sph
 local size at its midpoint projected onto the zero set: each cell around the edge becomes two.
 The splits of one pass touch disjoint cells (longest edges first); passes repeat until no edge
 is long. A split is refused when the projection jumps away from the edge (another surface
-across a thin gap) or when a new cell would be inverted. A long boundary edge left because its
-new vertex lies beyond its own cells (a chord across a valley of a wall thinner than 2 h, whose
-ring is a few flat cells: skull_low_resolution.obj at D/50, a 2.62 h chord over a bone 0.84 h
-thick) is then split into a star-shaped cavity (:mod:`~fepre.distmesh.cavity_split`).
+across a thin gap) or when a new cell would be inverted.
 """
 
 from __future__ import annotations
@@ -40,9 +37,6 @@ MAX_PROJECTION = 0.3
 MAX_PASSES = 4
 #: Times the splits are made again without those whose faces crossed the boundary.
 MAX_RETRIES = 4
-#: Long edges left after the passes that are split into cavities at most (each one costs a few
-#: tens of milliseconds; a DistMesh mesh leaves a handful).
-MAX_CAVITIES = 64
 
 
 def _boundary_edges(tets: np.ndarray, n_points: int) -> np.ndarray:
@@ -278,24 +272,4 @@ def split_long_boundary_edges(
         total += splits
         if splits == 0:
             break
-    points, tets, splits = _cavity_pass(points, tets, model, h, size, scale)
-    return points, tets, total + splits
-
-
-def _cavity_pass(points, tets, model, h, size, scale: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """The long boundary edges the passes left whose new vertex lies beyond their own cells (a
-    chord across a valley of a wall thinner than 2 h: the plain split inverts them) split into
-    cavities, longest first, at most ``MAX_CAVITIES``
-    (:func:`~fepre.distmesh.cavity_split.cavity_split`); a split whose new boundary faces cross
-    the boundary is undone."""
-    from .cavity_split import cavity_split
-
-    edges, _, _ = _long_edges(points, tets, h, size, scale)
-    n = points.shape[0]
-    edges = edges[np.isin(edge_keys(edges, n), edge_keys(_boundary_edges(tets, n), n))]
-    done = 0
-    for edge in edges[:MAX_CAVITIES]:
-        new_points, new_tets, split = cavity_split(points, tets, model, h, edge, MAX_PROJECTION, beyond_ring=True)
-        if split and not _crossing_new_vertices(new_points, new_tets, points.shape[0]).any():
-            points, tets, done = new_points, new_tets, done + 1
-    return points, tets, done
+    return points, tets, total
