@@ -22,7 +22,10 @@ with 4 and 6 new vertices. Before those choices comes a split that mends the cel
 new cells all score better than the cell: cow.obj's lone cell at an ear's tip, 21.5 deg, whose
 vertices are pinned feature nodes; the split of one edge gives two of 28 and 29 deg, the
 choice before, an edge off the surface, 4 deg), and after them every edge split before whose
-split the stage undid.
+split the stage undid. A first choice on the boundary whose new vertex lies beyond its own cells
+(a chord over a valley of a wall thinner than 2 h, whose plain split inverts every half:
+skull_low_resolution.obj at D/50, a 2.62 h chord, 16.4 deg through every round) is split into a
+star-shaped cavity instead (:mod:`~fepre.distmesh.cavity_split`), before the round's other splits.
 """
 
 from __future__ import annotations
@@ -164,10 +167,14 @@ def split_bad_cells(
         edge is back): they come after every other candidate, so that a cell whose first choice
         was undone gets its next one (the same split would give the same mesh again).
 
+    A bad cell's first choice that is a boundary edge whose new vertex lies beyond the edge's
+    cells is split into a cavity first; a call that makes such splits makes only those.
+
     Returns
     -------
     points : (N + K, 3), the K new vertices appended
-    tets : the cells, each one around a split edge replaced by its two halves
+    tets : the cells, each one around a split edge replaced by its two halves (or a cavity's
+        cells replaced by the new vertex's cone)
     splits : K
 
     Examples
