@@ -22,7 +22,10 @@ with 4 and 6 new vertices. Before those choices comes a split that mends the cel
 new cells all score better than the cell: cow.obj's lone cell at an ear's tip, 21.5 deg, whose
 vertices are pinned feature nodes; the split of one edge gives two of 28 and 29 deg, the
 choice before, an edge off the surface, 4 deg), and after them every edge split before whose
-split the stage undid.
+split the stage undid. A first choice on the boundary whose new vertex lies beyond its own cells
+(a chord over a valley of a wall thinner than 2 h, whose plain split inverts every half:
+skull_low_resolution.obj at D/50, a 2.62 h chord, 16.4 deg through every round) is split into a
+star-shaped cavity instead (:mod:`~fepre.distmesh.cavity_split`), before the round's other splits.
 """
 
 from __future__ import annotations
@@ -66,6 +69,16 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     """
     if len(cells) == 0:
         return np.zeros((0, 2), dtype=np.int64)
+    first, by_length = _choices(points, tets, cells, n_points, off_surface)
+    choices = np.concatenate([first[:, None], by_length], axis=1)  # (C, 7, 2)
+    ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
+    _, index = np.unique(ordered, axis=0, return_index=True)
+    return ordered[np.sort(index)]
+
+
+def _choices(points, tets, cells, n_points: int, off_surface) -> tuple[np.ndarray, np.ndarray]:
+    """Each of ``cells``' first choice (C, 2) and its six edges longest first (C, 6, 2); see
+    :func:`split_candidates`."""
     faces = faces_on_boundary(tets, face_neighbours(tets, n_points))
     keys = np.sort(face_keys(faces, n_points))
     corners = tets[cells]
@@ -87,10 +100,7 @@ def split_candidates(points: np.ndarray, tets: np.ndarray, cells: np.ndarray, n_
     # off the surface too, but no vertex on it mends the cap, which leaves every cell on it flat)
     capped, shared = _wedge_chords(points, corners, on_boundary)
     first[capped] = shared
-    choices = np.concatenate([first[:, None], by_length], axis=1)  # (C, 7, 2)
-    ordered = np.sort(choices.transpose(1, 0, 2).reshape(-1, 2), axis=1)
-    _, index = np.unique(ordered, axis=0, return_index=True)
-    return ordered[np.sort(index)]
+    return first, by_length
 
 
 def _cap_chords(points: np.ndarray, corners: np.ndarray, on_boundary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -157,10 +167,14 @@ def split_bad_cells(
         edge is back): they come after every other candidate, so that a cell whose first choice
         was undone gets its next one (the same split would give the same mesh again).
 
+    A bad cell's first choice that is a boundary edge whose new vertex lies beyond the edge's
+    cells is split into a cavity first; a call that makes such splits makes only those.
+
     Returns
     -------
     points : (N + K, 3), the K new vertices appended
-    tets : the cells, each one around a split edge replaced by its two halves
+    tets : the cells, each one around a split edge replaced by its two halves (or a cavity's
+        cells replaced by the new vertex's cone)
     splits : K
 
     Examples
@@ -185,11 +199,39 @@ def split_bad_cells(
     bad = np.flatnonzero(score < targets.min_dihedral)
     bad = bad[np.argsort(score[bad], kind="stable")]
     off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
+    if len(bad):
+        first, _ = _choices(points, tets, bad, points.shape[0], off)
+        points_after, tets_after, cavities = _cavity_splits(points, tets, model, h, first, tried)
+        if cavities:
+            return points_after, tets_after, cavities
     edges = split_candidates(points, tets, bad, points.shape[0], off)
     if tried is not None and len(tried):
         again = np.isin(stable_edge_keys(edges), tried)
         edges = np.concatenate([edges[~again], edges[again]])
     return split_edges(points, tets, model, h, edges)
+
+
+def _cavity_splits(points, tets, model, h: float, first: np.ndarray, tried) -> tuple[np.ndarray, np.ndarray, int]:
+    """The bad cells' first choices that are boundary edges whose new vertex lies beyond their
+    own cells (a chord across a valley of a wall thinner than 2 h: every half of a plain split
+    inverted), split into cavities (:func:`~fepre.distmesh.cavity_split.cavity_split`), worst
+    cell first; edges split before whose split the stage undid (``tried``) are left out."""
+    from .cavity_split import cavity_split
+    from .surface_refine import MAX_PROJECTION, _boundary_edges, _crossing_new_vertices
+
+    n = points.shape[0]
+    first = np.sort(first, axis=1)
+    _, index = np.unique(first, axis=0, return_index=True)
+    first = first[np.sort(index)]
+    first = first[np.isin(edge_keys(first, n), edge_keys(_boundary_edges(tets, n), n))]
+    if tried is not None and len(tried):
+        first = first[~np.isin(stable_edge_keys(first), tried)]
+    done = 0
+    for edge in first:
+        new_points, new_tets, split = cavity_split(points, tets, model, h, edge, MAX_PROJECTION, beyond_ring=True)
+        if split and not _crossing_new_vertices(new_points, new_tets, points.shape[0]).any():
+            points, tets, done = new_points, new_tets, done + 1
+    return points, tets, done
 
 
 def stable_edge_keys(pairs: np.ndarray) -> np.ndarray:
