@@ -278,6 +278,13 @@ def check_mesh(job: MeshingJob) -> None:
         message = small_pieces_message(job.points, job.tets, *mesh_pieces(job.tets, len(job.points)), job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
+        if o.slivers:
+            from .thin_cells import thin_bad_cells, thin_cells_message
+
+            thin = thin_bad_cells(job.model, job.points, job.tets, h, _local_size(job))
+            message = thin_cells_message(thin, None if job.absolute else h, job.frame_offset)
+            if message:
+                warn_user(f"distmesh: {message}", ResolutionWarning)
     if o.check_resolution and not any(value is not None for value in job.keywords.values()):  # not a cut cell
         message = volume_message(job.given_model, job.model, job.points, job.tets, job.lower, job.upper, h,
                                  job.absolute or job.size is not None)

@@ -2,7 +2,11 @@
 
 A rim that lies in a plane (to ``PLANAR_TOLERANCE`` of its size: a CAD face missing from an STL,
 a cut) is closed in that plane, so the filled solid is the one the rim bounds (a box with a
-missing face gets its volume back exactly). Any other boundary loop that is a simple cycle is
+missing face gets its volume back exactly). A rim across a cut is closed straight across too: it
+lies near a plane (to ``CUT_FLATNESS`` of its size) and the surface meets that plane steeply
+(the triangles along the rim at more than 53 degrees to it on average), as at the open base of a
+scanned statue or bust, where a patch continuing the walls' slope would bulge far past the base.
+Any other boundary loop that is a simple cycle is
 filled with rings of triangles shrinking to its centroid, about one rim edge apart, and the new
 vertices are then placed by a bi-Laplacian fairing (Liepa 2003): they solve ``L^2 x = 0`` with the
 rim and one ring of the surrounding surface held, so the patch continues the surface's slope
@@ -23,7 +27,7 @@ from scipy.sparse.linalg import spsolve
 
 from .tables import edge_table, face_normals
 
-__all__ = ["fill_holes", "FilledHoles", "MAX_RINGS", "PLANAR_TOLERANCE"]
+__all__ = ["fill_holes", "FilledHoles", "MAX_RINGS", "PLANAR_TOLERANCE", "CUT_FLATNESS", "CUT_STEEPNESS"]
 
 #: Most rings of triangles in one patch (a patch is about as many rim edges across).
 MAX_RINGS = 30
@@ -31,6 +35,13 @@ MAX_RINGS = 30
 #: A rim is planar when no vertex is farther than this fraction of the rim's diameter from its
 #: best-fitting plane (STL stores float32 coordinates: about 1e-7 relative).
 PLANAR_TOLERANCE = 1e-5
+
+#: A rim across a cut lies within this fraction of its diameter of its best-fitting plane ...
+CUT_FLATNESS = 0.1
+#: ... and the triangles along it meet that plane steeply: the mean |cos| between their normals
+#: and the plane's normal (weighted by the rim edges' lengths) is below this (53 degrees: a
+#: hole in a sphere is a cut when it is a cap of more than 53 degrees, a fifth of the sphere).
+CUT_STEEPNESS = 0.6
 
 
 @dataclass(frozen=True)
@@ -40,15 +51,34 @@ class FilledHoles:
     vertices: np.ndarray
     faces: np.ndarray
     holes: int
-    flat: int  # of them closed flat (planar rims)
+    flat: int  # of them closed flat (planar rims) or straight across (rims across a cut)
     area: float
     bulge: float  # volume the faired patches add beyond flat fans across their rims (signed)
     open_edges: int
+    cut: int = 0  # of the flat ones, rims across a cut
+
+
+def _rim_faces(faces: np.ndarray, boundary: np.ndarray, loops: list[np.ndarray], n: int) -> list[np.ndarray]:
+    """For each loop, the triangle using each of its edges ``loop[i] -> loop[i + 1]``.
+
+    ``boundary``: the mask over ``faces``' directed edges (three per face, in the order
+    ``01, 12, 20``) of the edges used by one triangle.
+    """
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    index = np.flatnonzero(boundary)
+    keys = directed[index, 0] * n + directed[index, 1]
+    order = np.argsort(keys, kind="stable")
+    keys, owner = keys[order], index[order] // 3
+    found = []
+    for loop in loops:
+        wanted = loop * n + np.roll(loop, -1)
+        found.append(owner[np.searchsorted(keys, wanted)])
+    return found
 
 
 def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
     """Boundary edges (used by one triangle) split into simple loops, each in order along its
-    edges.
+    edges, and for each loop the triangles along its edges (:func:`_rim_faces`).
 
     A hole whose rim touches itself at a vertex (a pinch, common where triangles were cut away
     around a point) is split there into simple loops. Returns the loops as vertex arrays and the
@@ -58,7 +88,7 @@ def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
     counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
     boundary = counts[face_edge.reshape(-1)] == 1
     if not boundary.any():
-        return [], 0
+        return [], 0, []
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)[boundary]
     n = len(vertices)
     out_degree = np.bincount(directed[:, 0], minlength=n)
@@ -95,7 +125,7 @@ def _boundary_loops(vertices: np.ndarray, faces: np.ndarray):
                     leftover += len(path) - 1
                     break
     loops = [loop for loop in loops if len(loop) >= 3]
-    return loops, leftover
+    return loops, leftover, _rim_faces(faces, boundary, loops, n)
 
 
 def _ring_patch(vertices: np.ndarray, rim: np.ndarray, first_new: int) -> tuple[np.ndarray, np.ndarray]:
@@ -132,6 +162,29 @@ def _planar_normal(points: np.ndarray) -> np.ndarray | None:
         return None
     normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
     return normal if float(np.abs(centred @ normal).max()) <= PLANAR_TOLERANCE * diameter else None
+
+
+def _cut_normal(vertices: np.ndarray, faces: np.ndarray, rim: np.ndarray, rim_faces: np.ndarray) -> np.ndarray | None:
+    """The normal of the plane a rim across a cut lies near (``CUT_FLATNESS``), when the surface
+    meets that plane steeply along the rim (``CUT_STEEPNESS``); else None.
+
+    ``rim_faces``: for each rim edge ``rim[i] -> rim[i + 1]``, the one triangle using it.
+    """
+    points = vertices[rim]
+    centred = points - points.mean(axis=0)
+    diameter = float(np.ptp(points, axis=0).max())
+    if diameter == 0.0:
+        return None
+    normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
+    if float(np.ptp(centred @ normal)) > CUT_FLATNESS * diameter:
+        return None
+    corners = vertices[faces[rim_faces]]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    cosine = np.abs(cross @ normal) / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
+    length = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    if float(cosine @ length) >= CUT_STEEPNESS * float(length.sum()):
+        return None
+    return normal
 
 
 def _flat_patch(vertices: np.ndarray, rim: np.ndarray, normal: np.ndarray, first_new: int):
@@ -186,7 +239,7 @@ def _fair(vertices: np.ndarray, faces: np.ndarray, free: np.ndarray) -> np.ndarr
 
 
 def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
-    """Fill every simple boundary loop: flat when it is planar, else with a faired patch.
+    """Fill every simple boundary loop: flat when it is planar or across a cut, else with a faired patch.
 
     Returns
     -------
@@ -212,13 +265,16 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
     >>> open_box.flat, open_box.bulge                                   # closed flat: volume 8 again
     (1, 0.0)
     """
-    loops, open_edges = _boundary_loops(vertices, faces)
+    loops, open_edges, rim_faces = _boundary_loops(vertices, faces)
     if not loops:
         return FilledHoles(vertices, faces, 0, 0, 0.0, 0.0, open_edges)
-    new_points, new_faces, free, faired = [], [], [], []
+    new_points, new_faces, free, faired, cuts = [], [], [], [], 0
     first, placed = len(vertices), 0  # next new vertex, patch triangles so far
-    for rim in loops:  # one patch per hole; each is built with array operations
+    for rim, along in zip(loops, rim_faces):  # one patch per hole, built with array operations
         normal = _planar_normal(vertices[rim])
+        if normal is None:
+            normal = _cut_normal(vertices, faces, rim, along)
+            cuts += normal is not None
         if normal is None:
             points, triangles = _ring_patch(vertices, rim, first)
             free.append(np.arange(first, first + len(points)))
@@ -237,4 +293,4 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
         vertices = _fair(vertices, faces, np.concatenate(free))
         bulge = sum(_bulge(vertices, rim, patches[start : start + count]) for rim, start, count in faired)
     area = float(face_normals(vertices, patches)[1].sum())
-    return FilledHoles(vertices, faces, len(loops), len(loops) - len(faired), area, bulge, open_edges)
+    return FilledHoles(vertices, faces, len(loops), len(loops) - len(faired), area, bulge, open_edges, cuts)

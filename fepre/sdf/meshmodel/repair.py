@@ -54,7 +54,10 @@ class Repair:
     hole_area : float
         Area of the triangles added to close holes.
     flat_holes : int
-        Of the holes, those closed in the plane of their rim (planar rims).
+        Of the holes, those closed in the plane of their rim (planar rims) or straight across
+        (rims across a cut: near a plane, the surface meeting it steeply).
+    cut_holes : int
+        Of the flat holes, those across a cut.
     hole_bulge : float
         Volume the faired patches of the other holes add beyond flat fans across their rims
         (signed: positive where they bulge out).
@@ -83,6 +86,7 @@ class Repair:
     filled: np.ndarray = field(repr=False)
     flat_holes: int = 0
     hole_bulge: float = 0.0
+    cut_holes: int = 0
     tree: Any = field(default=None, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -103,7 +107,8 @@ class Repair:
             (self.degenerate, "degenerate triangles dropped"),
             (self.duplicates, "duplicate triangles dropped"),
             (self.flipped, "triangles turned over"),
-            (self.holes, f"holes closed (area {self.hole_area:.4g}, {self.flat_holes} of them flat)"),
+            (self.holes, f"holes closed (area {self.hole_area:.4g}, {self.flat_holes} of them flat"
+                         + (f", {self.cut_holes} across a cut" if self.cut_holes else "") + ")"),
             (self.internal, "triangles inside or outside the solid dropped"),
             (self.open_edges, "boundary edges left open"),
         ):
@@ -415,5 +420,6 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
         filled=filled,
         flat_holes=holes.flat,
         hole_bulge=holes.bulge,
+        cut_holes=holes.cut,
         tree=tree,
     )

@@ -1,0 +1,163 @@
+"""Cells short of the quality targets that sit where the part is about one element thick.
+
+Where a limb, a fin or a fold is less than about one and a half elements thick, the mesh holds it
+with a single layer of cells whose four nodes all lie on its surface, and the quality stage
+has no interior node to move: such cells are flat caps and wedges (a regular tetrahedron
+standing on an edge is ``0.71 h`` high, so below about ``0.7 h`` no well-shaped cell of size
+``h`` fits at all). On public graphics models meshed at D/50 (odedstein/meshes' scorpion,
+springer, plane, human_woman), nearly all the cells left below the targets are of this kind, and
+the graded mesh with two elements across those parts meets the targets. :func:`thin_bad_cells`
+measures the part's thickness at each cell below the targets and :func:`thin_cells_message`
+names the places and the ``h`` that resolves them, so the user is told why the cells are bad
+and what to do, not only that the stage fell short.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "THIN_SHARE"]
+
+#: a cell is in a thin part where the part there is thinner than this times the local element
+#: size (fewer than two elements across)
+THIN_SHARE = 1.5
+#: cells within this many local sizes of each other are one place
+_PLACE = 2.0
+
+
+@dataclass(frozen=True)
+class ThinCells:
+    """The cells below the quality targets and which of them lie in parts too thin for them.
+
+    Attributes
+    ----------
+    bad : int
+        Cells below the targets.
+    centres : (K, 3) ndarray
+        Centroids of the bad cells in thin parts.
+    thickness : (K,) ndarray
+        The part's thickness through each of them.
+    size : (K,) ndarray
+        The element size wanted there.
+    """
+
+    bad: int
+    centres: np.ndarray
+    thickness: np.ndarray
+    size: np.ndarray
+
+
+def _unit_gradient(model, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    gradient = np.asarray(model.gradient(points), dtype=float)
+    norm = np.linalg.norm(gradient, axis=1)
+    return gradient / np.where(norm > 0, norm, 1.0)[:, None], norm > 0
+
+
+def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """The part's thickness at ``cells`` (interior centroids): the smaller of the chord through
+    the centroid along the model's gradient and the median over the cell's nodes of the ray
+    from each node against the gradient (a node's wall); ``inf`` past ``2 size``."""
+    from ..sizing.rays import ray_lengths
+
+    limit, step = 2.0 * float(size.max()), float(size.min()) / 64.0
+    centres = points[tets[cells]].mean(axis=1)
+    direction, usable = _unit_gradient(model, centres)
+    through = ray_lengths(model, centres, direction, True, limit, step) + ray_lengths(model, centres, -direction, True, limit, step)
+    through = np.where(usable, through, np.inf)
+    nodes, corner = np.unique(tets[cells], return_inverse=True)
+    direction, usable = _unit_gradient(model, points[nodes])
+    wall = np.where(usable, ray_lengths(model, points[nodes], -direction, True, limit, step), np.inf)
+    wall = np.where(wall > 0, wall, np.inf)  # a node on an edge whose ray leaves at once
+    return np.minimum(through, np.median(wall[corner.reshape(-1, 4)], axis=1))
+
+
+def thin_bad_cells(model, points: np.ndarray, tets: np.ndarray, h: float, local_size=None, targets=None) -> ThinCells:
+    """The cells below the quality targets and those of them in parts thinner than ``THIN_SHARE``
+    times the local size.
+
+    Parameters
+    ----------
+    model : fepre.sdf.SDF
+    points, tets : the mesh, (N, 3) and (M, 4)
+    h : float
+        The element size (uniform meshes).
+    local_size : callable, optional
+        The graded mesh's element size at points, in units of length.
+    targets : ShapeTargets, optional
+        The quality targets (default: the plain-mesh targets).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> slab = sdf.box((4.0, 4.0, 0.2))                      # 0.2 thick
+    >>> flat = np.array([[0, 0, -0.1], [1, 0, -0.1], [0.5, 1, 0.1], [0.5, -1, 0.1]])
+    >>> found = thin_bad_cells(slab, flat, np.array([[0, 1, 2, 3]]), h=1.0)
+    >>> found.bad, round(float(found.thickness[0]), 3)
+    (1, 0.2)
+    """
+    from .tet_shape import ShapeTargets
+
+    targets = ShapeTargets() if targets is None else targets
+    score = targets.score(points[tets])
+    bad = np.flatnonzero(score < targets.min_dihedral)
+    count = int(bad.size)
+    empty = ThinCells(count, np.zeros((0, 3)), np.zeros(0), np.zeros(0))
+    if not bad.size:
+        return empty
+    centres = points[tets[bad]].mean(axis=1)
+    inside = np.asarray(model(centres), dtype=float) < 0
+    if not inside.any():
+        return empty
+    bad, centres = bad[inside], centres[inside]
+    size = np.full(len(centres), float(h)) if local_size is None else np.asarray(local_size(centres), dtype=float).ravel()
+    thickness = _thickness(model, points, tets, bad, size)
+    thin = thickness < THIN_SHARE * size
+    return ThinCells(count, centres[thin], thickness[thin], size[thin])
+
+
+def _places(found: ThinCells) -> list[np.ndarray]:
+    """The thin bad cells grouped into places (cells within ``_PLACE`` sizes of each other),
+    most cells first."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(found.centres).query_pairs(_PLACE * float(found.size.max()), output_type="ndarray")
+    n = len(found.centres)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else coo_matrix((n, n))
+    labels = connected_components(graph, directed=False)[1]
+    groups = [np.flatnonzero(labels == label) for label in np.unique(labels)]
+    return sorted(groups, key=lambda group: (-len(group), float(np.median(found.thickness[group]))))
+
+
+def thin_cells_message(found: ThinCells, h: float | None, offset=None) -> str | None:
+    """One line naming where the bad cells in thin parts are, how thick the part is there (the
+    median over a place's cells) and the ``h`` that resolves them (half the thinnest place shown:
+    two elements across), or None when there are none.
+
+    ``h``: the uniform size (None for a graded mesh); ``offset``: added to the places (the
+    user's frame).
+    """
+    if not len(found.centres):
+        return None
+    offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
+    groups = _places(found)
+    thick = [float(np.median(found.thickness[group])) for group in groups[:3]]
+    shown = "; ".join(
+        f"{len(group)} near ({', '.join(f'{c:.4g}' for c in found.centres[group].mean(axis=0) + offset)}), "
+        f"{t:.3g} thick against a size of {float(found.size[group].max()):.3g}"
+        for group, t in zip(groups[:3], thick)
+    )
+    more = f" and {len(groups) - 3} more place(s)" if len(groups) > 3 else ""
+    fine = 0.5 * min(thick)
+    advice = (f"mesh with h=({fine:.2g}, {h:.4g}) (the automatic size field: that fine only where the model is "
+              f"that thin) or h <= {fine:.2g}" if h is not None else f"mesh with a smaller hmin (about {fine:.2g})")
+    return (
+        f"{len(found.centres)} of the {found.bad} cell(s) short of the quality targets lie where the model is "
+        f"less than {THIN_SHARE:g} elements thick, held by one layer of cells with every node on its surface: "
+        f"{shown}{more}; "
+        f"{advice} to resolve them"
+    )
