@@ -10,9 +10,12 @@ for. Its boundary is made of two kinds of surface:
   :func:`.repair.repair`);
 * a surface spanning each opening: the ``w = 1/2`` level set away from the sheet. It is
   extracted on a grid of ``cells`` cells along the longest side (vtkFlyingEdges3D on the fast
-  winding numbers), the contour triangles within ``SHEET_GAP`` grid spacings of the sheet (those
-  follow the sheet, where ``w`` jumps by one) dropped, and the rim of what is left snapped onto
-  the open edges of the kept sheet, so the two meet without a gap.
+  winding numbers), the contour triangles that follow the sheet dropped (within ``SHEET_GAP``
+  grid spacings of it, on a grid edge along which ``w`` jumps: it jumps by one across the
+  sheet), and the rim of what is left snapped onto the open edges of the kept sheet, so the two
+  meet without a gap. Under an open-bottomed slab ``w`` hovers near 1/2 and the span runs close
+  to the sheet: such places are refined (``HOVER``), and a rim that meets no open edge of the
+  sheet (a slab thinner than the grid) is capped, so that the union stays closed.
 
 :func:`span_openings` returns both as one :class:`.repair.Repair` (the spanning triangles marked
 ``filled``), so :class:`.model.MeshModel` measures the exact distance to their union (continuous,
