@@ -10,9 +10,12 @@ for. Its boundary is made of two kinds of surface:
   :func:`.repair.repair`);
 * a surface spanning each opening: the ``w = 1/2`` level set away from the sheet. It is
   extracted on a grid of ``cells`` cells along the longest side (vtkFlyingEdges3D on the fast
-  winding numbers), the contour triangles within ``SHEET_GAP`` grid spacings of the sheet (those
-  follow the sheet, where ``w`` jumps by one) dropped, and the rim of what is left snapped onto
-  the open edges of the kept sheet, so the two meet without a gap.
+  winding numbers), the contour triangles that follow the sheet dropped (within ``SHEET_GAP``
+  grid spacings of it, on a grid edge along which ``w`` jumps: it jumps by one across the
+  sheet), and the rim of what is left snapped onto the open edges of the kept sheet, so the two
+  meet without a gap. Under an open-bottomed slab ``w`` hovers near 1/2 and the span runs close
+  to the sheet: such places are refined (``HOVER``), and a rim that meets no open edge of the
+  sheet (a slab thinner than the grid) is capped, so that the union stays closed.
 
 :func:`span_openings` returns both as one :class:`.repair.Repair` (the spanning triangles marked
 ``filled``), so :class:`.model.MeshModel` measures the exact distance to their union (continuous,
@@ -36,12 +39,19 @@ OPENING_CELLS = 128
 SHEET_GAP = 1.5
 
 
+#: The grid starts this many spacings below the surface's lowest point (not a whole number).
+GRID_OFFSET = 2.381966
+
+
 def _grid(vertices: np.ndarray, cells: int):
     import pyvista as pv
 
     lower, upper = vertices.min(axis=0), vertices.max(axis=0)
     spacing = float((upper - lower).max()) / cells
-    origin = lower - 2.0 * spacing
+    # off the grid lines by a fraction: a face of the input in the plane of its lowest or highest
+    # point (a CAD face, a box's bottom) would otherwise hold a row of nodes, whose winding
+    # numbers are neither side's
+    origin = lower - GRID_OFFSET * spacing
     dimensions = np.ceil((upper - lower) / spacing).astype(int) + 5
     return pv.ImageData(dimensions=tuple(int(d) for d in dimensions), spacing=(spacing,) * 3, origin=tuple(origin)), spacing
 
@@ -89,6 +99,26 @@ def _straddling(above: np.ndarray) -> np.ndarray:
     return cells
 
 
+#: A coarse cell that the sheet passes through and that has a corner whose winding number is
+#: within this of 1/2 may hold a slab of the solid thinner than the coarse spacing (an open
+#: bottom under a sheet: ``w`` hovers near 1/2 below it), which its corners do not see.
+HOVER = 0.25
+
+
+def _thin_slabs(coarse: np.ndarray, coarse_points: np.ndarray, tree, reach: float) -> np.ndarray:
+    """Coarse cells (a boolean grid one smaller than ``coarse``) the sheet passes through with a
+    corner's winding number within ``HOVER`` of 1/2."""
+    near_half = np.abs(coarse - 0.5) < HOVER
+    shape = tuple(n - 1 for n in coarse.shape)
+    cells = np.zeros(shape, dtype=bool)
+    for i, j, k in np.ndindex(2, 2, 2):
+        cells |= near_half[i:i + shape[0], j:j + shape[1], k:k + shape[2]]
+    index = np.nonzero(cells)
+    centres = (coarse_points[index] + coarse_points[tuple(i + 1 for i in index)]) / 2
+    cells[index] = np.sqrt(tree.query(centres)[0]) < reach / 2
+    return cells
+
+
 def _winding_grid(vertices, faces, grid, tree, rim: tuple[np.ndarray, np.ndarray]):
     """Winding numbers at the nodes of ``grid`` (VTK's order, x fastest), exact (libigl's fast
     approximation) in the refined coarse cells; those cells and the coarse nodes' grid indices."""
@@ -109,6 +139,7 @@ def _winding_grid(vertices, faces, grid, tree, rim: tuple[np.ndarray, np.ndarray
     if len(rim[0]):
         near_rim = _closest_on_segments(centres, rim[0], rim[1], spacing)[1] < 2 * reach
     cells[index] = far | near_rim
+    cells |= _thin_slabs(coarse, coarse_points, tree, reach)
     cells = ndimage.binary_dilation(cells, iterations=1)
     # fine nodes: their coarse cell (clipped at the last) and nearest coarse node
     owner = [np.minimum(np.searchsorted(coarse_axes[k], np.arange(shape[k]), side="right") - 1, cells.shape[k] - 1) for k in range(3)]
@@ -124,6 +155,57 @@ def _winding_grid(vertices, faces, grid, tree, rim: tuple[np.ndarray, np.ndarray
     where = np.nonzero(active)
     values[where] = winding_numbers(vertices, faces, np.stack([axes[k][where[k]] for k in range(3)], axis=1))
     return values.ravel(order="F"), cells, coarse_axes
+
+
+#: A grid edge along which the winding number changes by more than this crosses the sheet (it
+#: jumps by one there); across a spanning surface it changes smoothly, by far less per spacing.
+JUMP = 0.5
+
+
+def _on_jumps(points: np.ndarray, grid, values: np.ndarray) -> np.ndarray:
+    """Which contour vertices (N, 3) lie on a grid edge where the winding number jumps (the edge
+    crosses the sheet: the vertex follows the sheet) rather than passing 1/2 smoothly."""
+    shape = np.asarray(grid.dimensions, dtype=np.int64)
+    position = (points - np.asarray(grid.origin)) / float(grid.spacing[0])
+    axis = np.abs(position - np.round(position)).argmax(axis=1)  # the one coordinate off the grid lines
+    lower = np.round(position).astype(np.int64)
+    rows = np.arange(len(points))
+    lower[rows, axis] = np.floor(position[rows, axis]).astype(np.int64)
+    lower = np.clip(lower, 0, shape - 1)
+    upper = lower.copy()
+    upper[rows, axis] = np.minimum(lower[rows, axis] + 1, shape[axis] - 1)
+    stride = np.array([1, shape[0], shape[0] * shape[1]])
+    values = np.asarray(values)
+    return np.abs(values[upper @ stride] - values[lower @ stride]) > JUMP
+
+
+def _cap_free_rims(points: np.ndarray, triangles: np.ndarray, snapped: np.ndarray):
+    """Close each loop of open edges of the spans that has no vertex in ``snapped`` (a rim that
+    meets no open edge of the sheet) with a fan from its centroid, oriented with the spans."""
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    directed = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    keys = np.sort(directed, axis=1)
+    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    open_edges = directed[counts[inverse.reshape(-1)] == 1]
+    if len(open_edges) == 0:
+        return points, triangles
+    graph = sparse.coo_matrix((np.ones(len(open_edges)), (open_edges[:, 0], open_edges[:, 1])), shape=(len(points),) * 2)
+    _, label = csgraph.connected_components(graph, directed=False)
+    loop = label[open_edges[:, 0]]
+    tied = np.zeros(label.max() + 1, dtype=bool)
+    tied[label[snapped]] = True
+    free = ~tied[loop]
+    if not free.any():
+        return points, triangles
+    loops, loop = np.unique(loop[free], return_inverse=True)
+    ends = open_edges[free]
+    centres = np.zeros((len(loops), 3))
+    np.add.at(centres, loop, points[ends[:, 0]])
+    centres /= np.bincount(loop, minlength=len(loops))[:, None]
+    caps = np.column_stack([ends[:, 1], ends[:, 0], len(points) + loop])
+    return np.concatenate([points, centres]), np.concatenate([triangles, caps])
 
 
 def _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells: int):
@@ -143,7 +225,8 @@ def _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells: int):
     triangles = contour.faces.reshape(-1, 4)[:, 1:].astype(np.int64)
     fine = np.floor((points - np.asarray(grid.origin)) / spacing).astype(np.int64)
     cell = [np.clip(np.searchsorted(coarse_axes[k], fine[:, k], side="right") - 1, 0, refined.shape[k] - 1) for k in range(3)]
-    drop = ~refined[tuple(cell)] | (np.sqrt(tree.query(points)[0]) < SHEET_GAP * spacing)
+    near = np.sqrt(tree.query(points)[0]) < SHEET_GAP * spacing
+    drop = ~refined[tuple(cell)] | (near & _on_jumps(points, grid, grid.point_data["w"]))
     triangles = triangles[~drop[triangles].any(axis=1)]
     if len(triangles) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3), np.int64), spacing
@@ -157,9 +240,14 @@ def _spanning_surface(vertices, faces, sheet_vertices, sheet_faces, cells: int):
     triangles = np.where((front > back)[:, None], triangles[:, ::-1], triangles)
     # the rim meets the sheet: its vertices move onto the nearest open edge of the kept sheet
     edge = np.unique(_open_edges(triangles))
+    snap = np.zeros(len(edge), dtype=bool)
     if len(edge) and len(rim[0]):
         closest, distance = _closest_on_segments(points[edge], rim[0], rim[1], spacing / 4)
         snap = distance <= 2.0 * SHEET_GAP * spacing
+    # rims that meet no open edge of the sheet bound the places where the solid is thinner than
+    # the grid resolves: capped, so the union of sheet and spans stays closed
+    points, triangles = _cap_free_rims(points, triangles, edge[snap])
+    if len(edge) and len(rim[0]):
         points[edge[snap]] = closest[snap]
         # rim vertices snapped onto one point: one vertex, and the triangles it collapses dropped
         # (a zero-area triangle has no closest-point barycentrics)
