@@ -80,7 +80,7 @@ def test_distmesh_names_a_finger_one_element_thick_and_its_advice_meets_the_targ
     place = re.search(r"(\d+) near \(([^)]*)\), ([\d.]+) thick against a size of 1\b", named[0])
     centre = np.array([float(v) for v in place.group(2).split(",")])
     assert 2.0 < centre[0] < 5.7 and np.hypot(centre[1], centre[2]) < 0.65  # in the finger
-    assert float(place.group(3)) == pytest.approx(1.3, rel=0.1)  # its diameter
+    assert 0.6 < float(place.group(3)) <= 1.3 * 1.05  # chords through its cells: at most its diameter
     advice = re.search(r"mesh with h=\(([\d.]+), 1\)", named[0])
     graded = fepre.distmesh(part, h=(float(advice.group(1)), 1.0))
     assert graded.cell_data["min_dihedral_angle"].min() >= 25.0

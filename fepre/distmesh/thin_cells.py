@@ -59,14 +59,17 @@ def _unit_gradient(model, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 _AXES = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [1, -1, 0], [1, 0, 1], [1, 0, -1], [0, 1, 1], [0, 1, -1],
                   [1, 1, 1], [1, 1, -1], [1, -1, 1], [-1, 1, 1]], dtype=float)
 _AXES /= np.linalg.norm(_AXES, axis=1)[:, None]
+_FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, size: np.ndarray) -> np.ndarray:
     """The part's thickness at ``cells`` (interior centroids): the shortest chord through the
     centroid along the model's gradient and 13 fixed directions (within 27.6 degrees of any
-    direction: at most 13% over a slab's thickness), or the median over the cell's nodes of the
-    ray from each node against the gradient (a node's wall), whichever is smaller; ``inf`` past
-    ``2 size``."""
+    direction: at most 13% over a slab's thickness), or twice the depth of the deepest of the
+    cell's centroid, face centres and edge midpoints if larger, or the median over the cell's
+    nodes of the ray from each node against the gradient (a node's wall) if smaller; ``inf``
+    past ``2 size``."""
     from ..sizing.rays import ray_lengths
 
     limit, step = 2.0 * float(size.max()), float(size.min()) / 64.0
@@ -77,6 +80,12 @@ def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, s
     directions = directions.reshape(-1, 3)
     chords = ray_lengths(model, origins, directions, True, limit, step) + ray_lengths(model, origins, -directions, True, limit, step)
     through = chords.reshape(-1, 14).min(axis=1)
+    # off a rod's axis the shortest chord is shorter than the rod: the deepest of the cell's
+    # centroid, face centres and edge midpoints gives the inscribed ball the cell spans
+    corners = points[tets[cells]]
+    samples = np.concatenate([centres[:, None], corners[:, _FACES].mean(axis=2), corners[:, _EDGES].mean(axis=2)], axis=1)
+    deepest = -np.asarray(model(samples.reshape(-1, 3)), dtype=float).reshape(len(cells), -1).max(axis=1)
+    through = np.maximum(through, 2.0 * deepest)
     nodes, corner = np.unique(tets[cells], return_inverse=True)
     direction, usable = _unit_gradient(model, points[nodes])
     wall = np.where(usable, ray_lengths(model, points[nodes], -direction, True, limit, step), np.inf)
