@@ -219,15 +219,12 @@ def smooth_round(
         return points, quality, 0, touched
 
     selected = _independent_moves(tets.shape[0], cells, segment, seg_starts, improving, current, best)
-    old_points = points
-    points = points.copy()
-    quality = quality.copy()
+    old_points, points, quality = points, points.copy(), quality.copy()
     points[vertices[selected]] = candidates[choice[selected], np.flatnonzero(selected)]
     entries = selected[segment]
     quality[cells[entries]] = trial_quality[choice[segment[entries]], np.flatnonzero(entries)]
-    moved = vertices[selected]
-    if guard is not None and boundary_face_keys is not None:
-        moved = _undo_folds(old_points, points, quality, tets, moved, on_boundary, boundary_face_keys, targets)
+    keys = None if guard is None else boundary_face_keys
+    moved = _undo_folds(old_points, points, quality, tets, vertices[selected], on_boundary, keys, targets)
     touched[moved] = True
     return points, quality, int(moved.size), touched
 
@@ -235,8 +232,8 @@ def smooth_round(
 def _undo_folds(old_points, points, quality, tets, moved, on_boundary, boundary_face_keys, targets) -> np.ndarray:
     """Put back (in ``points`` and ``quality``, in place) the moved boundary vertices whose
     faces cross another boundary face (:func:`~fepre.distmesh.surface_guard.folding_vertices`),
-    until none does; returns the vertices still moved."""
-    while True:
+    until none does; returns the vertices still moved (all of them without ``boundary_face_keys``)."""
+    while boundary_face_keys is not None:
         folds = folding_vertices(old_points, points, boundary_face_keys, moved[on_boundary[moved]])
         if folds.size == 0:
             return moved
@@ -246,6 +243,7 @@ def _undo_folds(old_points, points, quality, tets, moved, on_boundary, boundary_
         cells = np.flatnonzero(back[tets].any(axis=1))
         quality[cells] = targets.score(points[tets[cells]])
         moved = moved[~back[moved]]
+    return moved
 
 
 def relax_round(
