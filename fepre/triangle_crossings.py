@@ -13,7 +13,7 @@ from numba import njit, prange
 
 from .kernel_threads import kernel_threads
 
-__all__ = ["crossing_faces", "orientation", "segment_crosses_triangle", "FLAT"]
+__all__ = ["crossing_faces", "pairs_cross", "orientation", "segment_crosses_triangle", "FLAT"]
 
 #: orientation tests within this share of the pair's size cubed are zero
 FLAT = 1e-10
@@ -52,6 +52,29 @@ def _crossing_pairs(points, faces, first, second, tolerance, out):  # pragma: no
                 if segment_crosses_triangle(points[s[e]], points[s[(e + 1) % 3]], a, b, c, tol):
                     hit = True
         out[k] = hit
+
+
+def pairs_cross(points: np.ndarray, faces: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Mask (K,) of the ``pairs`` (K, 2) of ``faces`` (indices; the two faces share no vertex)
+    that cross each other, by the test of :func:`crossing_faces` (the same tolerance).
+
+    Examples
+    --------
+    >>> points = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0]], float)
+    >>> pairs_cross(points, np.array([[0, 1, 2], [3, 4, 5]]), np.array([[0, 1]])).tolist()
+    [True]
+    """
+    pairs = np.ascontiguousarray(pairs, np.int64).reshape(-1, 2)
+    hit = np.zeros(len(pairs), np.bool_)
+    if len(pairs) == 0:
+        return hit
+    corners = points[faces[pairs]]  # (K, 2, 3, 3)
+    radii = np.linalg.norm(corners - corners.mean(axis=2, keepdims=True), axis=3).max(axis=2)
+    tolerance = FLAT * radii.sum(axis=1) ** 3
+    with kernel_threads(len(pairs), 5e-8):
+        _crossing_pairs(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(faces, np.int64),
+                        np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), tolerance, hit)
+    return hit
 
 
 def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -35,7 +35,8 @@ removals alternate until none is left, or the target holds and the worst angle s
 twenty rounds have passed since it first held), or ``maxiter`` rounds. Flips never touch
 the boundary surface; boundary vertices only move along the zero set (re-projected, checked to
 within ``1e-4 h``), on their own surface patch, along paths near the surface and keeping their
-faces on it (:class:`~fepre.distmesh.surface_guard.SurfaceGuard`); fixed vertices never move; the end result is verified (positive cells,
+faces on it (:class:`~fepre.distmesh.surface_guard.SurfaceGuard`), and a move whose faces cross
+another boundary face is put back (:func:`~fepre.distmesh.surface_guard.folding_vertices`); fixed vertices never move; the end result is verified (positive cells,
 closed manifold boundary, boundary vertices within ``1e-3 h`` of the zero set, volume within 2%
 of the input's) and a violation raises :class:`fepre.MeshingError`.
 """

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface_guard import SurfaceGuard, boundary_faces_of_cells
+from .surface_guard import SurfaceGuard, boundary_faces_of_cells, folding_vertices
 from .tet_shape import ShapeTargets, ideal_vertex_positions
 from .tet_topology import FACE_OF_TET, face_keys, in_sorted, vertex_stars
 
@@ -219,13 +219,31 @@ def smooth_round(
         return points, quality, 0, touched
 
     selected = _independent_moves(tets.shape[0], cells, segment, seg_starts, improving, current, best)
-    points = points.copy()
-    quality = quality.copy()
+    old_points, points, quality = points, points.copy(), quality.copy()
     points[vertices[selected]] = candidates[choice[selected], np.flatnonzero(selected)]
     entries = selected[segment]
     quality[cells[entries]] = trial_quality[choice[segment[entries]], np.flatnonzero(entries)]
-    touched[vertices[selected]] = True
-    return points, quality, int(selected.sum()), touched
+    keys = None if guard is None else boundary_face_keys
+    moved = _undo_folds(old_points, points, quality, tets, vertices[selected], on_boundary, keys, targets)
+    touched[moved] = True
+    return points, quality, int(moved.size), touched
+
+
+def _undo_folds(old_points, points, quality, tets, moved, on_boundary, boundary_face_keys, targets) -> np.ndarray:
+    """Put back (in ``points`` and ``quality``, in place) the moved boundary vertices whose
+    faces cross another boundary face (:func:`~fepre.distmesh.surface_guard.folding_vertices`),
+    until none does; returns the vertices still moved (all of them without ``boundary_face_keys``)."""
+    while boundary_face_keys is not None:
+        folds = folding_vertices(old_points, points, boundary_face_keys, moved[on_boundary[moved]])
+        if folds.size == 0:
+            return moved
+        points[folds] = old_points[folds]
+        back = np.zeros(points.shape[0], dtype=bool)
+        back[folds] = True
+        cells = np.flatnonzero(back[tets].any(axis=1))
+        quality[cells] = targets.score(points[tets[cells]])
+        moved = moved[~back[moved]]
+    return moved
 
 
 def relax_round(
@@ -249,7 +267,8 @@ def relax_round(
     every cell whose score (``targets.score``) fell below ``min(old score, floor)`` gets its
     vertices put back, until no such cell remains, so no cell ever inverts and no cell below
     ``floor`` gets worse. With a ``guard`` (and ``boundary_face_keys``), boundary moves it
-    refuses are put back too, and so are the vertices of boundary faces it refuses.
+    refuses are put back too, and so are the vertices of boundary faces it refuses and the
+    moved boundary vertices of faces that cross another boundary face.
 
     Returns
     -------
@@ -287,6 +306,8 @@ def relax_round(
             faces = faces[changed[faces].any(axis=1)]
             refused = ~guard.faces_allowed(points[faces], new_points[faces])
             revert = np.union1d(revert, faces[refused].ravel())
+            if boundary.size and not revert.size:  # the boundary must not fold over itself
+                revert = folding_vertices(points, new_points, boundary_face_keys, boundary[changed[boundary]])
         revert = revert[changed[revert]]
         if revert.size == 0:
             break

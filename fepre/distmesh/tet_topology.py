@@ -13,6 +13,7 @@ __all__ = [
     "FACE_OF_TET",
     "EDGE_OF_TET",
     "face_keys",
+    "faces_of_keys",
     "in_sorted",
     "MAX_PACKED_POINTS",
     "edge_keys",
@@ -58,6 +59,25 @@ def face_keys(triples: np.ndarray, n_points: int) -> np.ndarray:
     pair[:, 0] = s[:, 0] * n + s[:, 1]
     pair[:, 1] = s[:, 2]
     return pair.view("V16").ravel()
+
+
+def faces_of_keys(keys: np.ndarray, n_points: int) -> np.ndarray:
+    """The sorted vertex triples (K, 3) of :func:`face_keys` ``keys`` made with ``n_points``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> faces_of_keys(face_keys(np.array([[2, 0, 1], [4, 3, 1]]), 5), 5).tolist()
+    [[0, 1, 2], [1, 3, 4]]
+    """
+    n = np.int64(n_points)
+    if keys.dtype.kind == "V":
+        pair = keys.view(">i8").reshape(-1, 2).astype(np.int64)
+        first, last = pair[:, 0], pair[:, 1]
+    else:
+        keys = keys.astype(np.int64)
+        first, last = keys // n, keys % n
+    return np.column_stack([first // n, first % n, last])
 
 
 def in_sorted(values: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
