@@ -22,7 +22,20 @@ def test_a_cap_across_a_slab_is_thin_and_measured_to_the_slab_thickness():
     assert found.bad == 1 and len(found.centres) == 1
     assert found.thickness[0] == pytest.approx(0.2, rel=1e-3)
     assert found.size[0] == 1.0
-    assert np.allclose(found.centres[0], CAP.mean(axis=0))
+    assert np.allclose(found.centres[0], CAP.mean(axis=0))  # the deepest of its samples
+
+
+def test_a_flat_cell_whose_centroid_lies_just_outside_is_measured_from_inside_it():
+    # three nodes on the inner face of a spherical shell 0.2 thick, one on its outer face: the
+    # cell spans the shell but its centroid lies 0.063 inside the hole (before: not measured)
+    shell = sdf.sphere(1.2) - sdf.sphere(1.0)
+    cell = np.array([[0.5, 0.0, 0.866025], [-0.25, 0.433013, 0.866025], [-0.25, -0.433013, 0.866025],
+                     [0.410424, 0.0, 1.127631]])
+    assert shell(cell.mean(axis=0)[None])[0] == pytest.approx(0.063, abs=1e-3)
+    found = thin_bad_cells(shell, cell, np.array([[0, 1, 2, 3]]), h=1.0)
+    assert found.bad == 1 and len(found.centres) == 1
+    assert shell(found.centres)[0] < 0
+    assert found.thickness[0] == pytest.approx(0.2, rel=1e-2)
 
 
 def test_the_local_size_decides_what_is_thin():

@@ -36,7 +36,8 @@ class ThinCells:
     bad : int
         Cells below the targets.
     centres : (K, 3) ndarray
-        Centroids of the bad cells in thin parts.
+        A point inside each bad cell in a thin part: the deepest of its centroid, face centres
+        and edge midpoints.
     thickness : (K,) ndarray
         The part's thickness through each of them.
     size : (K,) ndarray
@@ -63,29 +64,33 @@ _FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 _EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
-def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, size: np.ndarray) -> np.ndarray:
-    """The part's thickness at ``cells`` (interior centroids): the shortest chord through the
-    centroid along the model's gradient and 13 fixed directions (within 27.6 degrees of any
-    direction: at most 13% over a slab's thickness), or twice the depth of the deepest of the
-    cell's centroid, face centres and edge midpoints if larger, or the median over the cell's
-    nodes of the ray from each node against the gradient (a node's wall) if smaller; ``inf``
-    past ``2 size``."""
+def _deepest_samples(model, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For (K, 4, 3) cells, the deepest of each one's centroid, face centres and edge midpoints
+    and its depth (negative where all lie outside the model: a flat cell lying on the surface
+    may have its centroid just outside)."""
+    samples = np.concatenate([corners.mean(axis=1)[:, None], corners[:, _FACES].mean(axis=2), corners[:, _EDGES].mean(axis=2)], axis=1)
+    depth = -np.asarray(model(samples.reshape(-1, 3)), dtype=float).reshape(len(corners), -1)
+    deepest = depth.argmax(axis=1)
+    return samples[np.arange(len(corners)), deepest], depth[np.arange(len(corners)), deepest]
+
+
+def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, origins: np.ndarray, depth: np.ndarray,
+               size: np.ndarray) -> np.ndarray:
+    """The part's thickness at ``cells``, from ``origins`` inside them (their deepest samples,
+    ``depth`` deep): the shortest chord through the origin along the model's gradient and 13
+    fixed directions (within 27.6 degrees of any direction: at most 13% over a slab's
+    thickness), or twice the depth if larger (off a rod's axis the shortest chord is shorter
+    than the rod), or the median over the cell's nodes of the ray from each node against the
+    gradient (a node's wall) if smaller; ``inf`` past ``2 size``."""
     from ..sizing.rays import ray_lengths
 
     limit, step = 2.0 * float(size.max()), float(size.min()) / 64.0
-    centres = points[tets[cells]].mean(axis=1)
-    gradient, usable = _unit_gradient(model, centres)
-    directions = np.concatenate([np.where(usable[:, None], gradient, _AXES[0])[:, None], np.broadcast_to(_AXES, (len(centres), 13, 3))], axis=1)
-    origins = np.repeat(centres, 14, axis=0)
+    gradient, usable = _unit_gradient(model, origins)
+    directions = np.concatenate([np.where(usable[:, None], gradient, _AXES[0])[:, None], np.broadcast_to(_AXES, (len(origins), 13, 3))], axis=1)
+    starts = np.repeat(origins, 14, axis=0)
     directions = directions.reshape(-1, 3)
-    chords = ray_lengths(model, origins, directions, True, limit, step) + ray_lengths(model, origins, -directions, True, limit, step)
-    through = chords.reshape(-1, 14).min(axis=1)
-    # off a rod's axis the shortest chord is shorter than the rod: the deepest of the cell's
-    # centroid, face centres and edge midpoints gives the inscribed ball the cell spans
-    corners = points[tets[cells]]
-    samples = np.concatenate([centres[:, None], corners[:, _FACES].mean(axis=2), corners[:, _EDGES].mean(axis=2)], axis=1)
-    deepest = -np.asarray(model(samples.reshape(-1, 3)), dtype=float).reshape(len(cells), -1).max(axis=1)
-    through = np.maximum(through, 2.0 * deepest)
+    chords = ray_lengths(model, starts, directions, True, limit, step) + ray_lengths(model, starts, -directions, True, limit, step)
+    through = np.maximum(chords.reshape(-1, 14).min(axis=1), 2.0 * depth)
     nodes, corner = np.unique(tets[cells], return_inverse=True)
     direction, usable = _unit_gradient(model, points[nodes])
     wall = np.where(usable, ray_lengths(model, points[nodes], -direction, True, limit, step), np.inf)
@@ -127,13 +132,13 @@ def thin_bad_cells(model, points: np.ndarray, tets: np.ndarray, h: float, local_
     empty = ThinCells(count, np.zeros((0, 3)), np.zeros(0), np.zeros(0))
     if not bad.size:
         return empty
-    centres = points[tets[bad]].mean(axis=1)
-    inside = np.asarray(model(centres), dtype=float) < 0
+    origins, depth = _deepest_samples(model, points[tets[bad]])
+    inside = depth > 0
     if not inside.any():
         return empty
-    bad, centres = bad[inside], centres[inside]
+    bad, centres, depth = bad[inside], origins[inside], depth[inside]
     size = np.full(len(centres), float(h)) if local_size is None else np.asarray(local_size(centres), dtype=float).ravel()
-    thickness = _thickness(model, points, tets, bad, size)
+    thickness = _thickness(model, points, tets, bad, centres, depth, size)
     thin = thickness < THIN_SHARE * size
     return ThinCells(count, centres[thin], thickness[thin], size[thin])
 
