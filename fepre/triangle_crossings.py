@@ -132,12 +132,6 @@ def crossing_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     pairs = pairs[near]
     apart = ~(faces[pairs[:, 0]][:, :, None] == faces[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
     pairs = pairs[apart]
-    hit = np.zeros(len(pairs), np.bool_)
-    if len(pairs):
-        # orientations within rounding of zero (1e-10 of the pair's size cubed) count as zero:
-        # faces in one plane (a flat side's) touch at most, and are not taken for crossing
-        tolerance = FLAT * (radii[pairs[:, 0]] + radii[pairs[:, 1]]) ** 3
-        with kernel_threads(len(pairs), 5e-8):
-            _crossing_pairs(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(faces, np.int64),
-                            np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]), tolerance, hit)
-    return pairs[hit]
+    # orientations within rounding of zero (1e-10 of the pair's size cubed) count as zero:
+    # faces in one plane (a flat side's) touch at most, and are not taken for crossing
+    return pairs[pairs_cross(points, faces, pairs)]

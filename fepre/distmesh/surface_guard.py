@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..triangle_crossings import pairs_cross
+from ..triangle_crossings import crossing_faces, pairs_cross
 from .tet_topology import FACE_OF_TET, face_keys, faces_of_keys, in_sorted
 
 __all__ = ["SurfaceGuard", "boundary_faces_of_cells", "folding_vertices", "CREASE_ANGLE", "PATH_DEPTH", "FACE_DEPTH", "FACE_ANGLE"]
@@ -72,47 +72,14 @@ def boundary_faces_of_cells(
     return corners[row, local], cells[row]
 
 
-def _near_changed(centres: np.ndarray, cell: float, changed: np.ndarray) -> np.ndarray:
-    """The indices (sorted) of the ``centres`` in a grid cell of side ``cell`` (at least twice the
-    largest radius) next to a ``changed`` one's: every sphere that can overlap a changed one."""
-    index = np.floor((centres - centres.min(axis=0)) / max(cell, 1e-300)).astype(np.int64) + 1
-    span = np.int64(index.max() + 2)
-    code = (index[:, 0] * span + index[:, 1]) * span + index[:, 2]
-    steps = np.array([(i * span + j) * span + k for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
-    return np.flatnonzero(np.isin(code, np.unique(code[changed][:, None] + steps[None, :])))
-
-
-def _overlapping(centres: np.ndarray, radii: np.ndarray, changed: np.ndarray) -> np.ndarray:
-    """(K, 2) pairs (each once, smaller index first) of a ``changed`` sphere and any other whose
-    spheres (``centres``, ``radii``) overlap; one k-d tree per class of radii a factor 2 apart,
-    so that a few large faces of a graded mesh do not widen every search."""
-    from scipy.spatial import cKDTree
-
-    grade = np.floor(np.log2(np.maximum(radii, 1e-300) / max(float(radii.min()), 1e-300))).astype(np.int64)
-    classes = [np.flatnonzero(grade == g) for g in np.unique(grade)]
-    found = []
-    for first in (np.intersect1d(c, changed, assume_unique=True) for c in classes):
-        if first.size == 0:
-            continue
-        tree = cKDTree(centres[first])
-        for second in classes:
-            near = tree.sparse_distance_matrix(cKDTree(centres[second]), float(radii[first].max() + radii[second].max()),
-                                               output_type="ndarray")
-            i, j = first[near["i"]], second[near["j"]]
-            keep = (near["v"] <= radii[i] + radii[j]) & (i != j)
-            found.append(np.minimum(i[keep], j[keep]) * len(radii) + np.maximum(i[keep], j[keep]))
-    codes = np.unique(np.concatenate(found)) if found else np.zeros(0, np.int64)
-    return np.column_stack([codes // len(radii), codes % len(radii)]).astype(np.int64)
-
-
 def folding_vertices(old: np.ndarray, new: np.ndarray, boundary_face_keys: np.ndarray, moved: np.ndarray) -> np.ndarray:
     """The ``moved`` vertices (indices) of boundary faces that cross, at the ``new`` positions
     (N, 3), a boundary face they did not cross at the ``old`` ones: the moves to undo so that
     the boundary does not fold over itself.
 
-    Only the pairs of a face with a moved vertex and a boundary face whose bounding spheres
-    overlap are tested (:func:`~fepre.triangle_crossings.pairs_cross`); a pair that crossed
-    before the moves is left alone.
+    Only the boundary faces near a face with a moved vertex are tested
+    (:func:`~fepre.triangle_crossings.crossing_faces` on them); a pair that crossed before the
+    moves is left alone.
 
     Examples
     --------
@@ -127,6 +94,8 @@ def folding_vertices(old: np.ndarray, new: np.ndarray, boundary_face_keys: np.nd
     [0]
     """
     n = new.shape[0]
+    from scipy.spatial import cKDTree
+
     moved = np.asarray(moved, dtype=np.int64)
     if moved.size == 0 or boundary_face_keys.size == 0:
         return np.zeros(0, dtype=np.int64)
@@ -136,14 +105,15 @@ def folding_vertices(old: np.ndarray, new: np.ndarray, boundary_face_keys: np.nd
     changed = np.flatnonzero(is_moved[faces].any(axis=1))
     if changed.size == 0:
         return np.zeros(0, dtype=np.int64)
-    a, b, c = new[faces[:, 0]], new[faces[:, 1]], new[faces[:, 2]]
-    centres = (a + b + c) / 3.0
-    radii = np.sqrt(np.maximum.reduce([np.einsum("ij,ij->i", x - centres, x - centres) for x in (a, b, c)]))
-    near = _near_changed(centres, 2.0 * float(radii.max()), changed)
-    local = np.searchsorted(near, changed)
-    pairs = near[_overlapping(centres[near], radii[near], local)]
-    pairs = pairs[~(faces[pairs[:, 0]][:, :, None] == faces[pairs[:, 1]][:, None, :]).any(axis=(1, 2))]
-    pairs = pairs[pairs_cross(new, faces, pairs)]
+    # the faces that can meet a changed one (centres within twice the largest radius), as
+    # surface_refine's crossing check does; their crossing pairs that hold a changed face
+    corners = new[faces]
+    centres = corners.mean(axis=1)
+    reach = 2.0 * float(np.linalg.norm(corners - centres[:, None], axis=2).max())
+    near = cKDTree(centres[changed]).query_ball_point(centres, reach, return_length=True) > 0
+    subset = np.flatnonzero(near)
+    pairs = subset[crossing_faces(new, faces[subset])]
+    pairs = pairs[is_moved[faces[pairs]].any(axis=(1, 2))]
     if len(pairs):
         pairs = pairs[~pairs_cross(old, faces, pairs)]
     vertices = faces[pairs].ravel()

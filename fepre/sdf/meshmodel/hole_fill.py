@@ -154,19 +154,10 @@ def _ring_patch(vertices: np.ndarray, rim: np.ndarray, first_new: int) -> tuple[
     return new_points, np.concatenate([bands, fan])
 
 
-def _planar_normal(points: np.ndarray) -> np.ndarray | None:
-    """The unit normal of the plane holding ``points`` (to PLANAR_TOLERANCE), or None."""
-    centred = points - points.mean(axis=0)
-    diameter = float(np.ptp(points, axis=0).max())
-    if diameter == 0.0:
-        return None
-    normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
-    return normal if float(np.abs(centred @ normal).max()) <= PLANAR_TOLERANCE * diameter else None
-
-
-def _cut_normal(vertices: np.ndarray, faces: np.ndarray, rim: np.ndarray, rim_faces: np.ndarray) -> np.ndarray | None:
-    """The normal of the plane a rim across a cut lies near (``CUT_FLATNESS``), when the surface
-    meets that plane steeply along the rim (``CUT_STEEPNESS``); else None.
+def _rim_plane(vertices: np.ndarray, faces: np.ndarray, rim: np.ndarray, rim_faces: np.ndarray) -> tuple[np.ndarray | None, bool]:
+    """The normal of the plane to close ``rim`` in, and whether the rim runs across a cut; None
+    when the rim is neither planar (``PLANAR_TOLERANCE``) nor across a cut: near a plane
+    (``CUT_FLATNESS``), the surface meeting it steeply along the rim (``CUT_STEEPNESS``).
 
     ``rim_faces``: for each rim edge ``rim[i] -> rim[i + 1]``, the one triangle using it.
     """
@@ -174,17 +165,19 @@ def _cut_normal(vertices: np.ndarray, faces: np.ndarray, rim: np.ndarray, rim_fa
     centred = points - points.mean(axis=0)
     diameter = float(np.ptp(points, axis=0).max())
     if diameter == 0.0:
-        return None
+        return None, False
     normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
-    if float(np.ptp(centred @ normal)) > CUT_FLATNESS * diameter:
-        return None
+    offsets = centred @ normal
+    if float(np.abs(offsets).max()) <= PLANAR_TOLERANCE * diameter:
+        return normal, False
+    if float(np.ptp(offsets)) > CUT_FLATNESS * diameter:
+        return None, False
     corners = vertices[faces[rim_faces]]
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     cosine = np.abs(cross @ normal) / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
     length = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
-    if float(cosine @ length) >= CUT_STEEPNESS * float(length.sum()):
-        return None
-    return normal
+    steep = float(cosine @ length) < CUT_STEEPNESS * float(length.sum())
+    return (normal, True) if steep else (None, False)
 
 
 def _flat_patch(vertices: np.ndarray, rim: np.ndarray, normal: np.ndarray, first_new: int):
@@ -271,10 +264,8 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
     new_points, new_faces, free, faired, cuts = [], [], [], [], 0
     first, placed = len(vertices), 0  # next new vertex, patch triangles so far
     for rim, along in zip(loops, rim_faces):  # one patch per hole, built with array operations
-        normal = _planar_normal(vertices[rim])
-        if normal is None:
-            normal = _cut_normal(vertices, faces, rim, along)
-            cuts += normal is not None
+        normal, cut = _rim_plane(vertices, faces, rim, along)
+        cuts += cut
         if normal is None:
             points, triangles = _ring_patch(vertices, rim, first)
             free.append(np.arange(first, first + len(points)))
