@@ -4,7 +4,9 @@ For each part, with ``h=(hmin, hmax)``, in one interleaved run: the size field's
 part's thinnest wall against ``3 hmin``, the precondition of the target ``min >= hmin / 2``), the
 graded mesh ``fepre.distmesh(model, (hmin, hmax))`` against the uniform mesh at ``hmin`` (a real
 mesh up to ``--uniform-limit`` estimated cells, else the estimate, marked ``~``), the time per cell
-of each and their DistMesh loops' iterations (``it g/u``), the worst and largest dihedral angle, the smallest radius ratio, the volume error, the same
+of each and their DistMesh loops' iterations (``it g/u``), the graded mesh's time over the uniform
+one's (``s g/u``), its time per cell over that of a uniform mesh of about as many cells
+(``eq/cell``, a fourth mesh at ``hmin (uniform cells / graded cells)^(1/3)``), the worst and largest dihedral angle, the smallest radius ratio, the volume error, the same
 part translated to ``FAR`` (same cell count, the same nodes up to the translation to ``1e-9`` of
 the part's size) and gmsh's curvature sizing on the part's reference surface. The ``field`` column
 is the field's own estimate of its cells over the uniform mesh's (8.3 cells per size cubed, both
@@ -45,6 +47,8 @@ class Row:
     uniform_seconds: float = float("nan")
     iterations: int = 0  # the DistMesh loop's, graded
     uniform_iterations: int = 0
+    equal_cells: int = 0  # the uniform mesh with about the graded mesh's cells
+    equal_seconds: float = float("nan")
     far: str = "-"
     gmsh: str = "-"
     misses: list[str] = field(default_factory=list)
@@ -117,6 +121,8 @@ def measure(part, *, uniform_limit: float, far: bool, gmsh: bool) -> Row:
         uniform, row.uniform_seconds = _timed_mesh(part.model, part.hmin)
         row.uniform_cells, row.uniform_real = uniform.n_cells, True
         row.uniform_iterations = int(uniform.field_data["distmesh_iterations"][0])
+    equal, row.equal_seconds = _timed_mesh(part.model, part.hmin * (row.uniform_cells / row.cells) ** (1 / 3))
+    row.equal_cells = equal.n_cells
     if far:
         row.far = _far(part, mesh)
     if gmsh:
@@ -148,7 +154,7 @@ def misses(row: Row, part) -> list[str]:
 
 
 HEADER = (f"{'part':18s} {'hmin':>4s} {'hmax':>4s} | {'fmin/hmin':>9s} {'wall/3hmin':>10s} | {'cells':>7s} "
-          f"{'uniform':>8s} {'share':>6s} {'field':>6s} | {'us/cell':>7s} {'uniform':>7s} {'it g/u':>7s} | {'worst':>5s} {'large':>5s} {'rr':>5s} "
+          f"{'uniform':>8s} {'share':>6s} {'field':>6s} | {'us/cell':>7s} {'uniform':>7s} {'it g/u':>7s} {'s g/u':>5s} {'eq/cell':>7s} | {'worst':>5s} {'large':>5s} {'rr':>5s} "
           f"{'vol':>7s} | {'far':>5s} | {'pass':16s} | gmsh curvature: cells worst/large rr vol time")
 
 
@@ -158,9 +164,11 @@ def line(row: Row) -> str:
     uniform_us = 1e6 * row.uniform_seconds / row.uniform_cells if row.uniform_real else float("nan")
     verdict = "PASS" if not row.misses else "miss " + ",".join(row.misses)
     iterations = f"{row.iterations}/{row.uniform_iterations if row.uniform_real else '-'}"
+    total = row.seconds / row.uniform_seconds if row.uniform_real else float("nan")
+    equal = (row.seconds / row.cells) / (row.equal_seconds / row.equal_cells)
     return (f"{row.name:18s} {row.hmin:4g} {row.hmax:4g} | {row.field_min / row.hmin:9.2f} {row.wall / (3 * row.hmin):10.2f} | "
             f"{row.cells:7d} {mark + format(int(row.uniform_cells), 'd'):>8s} {row.cells / row.uniform_cells:6.1%} {row.field_share:6.1%} | "
-            f"{1e6 * row.seconds / row.cells:7.0f} {uniform_us:7.0f} {iterations:>7s} | {c.min_dihedral:5.1f} {c.max_dihedral:5.1f} "
+            f"{1e6 * row.seconds / row.cells:7.0f} {uniform_us:7.0f} {iterations:>7s} {total:5.2f} {equal:7.2f} | {c.min_dihedral:5.1f} {c.max_dihedral:5.1f} "
             f"{c.min_radius_ratio:5.3f} {100 * row.volume:+6.2f}% | {row.far:>5s} | {verdict:16s} | {row.gmsh}")
 
 
