@@ -59,8 +59,10 @@ def test_the_cad_bench_prints_a_row_per_part(capsys):
 def test_the_row_prints_the_loop_iterations_of_both_meshes():
     from fepre.bench._sizing_cad import line
 
-    row, _ = _row(iterations=57, uniform_iterations=35)
+    row, _ = _row(iterations=57, uniform_iterations=35, equal_cells=5000, equal_seconds=2.5)
     timing = line(row).split("|")[3].split()
-    assert timing == ["1000", "1000", "57/35"]  # us per cell, graded and uniform; iterations
+    # us per cell, graded and uniform; iterations; graded over uniform time (4 s against 10);
+    # per cell over the equal-cells uniform mesh's (1000 us against 500)
+    assert timing == ["1000", "1000", "57/35", "0.40", "2.00"]
     row, _ = _row(iterations=57, uniform_real=False)
-    assert line(row).split("|")[3].split()[2] == "57/-"  # an estimated uniform mesh ran no loop
+    assert line(row).split("|")[3].split()[2:] == ["57/-", "nan", "nan"]  # an estimated uniform mesh ran no loop

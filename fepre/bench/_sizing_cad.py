@@ -165,7 +165,7 @@ def line(row: Row) -> str:
     verdict = "PASS" if not row.misses else "miss " + ",".join(row.misses)
     iterations = f"{row.iterations}/{row.uniform_iterations if row.uniform_real else '-'}"
     total = row.seconds / row.uniform_seconds if row.uniform_real else float("nan")
-    equal = (row.seconds / row.cells) / (row.equal_seconds / row.equal_cells)
+    equal = (row.seconds / row.cells) / (row.equal_seconds / row.equal_cells) if row.equal_cells else float("nan")
     return (f"{row.name:18s} {row.hmin:4g} {row.hmax:4g} | {row.field_min / row.hmin:9.2f} {row.wall / (3 * row.hmin):10.2f} | "
             f"{row.cells:7d} {mark + format(int(row.uniform_cells), 'd'):>8s} {row.cells / row.uniform_cells:6.1%} {row.field_share:6.1%} | "
             f"{1e6 * row.seconds / row.cells:7.0f} {uniform_us:7.0f} {iterations:>7s} {total:5.2f} {equal:7.2f} | {c.min_dihedral:5.1f} {c.max_dihedral:5.1f} "
