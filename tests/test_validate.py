@@ -351,3 +351,61 @@ def test_final_mesh_names_where_the_chosen_cells_pinch(monkeypatch):
     box = sdf.box((1, 1, 1), center=(0.5, 0.5, 0.5))
     with pytest.raises(MeshingError, match=r"1 pinched vertices.*a pinch at \(([-0-9.e]+, ){2}[-0-9.e]+\), where the cells chosen meet"):
         finalize.final_mesh(box, points, np.zeros(len(points), bool), H, 0.001, "scipy")
+
+
+def test_surface_gap_is_the_boundary_area_times_its_distance_from_the_zero_set():
+    """The block's boundary (area 6) lies 0.01 inside a box 1.02 wide: a gap of 6 x 0.01."""
+    points, tets = block()
+    assert finalize.surface_gap(CUBE, points, tets) == pytest.approx(0.0, abs=1e-12)
+    wider = sdf.box((1.02, 1.02, 1.02), center=(0.5, 0.5, 0.5))
+    assert finalize.surface_gap(wider, points, tets) == pytest.approx(0.06, rel=1e-9)
+
+
+def _block_with_a_bump():
+    """The block's cells and the same with a bump of six cells under its bottom face's centre
+    (a node 0.2 H below it joined to the six boundary triangles there): the cells outside a
+    flat face that a triangulation of the whole hull brings and the repair keeps."""
+    points, tets = block()
+    below = np.array([[0.5, 0.5, -0.05]])
+    faces = boundary_faces(tets)
+    centre = int(np.flatnonzero(np.all(np.isclose(points, [0.5, 0.5, 0.0]), axis=1))[0])
+    bottom = faces[np.all(np.isclose(points[faces][:, :, 2], 0.0), axis=1) & (faces == centre).any(axis=1)]
+    bump = np.column_stack([bottom, np.full(len(bottom), len(points))])
+    points = np.concatenate([points, below])
+    negative = signed_volumes(points, bump) < 0
+    bump[negative] = bump[negative][:, [0, 2, 1, 3]]
+    return points, tets, np.concatenate([tets, bump])
+
+
+def test_of_two_refused_choices_the_final_mesh_keeps_the_one_nearer_the_surface(monkeypatch):
+    """tower_holes.obj (odedstein/meshes) at D/50: the backend's closed choice was refused for
+    faces 0.53 h out and its triangulation cracked elsewhere, so the choice was made again from
+    the mended one, which held the same far faces and 895 slivers outside the flat base under
+    faces up to 20 h long; it was returned because it came second (1,292 cells under 25 deg
+    after the quality stage, 0.0 deg). The same here: the block under a model dented 0.4 H
+    deep in its top (both choices refused), the mended one with a bump under its bottom face."""
+    model = CUBE - sdf.box((0.5, 0.5, 0.2), center=(0.5, 0.5, 1.0))
+    points, tets, mended = _block_with_a_bump()
+    assert len(mended) == len(tets) + 6
+    monkeypatch.setattr(finalize, "_star_rounds",
+                        lambda model, state, previous, backend, h, mend_cracks: mended if mend_cracks else tets)
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, cells, geps, h: (cells, np.zeros(0, np.int64)))
+    monkeypatch.setattr(finalize, "_cracked", lambda cells, n: True)  # a crack sends the choice on to mending
+    state = finalize._PointSet(model, points, np.zeros(len(points), bool), H)
+    _, chosen, valid, _ = finalize._attempts(model, state, None, "gmsh", H, 0.001)
+    assert not valid
+    assert len(chosen) == len(tets) and np.array_equal(np.sort(chosen, axis=1), np.sort(tets, axis=1))
+    # the top's eight triangles over the dent (area 1/4) lie up to 0.1 out: the dent's depth,
+    # or nearer its walls; the bump adds its own faces below the bottom
+    corners = points[boundary_faces(tets)]
+    x, y, z = corners.mean(axis=1).T
+    over = (z > 1 - 1e-9) & (np.abs(x - 0.5) < 0.25) & (np.abs(y - 0.5) < 0.25)
+    out = np.minimum.reduce([np.full(over.sum(), 0.1), 0.25 - np.abs(x[over] - 0.5), 0.25 - np.abs(y[over] - 0.5)])
+    assert over.sum() == 8
+    assert finalize.surface_gap(model, points, tets) == pytest.approx(out.sum() / 32, rel=1e-9)
+    assert finalize.surface_gap(model, points, mended) > out.sum() / 32 + 1e-3
+    # when the mended choice is nearer, it is the one returned (a crack inside the part)
+    monkeypatch.setattr(finalize, "_star_rounds",
+                        lambda model, state, previous, backend, h, mend_cracks: tets if mend_cracks else mended)
+    _, chosen, valid, _ = finalize._attempts(model, state, None, "gmsh", H, 0.001)
+    assert not valid and len(chosen) == len(tets)

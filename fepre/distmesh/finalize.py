@@ -40,7 +40,7 @@ from ..quality import signed_volumes
 from .delaunay import sorted_cells, tetrahedralize
 from .topology import boundary_faces, check_topology, nonmanifold_items, repair_selection
 
-__all__ = ["final_mesh", "compact", "crease_nodes"]
+__all__ = ["final_mesh", "compact", "crease_nodes", "surface_gap"]
 
 #: Delaunay backend used when the chosen one returns overlapping cells (valid on co-spherical points)
 FALLBACK_BACKEND = "scipy"
@@ -406,12 +406,18 @@ def _attempts(model, state: _PointSet, previous, backend: str, h: float, geps: f
     crack outside the part, or on its surface, is left out with the outside cells. (Qhull's full
     triangulation of points in columns on a cylinder, e.g. a stepped shaft's, holds stacks of
     slivers as long as the cylinder.) When the solid chosen from it is not valid, the cracks are
-    mended by flipping the flat cells away and the choice is made again.
+    mended by flipping the flat cells away and the choice is made again. When both choices are
+    closed and both refused, the one whose boundary lies nearer the zero set
+    (:func:`surface_gap`) is returned (the mended one on a tie): where the cracks
+    lie on a flat face of the part, mending fills them with slivers outside it that the repair
+    keeps (tower_holes.obj at D/50: 895 cells under faces up to 20 h long on its flat base,
+    1,292 cells under 25 deg after the quality stage, against 109).
     """
     attempts = [(backend, False), (backend, True)]
     if backend != FALLBACK_BACKEND:  # another triangulation of the same points
         attempts += [(FALLBACK_BACKEND, False), (FALLBACK_BACKEND, True)]
     mended = None  # the backend's mended choice: reported when no attempt gives a valid solid
+    closed = None  # the backend's own choice when it is closed but refused, and its gap
     for number, (triangulator, mend_cracks) in enumerate(attempts):
         trial = state.copy()
         tets = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h, mend_cracks=mend_cracks)
@@ -425,9 +431,40 @@ def _attempts(model, state: _PointSet, previous, backend: str, h: float, geps: f
         # where nothing is cracked, so the same face comes back (a gyroid block's four attempts
         # took 20 s, all alike)
         if number < 2 and _valid_selection(trial.points, chosen):
-            if number == 1 or not _cracked(tets, len(trial.points)):
+            if number == 0 and not _cracked(tets, len(trial.points)):
                 return trial, chosen, False, held
+            gap = surface_gap(model, trial.points, chosen)
+            if number == 0:
+                closed = (gap, (trial, chosen, False, held))
+            elif closed is None or gap <= closed[0]:
+                return trial, chosen, False, held
+            else:  # mending made it worse (cracks on the surface): the backend's own choice
+                return closed[1]
+    if closed is not None:
+        return closed[1]
     return mended[0], mended[1], False, mended[2]
+
+
+def surface_gap(model, points: np.ndarray, tets: np.ndarray) -> float:
+    """How far the boundary of the cells ``tets`` lies from the model's zero set: the sum over
+    boundary faces of area times ``|sdf|`` at the centroid (about the volume between the two).
+
+    Of two closed choices that :func:`_valid_solid` refused, the final mesh keeps the one of
+    smaller gap: mending the cracks of coplanar nodes on a flat face of the part fills them
+    with slivers outside it, which the repair keeps under faces many ``h`` long.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fepre import sdf
+    >>> cell = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> round(surface_gap(sdf.sphere(10.0), cell, np.array([[0, 1, 2, 3]])), 2)  # faces ~9.5 deep
+    22.45
+    """
+    faces = boundary_faces(tets)
+    corners = points[faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    return float(area @ np.abs(model(corners.mean(axis=1))))
 
 
 def final_mesh(
