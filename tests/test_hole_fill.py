@@ -123,3 +123,44 @@ def test_a_hole_in_a_gently_curved_surface_is_not_a_cut():
     assert model.repaired.holes == 1 and model.repaired.cut_holes == 0 and model.repaired.flat_holes == 0
     assert model.repaired.hole_bulge > 0.01  # domed like the sphere
     assert model.volume == pytest.approx(sdf.mesh(sphere).volume, rel=1e-2)
+
+
+def _open_bottomed_c(points_per_arc: int = 48, wave: float = 0.05) -> tuple[pv.PolyData, np.ndarray]:
+    """A C-shaped wall (arcs of radius 1 and 0.5 from 40 to 320 deg, joined by straight ends),
+    1 high, closed flat on top, open at its bottom rim z = wave (sin 6 pi s + sin(14 pi s + 1) / 2) + wave
+    (s along the outline): a scanned part's base cut away, a rim that is not star-shaped and
+    not planar. Returns the surface and the outline."""
+    a0, a1 = np.radians(40.0), np.radians(320.0)
+    outer = np.linspace(a0, a1, points_per_arc)
+    inner = outer[::-1]
+    outline = np.concatenate([np.c_[np.cos(outer), np.sin(outer)], 0.5 * np.c_[np.cos(inner), np.sin(inner)]])
+    m = len(outline)
+    s = np.arange(m) / m
+    bottom = wave * (np.sin(2 * np.pi * 3 * s) + 0.5 * np.sin(2 * np.pi * 7 * s + 1)) + wave
+    levels = np.linspace(0.0, 1.0, 7)
+    rows = [np.c_[outline, bottom + (1.0 - bottom) * t] for t in levels]
+    points = np.concatenate(rows)
+    row, nxt = np.arange(m), np.roll(np.arange(m), -1)
+    bands = [np.concatenate([np.stack([k * m + row, k * m + nxt, (k + 1) * m + nxt], axis=1),
+                             np.stack([k * m + row, (k + 1) * m + nxt, (k + 1) * m + row], axis=1)]) for k in range(6)]
+    top = pv.PolyData(rows[-1], faces=np.concatenate([[m], np.arange(m)])).triangulate()
+    top_faces = np.asarray(top.faces).reshape(-1, 4)[:, 1:] + 6 * m
+    return pv.PolyData.from_regular_faces(points, np.concatenate(bands + [top_faces])), outline
+
+
+def test_a_base_cut_across_a_rim_that_is_neither_star_shaped_nor_planar_closes_as_a_graph():
+    # before: VTK's ear cutting of the rim out of its plane left holes and overlaps, 143 triangles
+    # were dropped as inside or outside and the model stayed open (a MeshingError at D/30-D/80)
+    wall, outline = _open_bottomed_c()
+    model = sdf.mesh(wall)
+    repaired = model.repaired
+    assert repaired.closed and repaired.holes == 1 and repaired.cut_holes == 1 and repaired.internal == 0
+    vertices, faces = np.asarray(model.vertices), np.asarray(model.faces)
+    corners = vertices[faces]
+    cap = np.all(corners[:, :, 2] < 0.135, axis=1)  # the rim is at most at 0.125, the next row at 0.146 or more
+    u, v = corners[cap, 1, :2] - corners[cap, 0, :2], corners[cap, 2, :2] - corners[cap, 0, :2]
+    projected = (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) / 2.0
+    x, y = outline[:, 0], outline[:, 1]
+    shoelace = 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+    assert np.all(projected < 0) or np.all(projected > 0)  # no triangle folds over another
+    assert abs(float(projected.sum())) == pytest.approx(shoelace, rel=1e-9)  # the C covered once, no holes

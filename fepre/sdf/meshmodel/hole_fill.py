@@ -194,7 +194,10 @@ def _flat_patch(vertices: np.ndarray, rim: np.ndarray, normal: np.ndarray, first
         return _ring_patch(vertices, rim, first_new)
     import pyvista as pv
 
-    polygon = pv.PolyData(points, faces=np.concatenate([[len(rim)], np.arange(len(rim))])).triangulate()
+    # the polygon's projection onto its plane: a rim across a cut is only near the plane, and
+    # VTK's ear cutting of a polygon out of its plane leaves holes and overlaps
+    flat = points - np.outer((points - centre) @ normal, normal)
+    polygon = pv.PolyData(flat, faces=np.concatenate([[len(rim)], np.arange(len(rim))])).triangulate()
     local = np.asarray(polygon.faces).reshape(-1, 4)[:, 1:]
     triangles = rim[local]
     # the rim's edges run one way round the hole: the patch turns the other way, as _ring_patch
