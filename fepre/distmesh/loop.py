@@ -206,9 +206,9 @@ def _triangulate(state: _LoopArrays, model, o: DistMeshOptions, h: float, local_
     its cells outside the domain dropped, its bars and the size at their midpoints.
 
     The sizes are taken once per triangulation, not per step: until the next one no point moves
-    more than ``ttol`` of its size, so a size field of gradation ``g`` changes by at most
-    ``g * ttol`` of itself at a midpoint (3% at the defaults), and the evaluation had taken
-    two thirds of a graded loop's force time."""
+    more than ``ttol`` of its size (of ``h`` for a relative size function), so a size field of
+    gradation ``g`` changes by at most ``(g - 1) * ttol`` of itself at a midpoint (3% at the
+    defaults), and the evaluation had taken two thirds of a graded loop's force time."""
     t0 = time.perf_counter()
     if o.sort == "hilbert" and state.triangulations % o.sort_interval == 0:
         order = hilbert_order(state.points)
