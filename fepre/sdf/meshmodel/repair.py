@@ -4,8 +4,9 @@ Files from CAD, scanners and topology optimisation carry the same defects: verti
 per triangle, duplicated and degenerate triangles, triangles flipped against their neighbours,
 small holes, and shells that overlap. The steps, each vectorised over the triangles:
 
-1. merge vertices with equal coordinates and drop triangles with a repeated vertex and
-   duplicates (the same three vertices in any order);
+1. merge vertices with equal coordinates, or closer than 1e-8 of the diagonal (CAD writers give
+   one vertex coordinates that differ in the last bits), and drop triangles with a repeated
+   vertex and duplicates (the same three vertices in any order);
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
    material lies outside it) the right way;
@@ -30,7 +31,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .hole_fill import fill_holes
-from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, used_vertices, winding_numbers
+from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, used_vertices, weld_vertices, winding_numbers
 
 __all__ = ["Repair", "repair"]
 
@@ -117,9 +118,13 @@ class Repair:
         return ", ".join(parts)
 
 
-def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def _merge_vertices(vertices: np.ndarray, faces: np.ndarray, *, weld: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+    """One vertex per distinct position, the faces renumbered, and how many vertices merged.
+    ``weld=True`` (a file's vertices) also merges vertices closer than :func:`.tables.weld_vertices` does."""
     used = used_vertices(faces, len(vertices))
     points = vertices[used]
+    if weld:
+        points = weld_vertices(points)
     order = np.lexsort(points.T[::-1])
     ordered = points[order]
     new = np.ones(len(order), dtype=bool)
@@ -387,7 +392,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     if level_set and not coincident and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=0, degenerate=0, duplicates=0, flipped=0, holes=0,
                       hole_area=0.0, internal=0, open_edges=0, closed=True, filled=np.zeros(len(faces), dtype=bool))
-    vertices, faces, merged = _merge_vertices(vertices, faces)
+    vertices, faces, merged = _merge_vertices(vertices, faces, weld=not level_set)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     if level_set and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=merged, degenerate=degenerate, duplicates=duplicates,
