@@ -50,3 +50,33 @@ def test_open_input_is_retried_with_the_winding_number_and_sizes_are_checked(tmp
     assert real_models.Size.parse("50:12").h(100.0) == (2.0, 100.0 / 12)
     with pytest.raises(ValueError, match="holds no model"):
         real_models.bench_folder(tmp_path / "..", ["5"], pytetwild=False, names=["nothing-like-this"])
+
+
+def test_the_reference_turns_a_closed_piece_written_inside_out(tmp_path):
+    """Two boxes in a file that is not consistently oriented (one triangle of the second is
+    flipped), the first written inside out, as CAD exports of several bodies can be: each closed
+    piece is turned to enclose positive volume (the first counted nothing before)."""
+    first = pv.Cube(x_length=2.0, y_length=1.0, z_length=1.0).triangulate()
+    first_faces = first.faces.reshape(-1, 4)[:, 1:][:, ::-1]
+    second = pv.Cube(center=(4.0, 0, 0)).triangulate()
+    second_faces = second.faces.reshape(-1, 4)[:, 1:].copy()
+    second_faces[0] = second_faces[0, ::-1]
+    points = np.concatenate([first.points, second.points])
+    faces = np.concatenate([first_faces, second_faces + first.n_points])
+    rows = ["solid two"]
+    for triangle in points[faces]:
+        rows += [" facet normal 0 0 0", "  outer loop", *(f"   vertex {x} {y} {z}" for x, y, z in triangle),
+                 "  endloop", " endfacet"]
+    (tmp_path / "two.stl").write_text("\n".join(rows + ["endsolid two"]) + "\n")  # as written, not reoriented
+    ref = real_models.reference(tmp_path / "two.stl", samples=400_000)
+    assert not ref.closed
+    assert ref.volume == pytest.approx(3.0, rel=0.03)
+
+
+def test_the_reference_of_overlapping_shells_is_their_union(tmp_path):
+    """Two closed boxes that overlap by half: the file is closed and consistently oriented, but its
+    divergence volume (2) counts the overlap twice; the reference is the union's (1.5)."""
+    (pv.Cube().triangulate() + pv.Cube(center=(0.5, 0, 0)).triangulate()).save(tmp_path / "two.stl")
+    ref = real_models.reference(tmp_path / "two.stl", samples=400_000)
+    assert ref.closed and ref.overlapping
+    assert ref.volume == pytest.approx(1.5, rel=0.01)

@@ -69,6 +69,29 @@ def write_obj(path):
     path.write_text("\n".join(rows) + "\n")
 
 
+def write_rhino_obj(path):
+    """The unit cube as Rhino writes OBJ files: a material library, an empty material name (VTK's
+    reader fails on it) and faces continued over lines ending in a backslash."""
+    rows = ["# Rhino", "", "mtllib 00.mtl", "usemtl ", *("v " + " ".join(map(str, v)) for v in VERTICES), "vt 0 0", "vn 0 0 1"]
+    for quad in QUADS:
+        corners = [f"{i + 1}/1/1" for i in quad]
+        rows += ["f " + " ".join(corners[:2]) + " \\", " ".join(corners[2:])]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def write_cad_stl(path):
+    """The unit cube as an ASCII STL whose writer gave the vertices at z = 0 coordinates that differ
+    in the last bits from triangle to triangle (0, -2.7e-16, 5.8e-20), as CAD exports do."""
+    noise = [0.0, -2.73184801e-16, 5.82611532e-20]
+    rows = ["solid cad"]
+    for k, t in enumerate(TRIANGLES):
+        p = VERTICES[t].copy()
+        p[:, 2] = np.where(p[:, 2] == 0, noise[k % 3], p[:, 2])
+        rows += [" facet normal 0 0 0", "  outer loop", *(f"   vertex {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in p),
+                 "  endloop", " endfacet"]
+    path.write_text("\n".join(rows + ["endsolid cad"]) + "\n")
+
+
 def write_off(path, header="OFF"):
     colour = " 0.5 0.5 0.5 1" if "C" in header else ""
     rows = [header, "# a comment", "8 6 0", *(" ".join(map(str, v)) + colour for v in VERTICES)]
@@ -113,6 +136,8 @@ WRITERS = {
     "strips.ply": lambda p: write_ply_strips(p, binary=False),
     "strips_binary.ply": lambda p: write_ply_strips(p, binary=True),
     "groups.obj": write_obj,
+    "rhino.obj": write_rhino_obj,
+    "cad.stl": write_cad_stl,
     "cube.off": write_off,
     "colours.off": lambda p: write_off(p, "COFF"),
     "binary.stl": lambda p: pv.PolyData.from_regular_faces(VERTICES, np.array(TRIANGLES)).save(p, binary=True),
@@ -141,6 +166,22 @@ def test_an_stl_of_two_solids_is_both(tmp_path):
     model = sdf.mesh(path)
     assert model.volume == pytest.approx(2.0, abs=1e-6)
     assert np.allclose(model.bounds, ((0, 0, 0), (4, 1, 1)))
+
+
+def test_vertices_differing_in_the_last_bits_are_one_and_close_the_surface(tmp_path):
+    path = tmp_path / "cad.stl"
+    write_cad_stl(path)
+    model = sdf.mesh(path)
+    assert model.repaired.closed and model.repaired.holes == 0 and not model.repaired.changed
+    assert model.repaired.merged == 8  # each corner at z = 0 came in three versions
+
+
+def test_vertices_a_millionth_of_the_part_apart_stay_apart():
+    from fepre.sdf.meshmodel.tables import weld_vertices
+
+    points = np.array([[0.0, 0, 0], [100, 0, 0], [1e-4, 0, 0], [100, 1e-7, 0]])  # 1e-6 and 1e-9 of D
+    welded = weld_vertices(points)
+    assert welded[2].tolist() == [1e-4, 0, 0] and welded[3].tolist() == [100, 0, 0]
 
 
 def test_triangle_strips_unroll_with_one_orientation():

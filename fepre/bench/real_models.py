@@ -34,6 +34,7 @@ and ``Mesh.MeshSizeFromCurvature``), as binary STL files into FOLDER.
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import time
 import warnings
@@ -82,6 +83,7 @@ class Reference:
     faces: np.ndarray
     volume: float
     closed: bool
+    overlapping: bool = False
 
     @property
     def diagonal(self) -> float:
@@ -108,24 +110,48 @@ def reference(path: Path, samples: int = 1_000_000) -> Reference:
     """The input's triangles (vertices with equal coordinates merged) and reference volume."""
     from ..corpus.meshes import winding_volume
     from ..sdf.meshmodel.read import read_triangles
+    from ..sdf.meshmodel.tables import weld_vertices
 
     vertices, faces, _ = read_triangles(path)
-    rounded, inverse = np.unique(vertices, axis=0, return_inverse=True)
+    rounded, inverse = np.unique(weld_vertices(vertices), axis=0, return_inverse=True)
     faces = inverse.reshape(-1)[faces]
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
     closed = _closed_and_oriented(faces)
-    if closed:
+    overlapping = closed and _overlaps(rounded, faces, max(samples // 10, 10_000))
+    if closed and not overlapping:
         a, b, c = (rounded[faces[:, k]] for k in range(3))
         volume = abs(float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0))
+    elif closed:
+        # shells that overlap: the divergence volume counts the overlap twice, the solid once
+        volume = winding_volume(rounded, faces, samples)[0]
     else:
         # triangles flipped against their neighbours make the file's own winding number
         # meaningless there: orient each piece consistently first (libigl's breadth-first
         # orientation, which keeps each piece's seed triangle; not fepre's repair)
         import igl
 
-        oriented = np.asarray(igl.bfs_orient(faces)[0], dtype=np.int64)
+        oriented, piece = (np.asarray(x, dtype=np.int64).reshape(-1) for x in igl.bfs_orient(faces))
+        oriented = oriented.reshape(-1, 3)
+        # each closed piece turned so that it encloses positive volume (its seed may face inward)
+        a, b, c = (rounded[oriented[:, k]] for k in range(3))
+        signed = np.bincount(piece, np.einsum("ij,ij->i", a, np.cross(b, c)))
+        edges = np.sort(oriented[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        _, edge, uses = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+        open_piece = np.bincount(np.repeat(piece, 3), uses[edge.reshape(-1)] != 2, minlength=len(signed)) > 0
+        flip = (signed < 0) & ~open_piece
+        oriented = np.where(flip[piece][:, None], oriented[:, ::-1], oriented)
         volume = winding_volume(rounded, oriented, samples)[0]
-    return Reference(path.name, rounded, faces, volume, closed)
+    return Reference(path.name, rounded, faces, volume, closed, overlapping)
+
+
+def _overlaps(vertices: np.ndarray, faces: np.ndarray, samples: int) -> bool:
+    """Whether a closed surface's shells overlap: its winding number reaches 2 (or -1) at ten or
+    more of ``samples`` uniform points in its box."""
+    from ..sdf.meshmodel.tables import winding_numbers
+
+    points = np.random.default_rng(1).uniform(vertices.min(axis=0), vertices.max(axis=0), (samples, 3))
+    w = winding_numbers(vertices, faces, points)
+    return int(np.count_nonzero((w > 1.5) | (w < -0.5))) >= 10
 
 
 def _zero(points):
@@ -144,7 +170,7 @@ def measure(points: np.ndarray, tets: np.ndarray, model, h: float, ref: Referenc
     distance = np.sqrt(TriangleTree(ref.vertices, ref.faces).query(points[nodes])[0]) / h if len(nodes) else np.zeros(1)
     return dict(
         cells=check.cells, valid=check.valid, problems=check.problems, worst=check.min_dihedral,
-        largest=check.max_dihedral, rr=check.min_radius_ratio, volume=check.volume / ref.volume - 1.0,
+        largest=check.max_dihedral, rr=check.min_radius_ratio, volume=check.volume / ref.volume - 1.0 if ref.volume > 0 else math.nan,
         boundary=float(distance.max()), off=float(np.mean(distance > OFF_INPUT)), seconds=seconds,
     )
 
@@ -207,13 +233,17 @@ def _warm_up(pytetwild: bool) -> None:
             pytetwild_mesh(pv.Cube().triangulate(), 0.5)
 
 
+def _percent(fraction: float) -> str:
+    return f"{'-':>7s}" if math.isnan(fraction) else f"{100 * fraction:+6.2f}%"
+
+
 def _cells(row: dict | None) -> str:
     if row is None:
         return f"{'-':>50s}"
     if "error" in row:
         return f"failed: {row['error'][:60]:43s}"
     return (f"{'ok ' if row['valid'] else 'BAD'} {row['cells']:7d} {row['worst']:5.1f} {row['largest']:5.1f} {row['rr']:5.3f} "
-            f"{100 * row['volume']:+6.2f}% {row['boundary']:6.3f} {100 * row['off']:5.1f} {row['seconds']:6.1f}")
+            f"{_percent(row['volume'])} {row['boundary']:6.3f} {100 * row['off']:5.1f} {row['seconds']:6.1f}")
 
 
 HEADER = (f"{'model':34s} {'tris':>6s} {'h':>12s} | {'fepre':3s} {'cells':>7s} {'worst':>5s} {'max':>5s} {'rr':>5s} "
@@ -269,7 +299,7 @@ def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwi
             ours = _fepre(path, size, ref, inside)
             run_peer = pytetwild and size.coarse is None and (peer_sizes is None or size.label in peer_sizes)
             theirs = _pytetwild(ref, size.h(ref.diagonal)) if run_peer else None
-            name = ref.name + ("" if ref.closed else " (open)") + (" w" if ours.get("inside") == "winding" else "")
+            name = ref.name + ("" if ref.closed else " (open)") + (" (overlaps)" if ref.overlapping else "") + (" w" if ours.get("inside") == "winding" else "")
             h = size.h(ref.diagonal)
             out(f"{name[:34]:34s} {len(ref.faces):6d} {size.label:>12s} | {_cells(ours)} | {_cells(theirs)}")
             if ours.get("problems"):

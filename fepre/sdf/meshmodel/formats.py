@@ -1,4 +1,4 @@
-"""Surface files that VTK's readers miss: OFF polygons and PLY triangle strips.
+"""Surface files that VTK's readers miss: OFF polygons, PLY triangle strips, OBJ files it fails on.
 
 ``pv.read`` (VTK's readers) reads STL (ASCII and binary, several solids), OBJ (polygons, negative
 indices, groups), PLY faces (``vertex_indices`` or ``vertex_index``, extra properties) and the VTK
@@ -12,6 +12,9 @@ formats. Two common cases it does not:
   ``vertex_indices``, strips separated by -1, as Stanford's scanned models are): VTK reads the
   points and no faces. :func:`read_ply_strips` reads them with plyfile (the reference reader of the
   format, any element) and unrolls the strips.
+- OBJ files VTK's reader fails on, as Rhino writes them: an empty material name after
+  ``usemtl``, faces continued over lines ending in a backslash. :func:`read_obj` reads vertices and
+  polygons (``v/vt/vn`` corners, negative indices) and skips everything else.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["read_off", "read_ply_strips", "ply_has_strips", "strip_triangles"]
+__all__ = ["read_obj", "read_off", "read_ply_strips", "ply_has_strips", "strip_triangles"]
 
 #: OFF headers with 3D vertices: texture coordinates (ST), colours (C), normals (N) follow them
 OFF_HEADERS = {f"{st}{c}{n}OFF" for st in ("", "ST") for c in ("", "C") for n in ("", "N")}
@@ -145,3 +148,52 @@ def read_off(path: str | os.PathLike) -> tuple[np.ndarray, list[np.ndarray]]:
             raise ValueError(f"face {' '.join(row)} names vertices outside 0..{n_vertices - 1} or too few")
         polygons.append(polygon)
     return vertices, polygons
+
+
+def read_obj(path: str | os.PathLike) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Vertices (V, 3) and polygons (each an index array) of a Wavefront OBJ file.
+
+    Lines ending in a backslash continue on the next; a face corner ``v/vt/vn`` is its vertex
+    index, counted from 1 or, when negative, back from the latest vertex. Other statements
+    (groups, materials, texture coordinates, normals, lines, points) are skipped.
+
+    Raises
+    ------
+    ValueError
+        A vertex line is not three numbers, or a face names a vertex that does not exist.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> text = "v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nusemtl \\nf 1/1/1 \\\\\\n 2/2/2 -1\\n"
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = os.path.join(folder, "t.obj")
+    ...     _ = open(path, "w").write(text)
+    ...     vertices, polygons = read_obj(path)
+    >>> len(vertices), polygons[0].tolist()
+    (3, [0, 1, 2])
+    """
+    text = Path(path).read_text(encoding="utf-8", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
+    vertices: list[list[float]] = []
+    polygons = []
+    for number, line in enumerate(text.splitlines(), 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        if words[0] == "v":
+            try:
+                vertices.append([float(w) for w in words[1:4]])
+            except ValueError:
+                raise ValueError(f"line {number}: a vertex is not three numbers: {line.strip()[:80]!r}") from None
+            if len(vertices[-1]) != 3:
+                raise ValueError(f"line {number}: a vertex is not three numbers: {line.strip()[:80]!r}")
+        elif words[0] in ("f", "fo"):
+            try:
+                corners = np.array([int(w.split("/", 1)[0]) for w in words[1:]], dtype=np.int64)
+            except ValueError:
+                raise ValueError(f"line {number}: a face corner is not a vertex index: {line.strip()[:80]!r}") from None
+            corners = np.where(corners < 0, len(vertices) + corners, corners - 1)
+            if len(corners) and (corners.min() < 0 or corners.max() >= len(vertices)):
+                raise ValueError(f"line {number}: a face names a vertex that does not exist (there are {len(vertices)} so far)")
+            polygons.append(corners)
+    return np.array(vertices, dtype=np.float64).reshape(-1, 3), polygons

@@ -289,7 +289,7 @@ def span_openings(vertices: np.ndarray, faces: np.ndarray, cells: int = OPENING_
     centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0)) if len(vertices) else np.zeros(3)
     vertices = vertices - centre
     faces = np.asarray(faces, dtype=np.int64)
-    vertices, faces, merged = _merge_vertices(vertices, faces)
+    vertices, faces, merged = _merge_vertices(vertices, faces, weld=True)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     faces, flipped = _orient(vertices, faces)
     # a sheet written inside out wraps its solid with w near -1: turn it over

@@ -43,6 +43,8 @@ def _as_polydata(source: Any, name: str):
             except Exception as exc:  # readers raise anything from ValueError to VTK errors
                 raise MeshInputError(f"mesh file {path} could not be read ({type(exc).__name__}: {exc})") from None
         failed = [w for w in caught if "error" in str(w.message).lower() or "fail" in str(w.message).lower()]
+        if (data is None or (failed and data.n_points == 0)) and path.suffix.lower() == ".obj":
+            data = _read_obj(path)
         if data is None or (failed and data.n_points == 0):
             raise MeshInputError(f"mesh file {path} could not be read (the reader failed: not a valid {path.suffix} file?)")
     elif isinstance(source, pv.DataSet):
@@ -82,12 +84,29 @@ def _read_own_format(path: Path):
     return None
 
 
+def _read_obj(path: Path):
+    """An OBJ file VTK's reader failed on, read by :func:`.formats.read_obj`."""
+    import pyvista as pv
+
+    from .formats import read_obj
+
+    try:
+        vertices, polygons = read_obj(path)
+    except (ValueError, OSError) as exc:
+        raise MeshInputError(f"mesh file {path} could not be read: {exc}") from None
+    polygons = [p for p in polygons if len(p) >= 3]
+    if not polygons:
+        return pv.PolyData(vertices) if len(vertices) else None
+    faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons])
+    return pv.PolyData(vertices, faces=faces)
+
+
 def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
     """Vertices (V, 3) float64, triangles (F, 3) int64 and a name for messages.
 
     Polygons and triangle strips are triangulated; lines and vertices are ignored. Files are read
-    by VTK's readers (STL, OBJ, PLY, VTK formats), except OFF and PLY triangle strips
-    (:mod:`fepre.sdf.meshmodel.formats`).
+    by VTK's readers (STL, OBJ, PLY, VTK formats), except OFF, PLY triangle strips and OBJ files
+    VTK's reader fails on (:mod:`fepre.sdf.meshmodel.formats`).
 
     Raises
     ------

@@ -4,8 +4,9 @@ Files from CAD, scanners and topology optimisation carry the same defects: verti
 per triangle, duplicated and degenerate triangles, triangles flipped against their neighbours,
 small holes, and shells that overlap. The steps, each vectorised over the triangles:
 
-1. merge vertices with equal coordinates and drop triangles with a repeated vertex and
-   duplicates (the same three vertices in any order);
+1. merge vertices with equal coordinates, or closer than 1e-8 of the diagonal (CAD writers give
+   one vertex coordinates that differ in the last bits), and drop triangles with a repeated
+   vertex and duplicates (the same three vertices in any order);
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
    material lies outside it) the right way;
@@ -30,7 +31,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 
 from .hole_fill import fill_holes
-from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, used_vertices, winding_numbers
+from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, used_vertices, weld_vertices, winding_numbers
 
 __all__ = ["Repair", "repair"]
 
@@ -117,9 +118,13 @@ class Repair:
         return ", ".join(parts)
 
 
-def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def _merge_vertices(vertices: np.ndarray, faces: np.ndarray, *, weld: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+    """One vertex per distinct position, the faces renumbered, and how many vertices merged.
+    ``weld=True`` (a file's vertices) also merges vertices closer than :func:`.tables.weld_vertices` does."""
     used = used_vertices(faces, len(vertices))
     points = vertices[used]
+    if weld:
+        points = weld_vertices(points)
     order = np.lexsort(points.T[::-1])
     ordered = points[order]
     new = np.ones(len(order), dtype=bool)
@@ -255,11 +260,59 @@ EXACT_RECHECK = 1000
 SEAM_LEVELS = 4
 
 
-def _sides(vertices, faces, centres, normals, sizes):
-    """Whether the solid (winding number above 1/2) is in front of and behind each centre."""
+#: Pieces a surface needs before its winding number is summed piece by piece (see
+#: :func:`_piecewise_winding`); with fewer, one query over all triangles is as fast.
+PIECEWISE_WINDING = 8
+
+
+def _piecewise_winding(vertices: np.ndarray, faces: np.ndarray):
+    """The winding number of ``faces`` as a function of points, summed over its pieces, each
+    closed piece asked only at the points inside its box.
+
+    A closed, consistently oriented piece has winding number exactly 0 outside its box, so
+    a point is asked of the few bodies around it, not of all: on an assembly of a hundred
+    bodies that is ten times faster. Pieces that are open or inconsistent are asked everywhere.
+    """
+    edges, face_edge, forward = edge_table(faces)
+    owner = np.repeat(np.arange(len(faces)), 3)
+    manifold = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) == 2)[face_edge.reshape(-1)]
+    # pieces joined across edges of two triangles: bodies that touch along an edge stay apart
+    graph = sparse.coo_matrix((np.ones(int(manifold.sum())), (owner[manifold], face_edge.reshape(-1)[manifold])),
+                              shape=(len(faces), len(edges))).tocsr()
+    pieces, label = csgraph.connected_components(graph @ graph.T, directed=False)
+    if pieces < PIECEWISE_WINDING:
+        return lambda points: winding_numbers(vertices, faces, points)
+    # a piece is closed when each of its edges is used twice by it, once each way
+    keys, inverse = np.unique(label[owner] * np.int64(len(edges)) + face_edge.reshape(-1), return_inverse=True)
+    uses = np.bincount(inverse, minlength=len(keys))
+    turns = np.bincount(inverse, weights=np.where(forward, 1.0, -1.0).reshape(-1), minlength=len(keys))
+    sealed = ((uses == 2) & (turns == 0))[inverse.reshape(-1, 3)].all(axis=1)
+    closed = np.bincount(label, weights=~sealed, minlength=pieces) == 0
+    order = np.argsort(label, kind="stable")
+    starts = np.searchsorted(label[order], np.arange(pieces + 1))
+    corners = vertices[faces[order]]
+    pad = 1e-9 * float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    boxes = [(corners[a:b].min(axis=(0, 1)) - pad, corners[a:b].max(axis=(0, 1)) + pad) for a, b in zip(starts[:-1], starts[1:])]
+    loose = faces[~closed[label]]
+
+    def winding(points: np.ndarray) -> np.ndarray:
+        w = winding_numbers(vertices, loose, points) if len(loose) else np.zeros(len(points))
+        for piece in np.flatnonzero(closed):
+            lower, upper = boxes[piece]
+            near = np.flatnonzero(((points >= lower) & (points <= upper)).all(axis=1))
+            if len(near):
+                w[near] += winding_numbers(vertices, faces[order[starts[piece]:starts[piece + 1]]], points[near])
+        return w
+
+    return winding
+
+
+def _sides(vertices, faces, centres, normals, sizes, winding=None):
+    """Whether the solid (winding number above 1/2) is in front of and behind each centre
+    (``winding``: the surface's winding number as a function of points, if prepared)."""
     step = 1e-3 * sizes[:, None] * normals
     probes = np.concatenate([centres + step, centres - step])
-    w = winding_numbers(vertices, faces, probes)
+    w = winding(probes) if winding is not None else winding_numbers(vertices, faces, probes)
     count = len(centres)
     doubtful = np.flatnonzero(np.abs(w[:count] - w[count:]) < 0.5)
     if len(doubtful):
@@ -294,21 +347,23 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     corners = vertices[faces]
     centroid = corners.mean(axis=1)
     sizes = _longest_side(corners)
-    front, back = _sides(vertices, faces, centroid, normals, sizes)
+    winding = _piecewise_winding(vertices, faces)
+    front, back = _sides(vertices, faces, centroid, normals, sizes, winding)
     separating = (front != back) | (areas == 0)
     backwards = front & ~back
     if separating.all():
         origin = np.arange(len(faces))
         return vertices, np.where(backwards[:, None], faces[:, ::-1], faces), origin, 0, int(backwards.sum())
     near_corner = (0.9 * corners + 0.1 * centroid[:, None]).reshape(-1, 3)
-    corner_front, corner_back = _sides(vertices, faces, near_corner, np.repeat(normals, 3, axis=0), np.repeat(sizes, 3))
+    corner_front, corner_back = _sides(vertices, faces, near_corner, np.repeat(normals, 3, axis=0), np.repeat(sizes, 3),
+                                       winding)
     corner_separating = (corner_front != corner_back).reshape(-1, 3)
     straddle = (corner_separating != separating[:, None]).any(axis=1) & (areas > 0)
     keep = separating & ~straddle
     kept_faces = np.where(backwards[:, None], faces[:, ::-1], faces)[keep]
     pieces = _split(corners[straddle], SEAM_LEVELS)
     parent = np.repeat(np.flatnonzero(straddle), 4**SEAM_LEVELS)
-    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], _longest_side(pieces))
+    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], _longest_side(pieces), winding)
     piece_keep = piece_front != piece_back
     pieces = np.where((piece_front & ~piece_back)[:, None, None], pieces[:, ::-1], pieces)[piece_keep]
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
@@ -387,7 +442,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     if level_set and not coincident and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=0, degenerate=0, duplicates=0, flipped=0, holes=0,
                       hole_area=0.0, internal=0, open_edges=0, closed=True, filled=np.zeros(len(faces), dtype=bool))
-    vertices, faces, merged = _merge_vertices(vertices, faces)
+    vertices, faces, merged = _merge_vertices(vertices, faces, weld=not level_set)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
     if level_set and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=merged, degenerate=degenerate, duplicates=duplicates,

@@ -4,11 +4,55 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["face_normals", "edge_table", "manifold_pairs", "winding_numbers", "enclosed_volume"]
+__all__ = ["weld_vertices", "face_normals", "edge_table", "manifold_pairs", "winding_numbers", "enclosed_volume"]
 
 
 #: triangles per block of the row-wise tables (their temporaries stay ~100 MB on any surface)
 BLOCK = 1 << 20
+
+
+#: Vertices closer than this fraction of the surface's bounding-box diagonal are one vertex
+#: (CAD writers give a shared vertex coordinates that differ in the last bits: -2.7e-16 against 0).
+WELD_TOLERANCE = 1e-8
+
+
+def _weld_tolerance(points: np.ndarray) -> float:
+    """The distance under which two input vertices are one: a fraction of the diagonal, and a
+    few float32 steps at the largest coordinate when the file was written in single precision."""
+    if len(points) < 2:
+        return 0.0
+    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    tolerance = WELD_TOLERANCE * diagonal
+    if np.array_equal(points.astype(np.float32).astype(np.float64), points):
+        tolerance = max(tolerance, 4.0 * float(np.spacing(np.float32(np.abs(points).max()))))
+    return tolerance
+
+
+def weld_vertices(points: np.ndarray) -> np.ndarray:
+    """``points`` with every cluster closer than :data:`WELD_TOLERANCE` of the diagonal (or a few
+    float32 steps, for single-precision input) moved onto its first point.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> weld_vertices(np.array([[0.0, 0, 0], [1, 1, 1], [-2.7e-16, 0, 0]]))[2].tolist()
+    [0.0, 0.0, 0.0]
+    """
+    tolerance = _weld_tolerance(points)
+    if tolerance <= 0.0:
+        return points
+    from scipy import sparse
+    from scipy.sparse import csgraph
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(tolerance, output_type="ndarray")
+    if len(pairs) == 0:
+        return points
+    graph = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
+    _, label = csgraph.connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, len(points))
+    np.minimum.at(first, label, np.arange(len(points)))
+    return points[first[label]]
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
