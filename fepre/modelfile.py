@@ -34,7 +34,8 @@ from .sdf import SDF
 __all__ = ["ModelFile", "ModelFileError", "load_model", "MESH_SUFFIXES"]
 
 #: Surface mesh files taken as models directly: ``fepre mesh part.stl`` meshes ``sdf.mesh("part.stl")``.
-MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh", ".msh", ".inp")
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh", ".msh", ".inp",
+                 ".step", ".stp", ".brep", ".iges", ".igs")
 
 
 #: CAD exchange formats (B-rep geometry): named in the error, with how to tessellate them
@@ -157,8 +158,8 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     path : str or path-like
         A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; a
         surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK) or a volume mesh file
-        (VTU, Medit MESH, gmsh MSH, Abaqus/CalculiX INP: its boundary), whose model is
-        :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``; a
+        (VTU, Medit MESH, gmsh MSH, Abaqus/CalculiX INP: its boundary) or a CAD file (STEP,
+        BREP: its solids tessellated), whose model is :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``; a
         ``.zarr`` store is read chunk by chunk), whose model is :func:`fepre.sdf.image` of it with
         the options ``image``.
     image : dict, optional

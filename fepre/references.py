@@ -119,19 +119,31 @@ def _positive_tets(points: np.ndarray, tets: np.ndarray):
     return pv.UnstructuredGrid({pv.CellType.TETRA: tets}, np.asarray(points[used], dtype=np.float64))
 
 
-def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
+def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float | None = None):
     """Tetrahedralise ``surface`` with fTetWild (pytetwild) at ideal edge length ``h``.
+
+    With ``timeout`` (seconds), pytetwild runs in a separate Python process (``python -m
+    fepre.references --pytetwild``), which is stopped after that long with a
+    :class:`MeshingError` (fTetWild cannot be interrupted in-process; it takes over 15 minutes on
+    some 100k-triangle models); the time pytetwild itself took is then in field data
+    ``"reference_seconds"``.
 
     Examples
     --------
     >>> from fepre import sdf
     >>> mesh = pytetwild_mesh(reference_surface(sdf.sphere(1.0), 0.15), h=0.5)  # doctest: +SKIP
     """
+    h = positive_float(h, "h")
+    if timeout is not None:
+        return _pytetwild_in_child(surface, h, positive_float(timeout, "timeout"))
+    return _positive_tets(*_pytetwild_tetrahedra(surface, h))
+
+
+def _pytetwild_tetrahedra(surface: Any, h: float) -> tuple[np.ndarray, np.ndarray]:
     import warnings
 
     import pytetwild
 
-    h = positive_float(h, "h")
     # fTetWild writes "__tracked_surface.stl" into the working folder: run it in a scratch one
     with warnings.catch_warnings(), tempfile.TemporaryDirectory(prefix="fepre-pytetwild-") as scratch:
         warnings.simplefilter("ignore")  # pytetwild's use of a deprecated pyvista attribute
@@ -146,7 +158,57 @@ def pytetwild_mesh(surface: Any, h: float, *, seed: int = 0):
     tets = grid.cells_dict.get(10)
     if tets is None:
         raise MeshingError(f"pytetwild returned cells other than tetrahedra: {sorted(grid.cells_dict)}")
-    return _positive_tets(np.asarray(grid.points, dtype=np.float64), tets)
+    return np.asarray(grid.points, dtype=np.float64), tets
+
+
+def _pytetwild_in_child(surface: Any, h: float, timeout: float):
+    import subprocess
+    import sys
+
+    import pyvista as pv
+
+    triangles = pv.PolyData(surface).triangulate()
+    with tempfile.TemporaryDirectory(prefix="fepre-pytetwild-") as scratch:
+        path, out = os.path.join(scratch, "surface.npz"), os.path.join(scratch, "mesh.npz")
+        np.savez(path, points=np.asarray(triangles.points, dtype=np.float64),
+                 faces=triangles.faces.reshape(-1, 4)[:, 1:].astype(np.int64))
+        command = [sys.executable, "-m", "fepre.references", "--pytetwild", path, out, repr(float(h))]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
+        except subprocess.TimeoutExpired:
+            raise MeshingError(f"pytetwild did not finish meshing the surface within {timeout:g} s (stopped)") from None
+        if os.path.exists(out + ".error"):
+            with open(out + ".error", encoding="utf-8") as handle:
+                raise MeshingError(f"pytetwild failed to mesh the surface: {handle.read()}")
+        if done.returncode != 0 or not os.path.exists(out):
+            last = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no message"]
+            raise MeshingError(f"pytetwild's process died (exit code {done.returncode}: {last[0][:200]})")
+        with np.load(out) as result:
+            points, tets, seconds = result["points"], result["tets"], float(result["seconds"])
+    grid = _positive_tets(points, tets)
+    grid.field_data["reference_seconds"] = [seconds]
+    return grid
+
+
+def pytetwild_worker(arguments: list[str]) -> int:
+    """``python -m fepre.references --pytetwild SURFACE.npz OUT.npz H``: pytetwild into OUT.npz."""
+    import pyvista as pv
+
+    path, out, h = arguments[0], arguments[1], float(arguments[2])
+    try:
+        import pytetwild  # noqa: F401 - loaded before the clock starts
+
+        with np.load(path) as surface:
+            polydata = pv.PolyData.from_regular_faces(surface["points"], surface["faces"])
+        start = time.perf_counter()
+        points, tets = _pytetwild_tetrahedra(polydata, h)
+        seconds = time.perf_counter() - start
+    except Exception as exc:  # noqa: BLE001 - reported to the parent as text
+        with open(out + ".error", "w", encoding="utf-8") as handle:
+            handle.write(f"{type(exc).__name__}: {exc}")
+        return 1
+    np.savez(out, points=points, tets=tets, seconds=np.array(seconds))
+    return 0
 
 
 def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool, hmin: float = 0.0, curvature: int = 0):
@@ -308,4 +370,4 @@ def run_reference(name: str, surface: Any, h: float, seed: int = 0):
 if __name__ == "__main__":
     import sys
 
-    sys.exit(gmsh_worker(sys.argv[1:]))
+    sys.exit(pytetwild_worker(sys.argv[2:]) if sys.argv[1:2] == ["--pytetwild"] else gmsh_worker(sys.argv[1:]))

@@ -39,6 +39,16 @@ def test_bench_core_on_a_tiny_box(tmp_path):
     assert "box.stl" in text and "time fepre/pytetwild: median" in text and "1 of 1 meshes valid" in text
 
 
+def test_a_pytetwild_run_over_its_time_is_stopped_and_reported(tmp_path):
+    _box(tmp_path / "box.stl")
+    lines: list[str] = []
+    rows = real_models.bench_folder(tmp_path, ["6"], pytetwild=True, out=lines.append, warm_up=False,
+                                    pytetwild_timeout=0.05)
+    assert "within 0.05 s (stopped)" in rows[0]["pytetwild"]["error"]
+    assert rows[0]["fepre"]["valid"]
+    assert "failed: MeshingError: pytetwild did not finish" in "\n".join(lines)
+
+
 def test_open_input_is_retried_with_the_winding_number_and_sizes_are_checked(tmp_path):
     _box(tmp_path / "tray.stl", missing_face=True)          # a planar hole: closed flat, not refused
     rows = real_models.bench_folder(tmp_path, ["5"], pytetwild=False, out=lambda line: None, samples=200_000,

@@ -52,6 +52,10 @@ DEFAULT_SIZES = ("25", "50", "100", "50:12", "100:50")
 OFF_INPUT = 1e-3
 
 
+#: Seconds after which the bench stops a pytetwild run (fTetWild took over 15 minutes on a
+#: 100k-triangle model, koala.obj, at D/50)
+PYTETWILD_TIMEOUT = 600.0
+
 @dataclass(frozen=True)
 class Size:
     """A mesh size relative to the model's diagonal D: ``h = D/k``, or graded ``(D/a, D/b)``."""
@@ -204,16 +208,17 @@ def _fepre(path: Path, size: Size, ref: Reference, inside: str) -> dict:
     return row
 
 
-def _pytetwild(ref: Reference, h: float) -> dict:
+def _pytetwild(ref: Reference, h: float, timeout: float | None = None) -> dict:
     from ..references import pytetwild_mesh
 
     surface = ref.surface()
     start = time.perf_counter()
     try:
-        grid = pytetwild_mesh(surface, h)
+        grid = pytetwild_mesh(surface, h, timeout=timeout)
     except Exception as exc:  # noqa: BLE001
         return dict(error=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - start)
-    seconds = time.perf_counter() - start
+    seconds = float(grid.field_data["reference_seconds"][0]) if "reference_seconds" in grid.field_data else (
+        time.perf_counter() - start)
     return measure(np.asarray(grid.points, float), grid.cells_dict[10].astype(np.int64), None, h, ref, seconds)
 
 
@@ -261,13 +266,14 @@ def models_in(folder: Path, names: list[str] | None = None) -> list[Path]:
 
 def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwild_sizes=None, names=None,
                  inside: str = "auto", out: Callable[[str], None] = print, samples: int = 1_000_000,
-                 warm_up: bool = True) -> list[dict]:
+                 warm_up: bool = True, pytetwild_timeout: float | None = PYTETWILD_TIMEOUT) -> list[dict]:
     """Mesh every model of ``folder`` at every size with fepre and pytetwild; print a row per
     model and size and return the rows (dicts: ``model``, ``size``, ``triangles``, ``h``,
     ``fepre`` and ``pytetwild`` figures, see :func:`measure`, or ``None`` when not run).
     ``samples``: Monte Carlo samples of an open input's winding-number volume; ``warm_up``:
     compile fepre's kernels and load pytetwild on a cube first, so the first model's time is
-    not the compiler's.
+    not the compiler's; ``pytetwild_timeout``: seconds after which a pytetwild run (in its own
+    process, timed there) is stopped and reported as failed (None: in this process, no limit).
 
     Examples
     --------
@@ -298,7 +304,7 @@ def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwi
         for size in sizes:
             ours = _fepre(path, size, ref, inside)
             run_peer = pytetwild and size.coarse is None and (peer_sizes is None or size.label in peer_sizes)
-            theirs = _pytetwild(ref, size.h(ref.diagonal)) if run_peer else None
+            theirs = _pytetwild(ref, size.h(ref.diagonal), pytetwild_timeout) if run_peer else None
             name = ref.name + ("" if ref.closed else " (open)") + (" (overlaps)" if ref.overlapping else "") + (" w" if ours.get("inside") == "winding" else "")
             h = size.h(ref.diagonal)
             out(f"{name[:34]:34s} {len(ref.faces):6d} {size.label:>12s} | {_cells(ours)} | {_cells(theirs)}")
@@ -409,6 +415,8 @@ def main(argv: list[str], prog: str = "fepre bench real-models") -> int:
                         help="K for h = D/K, A:B for graded h = (D/A, D/B) (default: 25 50 100 50:12 100:50)")
     parser.add_argument("--pytetwild-sizes", nargs="+", help="the uniform sizes pytetwild runs at (default: all)")
     parser.add_argument("--no-pytetwild", action="store_true", help="fepre only")
+    parser.add_argument("--pytetwild-timeout", type=float, default=PYTETWILD_TIMEOUT, metavar="SECONDS",
+                        help=f"stop a pytetwild run after this long (default: {PYTETWILD_TIMEOUT:g})")
     parser.add_argument("--models", nargs="+", help="only models whose file name starts with one of these")
     parser.add_argument("--inside", choices=("auto", "closed", "winding"), default="auto",
                         help="sdf.mesh(inside=): auto (default) retries an open surface with winding")
@@ -421,6 +429,8 @@ def main(argv: list[str], prog: str = "fepre bench real-models") -> int:
             [Size.parse(s) for s in args.pytetwild_sizes]
     except ValueError as exc:
         parser.error(str(exc))
+    if not args.pytetwild_timeout > 0:
+        parser.error(f"--pytetwild-timeout must be a positive number of seconds; got {args.pytetwild_timeout:g}")
     if args.cad:
         for path in write_cad(folder):
             print(f"wrote {path}")
@@ -428,7 +438,7 @@ def main(argv: list[str], prog: str = "fepre bench real-models") -> int:
         parser.error(f"FOLDER {folder} is not a folder")
     try:
         bench_folder(folder, sizes, pytetwild=not args.no_pytetwild, pytetwild_sizes=args.pytetwild_sizes,
-                     names=args.models, inside=args.inside)
+                     names=args.models, inside=args.inside, pytetwild_timeout=args.pytetwild_timeout)
     except ValueError as exc:
         parser.error(str(exc))
     return 0

@@ -75,7 +75,7 @@ def model_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", metavar="MODEL",
                         help="Python file defining `model` (and optionally h, bounds, boundaries), "
                              "a surface mesh file (STL, OBJ, PLY, OFF, VTP, VTK) to use as the model, the boundary of a "
-                             "volume mesh file (VTU, MESH, MSH, INP) to remesh, "
+                             "volume mesh file (VTU, MESH, MSH, INP) to remesh, a CAD file (STEP, BREP) tessellated, "
                              "or an image (.vti, .nii, .nii.gz, .tif, .zarr) with --level")
     parser.add_argument("--inside", choices=("closed", "winding", "above", "below"),
                         help="for a surface mesh file: the solid is what the repaired surface encloses (closed, the default; "

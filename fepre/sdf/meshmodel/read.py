@@ -61,10 +61,11 @@ def _as_polydata(source: Any, name: str):
 
 
 def _read_own_format(path: Path):
-    """The PolyData of an OFF file, a PLY file of triangle strips (formats VTK misses) or the
-    boundary of a volume mesh file, else None."""
+    """The PolyData of an OFF file, a PLY file of triangle strips (formats VTK misses), the
+    boundary of a volume mesh file or the tessellated solids of a CAD file, else None."""
     import pyvista as pv
 
+    from .cad_files import CAD_SUFFIXES, FACE_SUFFIXES, read_cad_surface
     from .formats import ply_has_strips, read_off, read_ply_strips
     from .volume_files import VOLUME_SUFFIXES, read_volume_boundary
 
@@ -72,6 +73,10 @@ def _read_own_format(path: Path):
     try:
         if suffix in VOLUME_SUFFIXES:
             return read_volume_boundary(path)
+        if suffix in CAD_SUFFIXES:
+            return read_cad_surface(path)
+        if suffix in FACE_SUFFIXES:
+            raise ValueError("an IGES file holds faces, not solids; export the part as STEP (or STL) instead")
         if suffix == ".off":
             vertices, polygons = read_off(path)
             faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons]) if polygons else np.zeros(0, np.int64)
@@ -106,7 +111,8 @@ def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
 
     Polygons and triangle strips are triangulated; lines and vertices are ignored. Files are read
     by VTK's readers (STL, OBJ, PLY, VTK formats), except OFF, PLY triangle strips and OBJ files
-    VTK's reader fails on (:mod:`fepre.sdf.meshmodel.formats`).
+    VTK's reader fails on (:mod:`fepre.sdf.meshmodel.formats`), volume meshes (their boundary)
+    and STEP and BREP files (tessellated, :mod:`fepre.sdf.meshmodel.cad_files`).
 
     Raises
     ------

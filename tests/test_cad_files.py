@@ -1,0 +1,83 @@
+"""CAD files as models: STEP and BREP files written by gmsh's OpenCASCADE kernel, read back
+by ``sdf.mesh`` (tessellated in a child process) and meshed, against OpenCASCADE's own volumes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import fepre
+from fepre import sdf
+from fepre.sdf.meshmodel import MeshInputError
+
+
+def write_cad(path, overlapping_boxes: bool = False) -> float:
+    """A 40 x 20 x 10 plate with a bore of radius 5 (or two boxes overlapping by half) written by
+    OpenCASCADE; returns the solid's exact volume."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        if overlapping_boxes:
+            occ.addBox(0, 0, 0, 2, 1, 1)
+            occ.addBox(1, 0, 0, 2, 1, 1)  # two solids in one file; their union is 3 x 1 x 1
+            volume = 3.0
+        else:
+            plate = occ.addBox(0, 0, 0, 40, 20, 10)
+            bore = occ.addCylinder(20, 10, -1, 0, 0, 12, 5)
+            occ.cut([(3, plate)], [(3, bore)])
+            volume = 40 * 20 * 10 - np.pi * 25 * 10
+        occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return volume
+
+
+@pytest.mark.parametrize("name", ["plate.step", "plate.brep"])
+def test_a_cad_file_is_its_solid(tmp_path, name):
+    volume = write_cad(tmp_path / name)
+    model = sdf.mesh(tmp_path / name)
+    assert model.repaired.closed and not model.repaired.changed
+    assert model.volume == pytest.approx(volume, rel=5e-4)  # the bore's chords: +0.02%
+    assert np.allclose(model.bounds, ((0, 0, 0), (40, 20, 10)), atol=1e-6)
+    assert model([[20.0, 10.0, 5.0]])[0] == pytest.approx(5.0, abs=0.01)      # on the bore's axis
+    assert model([[2.0, 2.0, 5.0]])[0] == pytest.approx(-2.0, abs=1e-9)       # inside, by two faces
+
+
+def test_an_assembly_s_solids_are_united(tmp_path):
+    volume = write_cad(tmp_path / "boxes.step", overlapping_boxes=True)
+    model = sdf.mesh(tmp_path / "boxes.step")
+    assert model.volume == pytest.approx(volume, rel=1e-9)
+    assert model.repaired.internal == 0  # fused by OpenCASCADE, not by the repair
+
+
+def test_the_cli_meshes_a_step_file(tmp_path):
+    volume = write_cad(tmp_path / "plate.step")
+    out = tmp_path / "plate.vtu"
+    done = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(tmp_path / "plate.step"), "--h", "2",
+                           "-o", str(out), "--quiet"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    grid = pv.read(out)
+    assert grid.volume == pytest.approx(volume, rel=0.005)
+    assert grid.cell_data["min_dihedral_angle"].min() >= 25.0
+
+
+def test_a_broken_cad_file_names_the_file(tmp_path):
+    path = tmp_path / "broken.step"
+    path.write_text("ISO-10303-21;\nnot a step file\n")
+    with pytest.raises(MeshInputError, match="broken.step") as caught:
+        sdf.mesh(path)
+    assert "OpenCASCADE" in str(caught.value)
+
+
+def test_an_iges_file_is_refused_with_what_to_export(tmp_path):
+    write_cad(tmp_path / "plate.iges")
+    with pytest.raises(MeshInputError, match="plate.iges.*holds faces, not solids; export the part as STEP"):
+        sdf.mesh(tmp_path / "plate.iges")
