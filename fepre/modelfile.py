@@ -38,8 +38,8 @@ MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".vtp", ".vtk", ".vtu", ".mesh"
                  ".step", ".stp", ".brep", ".iges", ".igs")
 
 
-#: CAD exchange formats (B-rep geometry): named in the error, with how to tessellate them
-CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".sat", ".x_t")
+#: CAD formats fepre does not read (ACIS, Parasolid): named in the error, with what to export
+CAD_SUFFIXES = (".sat", ".x_t", ".x_b")
 
 
 def _not_a_model_file(path: Path) -> str:
@@ -47,8 +47,8 @@ def _not_a_model_file(path: Path) -> str:
     message = (f"model file {path} must be a Python file ending in .py, a surface mesh ({', '.join(MESH_SUFFIXES)}) "
                f"or an image (.vti, .nii, .nii.gz, .tif, .zarr); got {path.suffix or 'no suffix'!r}")
     if path.suffix.lower() in CAD_SUFFIXES:
-        message += ("; fepre reads tessellated surfaces, not CAD geometry: export an STL from the CAD program, or "
-                    f"tessellate it with gmsh (gmsh {path.name} -2 -format stl -o {path.stem}.stl)")
+        message += ("; fepre reads CAD geometry from STEP and BREP files only: export a STEP (or an STL) "
+                    "from the CAD program")
     return message
 
 

@@ -574,12 +574,13 @@ def test_a_flat_surface_is_refused_as_flat(tmp_path):
             sdf.mesh(path, inside=inside)
 
 
-def test_a_cad_file_is_refused_with_how_to_tessellate_it(tmp_path):
-    step = tmp_path / "bracket.step"
-    step.write_text("ISO-10303-21;\n")
-    result = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(step), "--h", "2", "-o", str(tmp_path / "b.inp")],
-                            capture_output=True, text=True)
-    assert result.returncode == 1
-    assert "fepre reads tessellated surfaces, not CAD geometry" in result.stderr
-    assert "gmsh bracket.step -2 -format stl -o bracket.stl" in result.stderr
-    assert not (tmp_path / "b.inp").exists()
+def test_a_cad_file_fepre_does_not_read_is_refused_with_what_to_export(tmp_path):
+    for name, words in (("bracket.sat", "fepre reads CAD geometry from STEP and BREP files only: export a STEP"),
+                        ("bracket.step", "bracket.step could not be read: OpenCASCADE could not import it")):
+        cad = tmp_path / name
+        cad.write_text("ISO-10303-21;\n")
+        result = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(cad), "--h", "2", "-o", str(tmp_path / "b.inp")],
+                                capture_output=True, text=True)
+        assert result.returncode == 1
+        assert words in result.stderr
+        assert not (tmp_path / "b.inp").exists()
