@@ -23,6 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .arguments import as_bounds, positive_float
+from .child_runs import gmsh_cells, run_child
 from .errors import MeshingError
 
 __all__ = ["reference_surface", "pytetwild_mesh", "gmsh_mesh", "REFERENCES", "available_references",
@@ -162,7 +163,6 @@ def _pytetwild_tetrahedra(surface: Any, h: float) -> tuple[np.ndarray, np.ndarra
 
 
 def _pytetwild_in_child(surface: Any, h: float, timeout: float):
-    import subprocess
     import sys
 
     import pyvista as pv
@@ -173,16 +173,8 @@ def _pytetwild_in_child(surface: Any, h: float, timeout: float):
         np.savez(path, points=np.asarray(triangles.points, dtype=np.float64),
                  faces=triangles.faces.reshape(-1, 4)[:, 1:].astype(np.int64))
         command = [sys.executable, "-m", "fepre.references", "--pytetwild", path, out, repr(float(h))]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
-        except subprocess.TimeoutExpired:
-            raise MeshingError(f"pytetwild did not finish meshing the surface within {timeout:g} s (stopped)") from None
-        if os.path.exists(out + ".error"):
-            with open(out + ".error", encoding="utf-8") as handle:
-                raise MeshingError(f"pytetwild failed to mesh the surface: {handle.read()}")
-        if done.returncode != 0 or not os.path.exists(out):
-            last = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no message"]
-            raise MeshingError(f"pytetwild's process died (exit code {done.returncode}: {last[0][:200]})")
+        run_child(command, out, timeout=timeout, cwd=scratch, tool="pytetwild", doing="meshing the surface",
+                  error=MeshingError)
         with np.load(out) as result:
             points, tets, seconds = result["points"], result["tets"], float(result["seconds"])
     grid = _positive_tets(points, tets)
@@ -234,14 +226,10 @@ def _gmsh_tetrahedra(path: str, h: float, seed: int, remesh: bool, hmin: float =
         for name, value in GMSH_OPTIONS.items():
             gmsh.option.setNumber(name, value)
         gmsh.model.mesh.generate(3)
-        node_tags, coords, _ = gmsh.model.mesh.getNodes()
-        types, _, element_nodes = gmsh.model.mesh.getElements(3)
-        if 4 not in list(types):
+        mesh = gmsh_cells(3, 4, 4)
+        if mesh is None:
             raise MeshingError("gmsh produced no tetrahedra from the surface")
-        tet_nodes = np.asarray(element_nodes[list(types).index(4)], dtype=np.int64).reshape(-1, 4)
-        order = np.argsort(node_tags)
-        positions = np.searchsorted(node_tags[order], tet_nodes)
-        return np.asarray(coords, dtype=np.float64).reshape(-1, 3)[order], positions
+        return mesh
     finally:
         gmsh.model.remove()
 
@@ -306,7 +294,6 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0, 
     ``curvature`` > 0 sizes the mesh from the surface's curvature as gmsh users grade a mesh
     (``Mesh.MeshSizeFromCurvature``: that many elements per 2 pi), between ``hmin`` and ``h``.
     """
-    import subprocess
     import sys
 
     h = positive_float(h, "h")
@@ -318,18 +305,7 @@ def gmsh_mesh(surface: Any, h: float, *, seed: int = 0, timeout: float = 300.0, 
         command = [sys.executable, "-m", "fepre.references", path, out, repr(float(h)), str(int(seed))]
         if curvature:
             command += [repr(float(positive_float(hmin, "hmin") if hmin is not None else 0.0)), str(int(curvature))]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
-        except subprocess.TimeoutExpired:
-            raise MeshingError(f"gmsh did not finish meshing the surface within {timeout:g} s (stopped)") from None
-        if os.path.exists(out + ".error"):
-            with open(out + ".error", encoding="utf-8") as handle:
-                raise MeshingError(f"gmsh failed to mesh the surface: {handle.read()}")
-        if done.returncode != 0 or not os.path.exists(out):
-            last = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no message"]
-            raise MeshingError(
-                f"gmsh aborted while meshing the surface (its process died, exit code {done.returncode}: {last[0][:200]})"
-            )
+        run_child(command, out, timeout=timeout, cwd=scratch, tool="gmsh", doing="meshing the surface", error=MeshingError)
         with np.load(out) as result:
             points, tets = result["points"], result["tets"]
             note, seconds = str(result["note"]), float(result["seconds"])

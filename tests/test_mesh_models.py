@@ -576,7 +576,7 @@ def test_a_flat_surface_is_refused_as_flat(tmp_path):
 
 def test_a_cad_file_fepre_does_not_read_is_refused_with_what_to_export(tmp_path):
     for name, words in (("bracket.sat", "fepre reads CAD geometry from STEP and BREP files only: export a STEP"),
-                        ("bracket.step", "bracket.step could not be read: OpenCASCADE could not import it")):
+                        ("bracket.step", "bracket.step could not be read: OpenCASCADE failed reading it: could not import the file")):
         cad = tmp_path / name
         cad.write_text("ISO-10303-21;\n")
         result = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(cad), "--h", "2", "-o", str(tmp_path / "b.inp")],

@@ -38,7 +38,7 @@ from pathlib import Path
 # The layers, bottom first: a module imports from its own layer or the ones before it, never the
 # ones after it (docs/design.md, Layout). Keys are module names or package prefixes.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("fepre.errors", "fepre.config", "fepre.kernel_threads", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version", "fepre.vtk_messages", "fepre.callable_package",
+    ("base", ("fepre.errors", "fepre.config", "fepre.child_runs", "fepre.kernel_threads", "fepre.arguments", "fepre.progress", "fepre.backends", "fepre.materials", "fepre._version", "fepre.vtk_messages", "fepre.callable_package",
               "fepre.constraint_keywords", "fepre.placement", "fepre.triangle_crossings")),
     ("model", ("fepre.sdf",)),
     ("grid", ("fepre.sampling", "fepre.surface")),

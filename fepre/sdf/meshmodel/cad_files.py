@@ -14,12 +14,13 @@ can abort the process on a broken file, which must not take the caller's session
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from ...child_runs import gmsh_cells, run_child
 
 __all__ = ["read_cad_surface", "CAD_SUFFIXES", "FACE_SUFFIXES", "SEGMENTS"]
 
@@ -54,15 +55,7 @@ def read_cad_surface(path: str | os.PathLike, *, timeout: float = TIMEOUT):
     with tempfile.TemporaryDirectory(prefix="fepre-cad-") as scratch:
         out = os.path.join(scratch, "surface.npz")
         command = [sys.executable, "-m", "fepre.sdf.meshmodel.cad_files", str(path.resolve()), out]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=scratch)
-        except subprocess.TimeoutExpired:
-            raise ValueError(f"OpenCASCADE did not import and tessellate it within {timeout:g} s") from None
-        if os.path.exists(out + ".error"):
-            raise ValueError(Path(out + ".error").read_text(encoding="utf-8"))
-        if done.returncode != 0 or not os.path.exists(out):
-            last = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no message"]
-            raise ValueError(f"OpenCASCADE's process died importing it (exit code {done.returncode}: {last[0][:200]})")
+        run_child(command, out, timeout=timeout, cwd=scratch, tool="OpenCASCADE", doing="reading it", error=ValueError)
         with np.load(out) as result:
             points, triangles = result["points"], result["triangles"]
     return pv.PolyData.from_regular_faces(points, triangles)
@@ -78,7 +71,7 @@ def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
         try:
             gmsh.model.occ.importShapes(path)
         except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
-            raise ValueError(f"OpenCASCADE could not import it ({str(exc).strip()[:200]})") from None
+            raise ValueError(f"could not import the file ({str(exc).strip()[:200]})") from None
         gmsh.model.occ.synchronize()
         volumes = gmsh.model.getEntities(3)
         if len(volumes) > 1:
@@ -88,7 +81,7 @@ def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
             except Exception:  # noqa: BLE001 - the bodies' own boundaries are then united by the repair
                 pass
         if not gmsh.model.getEntities(2):
-            raise ValueError("it holds no surface (no face to tessellate)")
+            raise ValueError("the file holds no surface (no face to tessellate)")
         lower, upper = np.split(np.asarray(gmsh.model.getBoundingBox(-1, -1)), 2)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", SEGMENTS)
         gmsh.option.setNumber("Mesh.MeshSizeMax", float(np.linalg.norm(upper - lower)) / 20.0)
@@ -97,15 +90,10 @@ def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
             gmsh.model.mesh.generate(2)
         except Exception as exc:  # noqa: BLE001
             raise ValueError(f"gmsh could not tessellate its faces ({str(exc).strip()[:200]})") from None
-        tags, coordinates, _ = gmsh.model.mesh.getNodes()
-        # gmsh gives a solid's faces' triangles facing out of it
-        types, _, nodes = gmsh.model.mesh.getElements(2)
-        if 2 not in list(types):
+        surface = gmsh_cells(2, 2, 3)  # gmsh gives a solid's faces' triangles facing out of it
+        if surface is None:
             raise ValueError("tessellating its faces gave no triangles")
-        triangles = np.asarray(nodes[list(types).index(2)], dtype=np.int64).reshape(-1, 3)
-        order = np.argsort(tags)
-        triangles = np.searchsorted(tags[order], triangles)
-        return np.asarray(coordinates, dtype=np.float64).reshape(-1, 3)[order], triangles
+        return surface
     finally:
         gmsh.finalize()
 
