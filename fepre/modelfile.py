@@ -159,9 +159,9 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
         A Python file defining ``model`` and optionally ``h``, ``bounds``, ``boundaries``; a
         surface mesh file (``MESH_SUFFIXES``: STL, OBJ, PLY, OFF, VTP, VTK) or a volume mesh file
         (VTU, Medit MESH, gmsh MSH, Abaqus/CalculiX INP: its boundary) or a CAD file (STEP,
-        BREP: its solids tessellated), whose model is :func:`fepre.sdf.mesh` of it; or an image (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``; a
-        ``.zarr`` store is read chunk by chunk), whose model is :func:`fepre.sdf.image` of it with
-        the options ``image``.
+        BREP: its solids tessellated), whose model is :func:`fepre.sdf.mesh` of it; or an image
+        (``.vti``, ``.nii``, ``.nii.gz``, ``.tif``; a ``.zarr`` store is read chunk by chunk),
+        whose model is :func:`fepre.sdf.image` of it with the options ``image``.
     image : dict, optional
         For an image file: ``level`` (required) and the keywords of :func:`fepre.sdf.image`
         (``inside``, ``smoothing``); or ``labels=True`` and the keywords of

@@ -174,7 +174,8 @@ def measure(points: np.ndarray, tets: np.ndarray, model, h: float, ref: Referenc
     distance = np.sqrt(TriangleTree(ref.vertices, ref.faces).query(points[nodes])[0]) / h if len(nodes) else np.zeros(1)
     return dict(
         cells=check.cells, valid=check.valid, problems=check.problems, worst=check.min_dihedral,
-        largest=check.max_dihedral, rr=check.min_radius_ratio, volume=check.volume / ref.volume - 1.0 if ref.volume > 0 else math.nan,
+        largest=check.max_dihedral, rr=check.min_radius_ratio,
+        volume=check.volume / ref.volume - 1.0 if ref.volume > 0 else math.nan,
         boundary=float(distance.max()), off=float(np.mean(distance > OFF_INPUT)), seconds=seconds,
     )
 
@@ -305,7 +306,8 @@ def bench_folder(folder, sizes=DEFAULT_SIZES, *, pytetwild: bool = True, pytetwi
             ours = _fepre(path, size, ref, inside)
             run_peer = pytetwild and size.coarse is None and (peer_sizes is None or size.label in peer_sizes)
             theirs = _pytetwild(ref, size.h(ref.diagonal), pytetwild_timeout) if run_peer else None
-            name = ref.name + ("" if ref.closed else " (open)") + (" (overlaps)" if ref.overlapping else "") + (" w" if ours.get("inside") == "winding" else "")
+            name = (ref.name + ("" if ref.closed else " (open)") + (" (overlaps)" if ref.overlapping else "")
+                    + (" w" if ours.get("inside") == "winding" else ""))
             h = size.h(ref.diagonal)
             out(f"{name[:34]:34s} {len(ref.faces):6d} {size.label:>12s} | {_cells(ours)} | {_cells(theirs)}")
             if ours.get("problems"):

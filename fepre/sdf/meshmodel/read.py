@@ -78,9 +78,7 @@ def _read_own_format(path: Path):
         if suffix in FACE_SUFFIXES:
             raise ValueError("an IGES file holds faces, not solids; export the part as STEP (or STL) instead")
         if suffix == ".off":
-            vertices, polygons = read_off(path)
-            faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons]) if polygons else np.zeros(0, np.int64)
-            return pv.PolyData(vertices, faces=faces) if len(faces) else pv.PolyData(vertices)
+            return _polygon_surface(*read_off(path))
         if suffix == ".ply" and ply_has_strips(path):
             vertices, triangles = read_ply_strips(path)
             return pv.PolyData.from_regular_faces(vertices, triangles) if len(triangles) else pv.PolyData(vertices)
@@ -91,18 +89,27 @@ def _read_own_format(path: Path):
 
 def _read_obj(path: Path):
     """An OBJ file VTK's reader failed on, read by :func:`.formats.read_obj`."""
-    import pyvista as pv
-
     from .formats import read_obj
 
     try:
-        vertices, polygons = read_obj(path)
+        return _polygon_surface(*read_obj(path))
     except (ValueError, OSError) as exc:
         raise MeshInputError(f"mesh file {path} could not be read: {exc}") from None
+
+
+def _polygon_surface(vertices: np.ndarray, polygons: list[np.ndarray]):
+    """A PolyData of ``polygons`` (index arrays; those under three vertices left out)."""
+    import pyvista as pv
+
     polygons = [p for p in polygons if len(p) >= 3]
     if not polygons:
-        return pv.PolyData(vertices) if len(vertices) else None
-    faces = np.concatenate([np.concatenate([[len(p)], p]) for p in polygons])
+        return pv.PolyData(vertices)
+    sizes = np.fromiter(map(len, polygons), dtype=np.int64, count=len(polygons))
+    faces = np.empty(len(polygons) + int(sizes.sum()), dtype=np.int64)
+    heads = np.cumsum(sizes + 1) - sizes - 1
+    corner = np.ones(len(faces), dtype=bool)
+    corner[heads] = False
+    faces[heads], faces[corner] = sizes, np.concatenate(polygons)
     return pv.PolyData(vertices, faces=faces)
 
 
