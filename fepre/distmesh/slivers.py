@@ -91,6 +91,9 @@ PATIENCE = 8
 PROGRESS = 0.1
 #: Once the target is met, at most this many further rounds lift the cells below the margin.
 POLISH_ROUNDS = 20
+#: While the target is not met, stop when for this many rounds the worst angle has not risen by
+#: ``PROGRESS`` degrees and no cell has come up to the target.
+UNMET_PATIENCE = 8
 #: A regular tetrahedron's dihedral angle: no mesh can have a larger worst angle.
 REGULAR_DIHEDRAL = float(np.degrees(np.arccos(1.0 / 3.0)))
 #: Boundary vertices further than this (times h) from the zero set mean the model is not the
@@ -476,7 +479,8 @@ class _SliverStage:
         the rounds run."""
         rounds = 0
         best = float(self.quality.min())
-        stalled = 0
+        fewest = self._below_target()
+        stalled = idle = 0
         met_at = None  # the round in which the target was first met
         active = None  # flips try every bad cell in the first round, then those near a change
         while rounds < maxiter and self.quality.min() < self.threshold:
@@ -497,7 +501,16 @@ class _SliverStage:
                 met_at = rounds if met_at is None else met_at
                 if stalled >= PATIENCE or rounds - met_at >= POLISH_ROUNDS:
                     break
+                continue
+            below = self._below_target()
+            idle = 0 if stalled == 0 or below < fewest else idle + 1
+            fewest = min(fewest, below)
+            if idle >= UNMET_PATIENCE:
+                break
         return rounds
+
+    def _below_target(self) -> int:
+        return int(np.count_nonzero(self.quality < self.target))
 
 
 def _report(stage: _SliverStage, before: dict[str, float], rounds: int, maxiter: int, start: float) -> dict:
