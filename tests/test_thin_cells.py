@@ -74,6 +74,19 @@ def test_the_message_names_places_thickness_and_the_h_that_resolves_them():
     assert thin_cells_message(ThinCells(3, np.zeros((0, 3)), np.zeros(0), np.zeros(0)), 0.5) is None
 
 
+
+def test_the_advice_resolves_the_thinnest_place_even_when_it_is_not_shown():
+    # lucy.ply (pyvista's vtk-data) at D/50: 30 places; the three with most cells were 23-45 thick,
+    # one further down 2.8; an hmin of half the three shown left 32 cells in parts under 1.5
+    # elements across (7.6 deg), so the advice is half the thinnest of all places
+    centres = np.array([[0.0, 0, 0], [0.1, 0, 0], [10.0, 0, 0], [10.1, 0, 0], [20.0, 0, 0], [20.1, 0, 0],
+                        [30.0, 0, 0]])
+    found = ThinCells(bad=9, centres=centres, thickness=np.array([0.4, 0.4, 0.5, 0.5, 0.6, 0.6, 0.1]),
+                      size=np.full(7, 0.5))
+    message = thin_cells_message(found, 0.5)
+    assert "and 1 more place(s), the thinnest 1 near (30, 0, 0), 0.1 thick" in message
+    assert "h=(0.05, 0.5)" in message and "h <= 0.05" in message
+
 @pytest.mark.slow
 def test_distmesh_names_a_finger_one_element_thick_and_its_advice_meets_the_targets():
     # a ball with a finger 1.3 across, meshed at h = 1: the finger is one layer of cells with

@@ -160,8 +160,9 @@ def _places(found: ThinCells) -> list[np.ndarray]:
 
 def thin_cells_message(found: ThinCells, h: float | None, offset=None) -> str | None:
     """One line naming where the bad cells in thin parts are, how thick the part is there (the
-    median over a place's cells) and the ``h`` that resolves them (half the thinnest place shown:
-    two elements across), or None when there are none.
+    median over a place's cells) and the ``h`` that resolves them all (half the thinnest place's
+    thickness: two elements across; that place is named too when it is not among the three
+    shown), or None when there are none.
 
     ``h``: the uniform size (None for a graded mesh); ``offset``: added to the places (the
     user's frame).
@@ -170,14 +171,18 @@ def thin_cells_message(found: ThinCells, h: float | None, offset=None) -> str | 
         return None
     offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
     groups = _places(found)
-    thick = [float(np.median(found.thickness[group])) for group in groups[:3]]
-    shown = "; ".join(
-        f"{len(group)} near ({', '.join(f'{c:.4g}' for c in found.centres[group].mean(axis=0) + offset)}), "
-        f"{t:.3g} thick against a size of {float(found.size[group].max()):.3g}"
-        for group, t in zip(groups[:3], thick)
-    )
+    thick = [float(np.median(found.thickness[group])) for group in groups]
+
+    def place(group: np.ndarray, t: float) -> str:
+        return (f"{len(group)} near ({', '.join(f'{c:.4g}' for c in found.centres[group].mean(axis=0) + offset)}), "
+                f"{t:.3g} thick against a size of {float(found.size[group].max()):.3g}")
+
+    shown = "; ".join(place(group, t) for group, t in zip(groups[:3], thick))
     more = f" and {len(groups) - 3} more place(s)" if len(groups) > 3 else ""
-    fine = 0.5 * min(thick)
+    thinnest = int(np.argmin(thick))
+    if thinnest >= 3:  # the advice must resolve every place, not only those shown
+        more += f", the thinnest {place(groups[thinnest], thick[thinnest])}"
+    fine = 0.5 * thick[thinnest]
     advice = (f"mesh with h=({fine:.2g}, {h:.4g}) (the automatic size field: that fine only where the model is "
               f"that thin) or h <= {fine:.2g}" if h is not None else f"mesh with a smaller hmin (about {fine:.2g})")
     return (
