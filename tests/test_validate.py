@@ -206,7 +206,7 @@ def test_final_mesh_drops_hull_cells_outside_the_part(monkeypatch):
     choice here is the convex hull of an L-shaped part's nodes (hull cells fill the notch, faces
     up to 2.3 h outside): the old final mesh returned it, +56% volume. Now its cells outside go."""
     points = _l_part_nodes()
-    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: (tets, np.zeros(0, np.int64)))
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h, values: (tets, np.zeros(0, np.int64)))
     p, t, _ = finalize.final_mesh(L_PART, points, np.zeros(len(points), bool), 0.1, 0.001, "scipy")
     assert [d.check for d in mesh_defects(p, t, L_PART, 0.1, bounds=(np.full(3, -0.1), np.full(3, 1.1)))] == []
     assert abs(signed_volumes(p, t).sum() - 0.64) < 0.02
@@ -215,7 +215,7 @@ def test_final_mesh_drops_hull_cells_outside_the_part(monkeypatch):
 def test_final_mesh_refuses_a_solid_closed_over_hull_cells(monkeypatch):
     """The same, with no repair to fall back on: refused, naming the place."""
     points = _l_part_nodes()
-    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: (tets, np.zeros(0, np.int64)))
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h, values: (tets, np.zeros(0, np.int64)))
     monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
     model = L_PART
     with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*up to .* h.*\(at \("):
@@ -262,7 +262,7 @@ def test_distmesh_refuses_hull_cells_it_cannot_drop(monkeypatch):
     no repair is left: MeshingError naming the check and the place, no mesh."""
     import fepre
 
-    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h: (tets, np.zeros(0, np.int64)))
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h, values: (tets, np.zeros(0, np.int64)))
     monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
     with pytest.raises(MeshingError, match=r"cells outside the part \(far boundary: .*at \("):
         fepre.distmesh(L_PART, 0.15)
@@ -388,8 +388,8 @@ def test_of_two_refused_choices_the_final_mesh_keeps_the_one_nearer_the_surface(
     points, tets, mended = _block_with_a_bump()
     assert len(mended) == len(tets) + 6
     monkeypatch.setattr(finalize, "_star_rounds",
-                        lambda model, state, previous, backend, h, mend_cracks: mended if mend_cracks else tets)
-    monkeypatch.setattr(finalize, "_choose", lambda model, state, cells, geps, h: (cells, np.zeros(0, np.int64)))
+                        lambda model, state, previous, backend, h, mend_cracks: (mended if mend_cracks else tets, None))
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, cells, geps, h, values: (cells, np.zeros(0, np.int64)))
     monkeypatch.setattr(finalize, "_cracked", lambda cells, n: True)  # a crack sends the choice on to mending
     state = finalize._PointSet(model, points, np.zeros(len(points), bool), H)
     _, chosen, valid, _ = finalize._attempts(model, state, None, "gmsh", H, 0.001)
@@ -406,6 +406,6 @@ def test_of_two_refused_choices_the_final_mesh_keeps_the_one_nearer_the_surface(
     assert finalize.surface_gap(model, points, mended) > out.sum() / 32 + 1e-3
     # when the mended choice is nearer, it is the one returned (a crack inside the part)
     monkeypatch.setattr(finalize, "_star_rounds",
-                        lambda model, state, previous, backend, h, mend_cracks: tets if mend_cracks else mended)
+                        lambda model, state, previous, backend, h, mend_cracks: (tets if mend_cracks else mended, None))
     _, chosen, valid, _ = finalize._attempts(model, state, None, "gmsh", H, 0.001)
     assert not valid and len(chosen) == len(tets)
