@@ -16,7 +16,7 @@ from numba import njit, prange
 from .kernel_threads import kernel_threads
 
 __all__ = ["quality_arrays", "volume_edge_ratios", "packed_face_keys", "packed_edge_keys", "canonical_cells", "centroid_bounds", "face_uses", "shape_extremes",
-           "ideal_positions", "corner_volumes"]
+           "ideal_positions", "corner_volumes", "cells_by_vertex"]
 
 # faces opposite vertex 0..3 (outward for a positive cell); the two faces at edges 01 02 03 12 13 23
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -465,3 +465,27 @@ def corner_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
         with kernel_threads(len(tets), 5e-9):
             _volumes(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tets, np.int64), out)
     return out
+
+
+@njit(cache=True)
+def _cells_by_vertex(tets, offsets, out):  # pragma: no cover - compiled
+    fill = offsets[:-1].copy()
+    for t in range(tets.shape[0]):
+        for k in range(tets.shape[1]):
+            v = tets[t, k]
+            out[fill[v]] = t
+            fill[v] += 1
+
+
+def cells_by_vertex(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists of the cells around each vertex, ``(offsets (N+1,), cells)``, each vertex's
+    cells in increasing order: ``np.argsort(tets.ravel(), kind="stable") // k`` and its counts
+    (bit-identical) by one counting pass instead of a sort (8 ms for 65k cells, paid after
+    every change in the quality stage's collapse rounds)."""
+    tets = np.ascontiguousarray(tets, np.int64)
+    offsets = np.zeros(n_points + 1, dtype=np.int64)
+    np.cumsum(np.bincount(tets.ravel(), minlength=n_points), out=offsets[1:])
+    cells = np.empty(tets.size, dtype=np.int64)
+    if tets.size:
+        _cells_by_vertex(tets, offsets, cells)
+    return offsets, cells

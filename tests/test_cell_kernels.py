@@ -179,3 +179,15 @@ def test_corner_volumes_match_the_array_form_bit_for_bit():
     assert corner_volumes(points, tets)[:2].tolist() == [0.0, 0.0]  # flat, repeated corner
     unit = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
     assert corner_volumes(unit, np.array([[0, 1, 2, 3], [0, 2, 1, 3]])).tolist() == [1 / 6, -1 / 6]
+
+
+@pytest.mark.parametrize("points, cells", [(10, 7), (1000, 6000), (5, 0)])
+def test_cells_by_vertex_is_the_stable_sort_of_the_cells_corners(points, cells):
+    from fepre._cell_kernels import cells_by_vertex
+
+    tets = np.random.default_rng(points).integers(0, points, size=(cells, 4))
+    offsets, found = cells_by_vertex(tets, points + 2)  # two vertices in no cell
+    flat = tets.ravel()
+    assert np.array_equal(found, np.argsort(flat, kind="stable") // 4)
+    assert np.array_equal(np.diff(offsets), np.bincount(flat, minlength=points + 2))
+    assert offsets[0] == 0 and offsets[-1] == flat.size

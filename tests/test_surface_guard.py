@@ -1,6 +1,7 @@
 """The quality stage's surface guard: boundary vertices stay on their own surface patch."""
 
 import numpy as np
+import pytest
 
 from fepre import sdf
 from fepre.distmesh.surface_guard import SurfaceGuard
@@ -111,3 +112,22 @@ def test_a_move_that_folds_the_boundary_passes_the_local_checks_and_is_undone():
     # without the guard nothing stops the fold (the regular position scores 70.5)
     new, new_quality, count = relax_round(points, tets, quality, 25.0, movable, boundary, ball, 1e-4 * h, targets=targets)
     assert count == 1 and new_quality[0] > 70 and crossing_faces(new, faces).tolist() == [[0, 1]]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_grid_prefilter_keeps_every_centre_within_reach(seed):
+    # folding_vertices asks a tree of the changed faces' centres only about the centres in grid
+    # cells next to theirs; the answer must be the one for every centre
+    from scipy.spatial import cKDTree
+
+    from fepre.distmesh.surface_guard import _near_cells
+
+    rng = np.random.default_rng(seed)
+    centres = rng.random((4000, 3)) * 10.0 ** seed + 10.0 ** seed
+    changed = rng.choice(len(centres), size=1 + 7 * seed, replace=False)
+    reach = 0.04 * 10.0 ** seed
+    tree = cKDTree(centres[changed])
+    within = np.flatnonzero(tree.query_ball_point(centres, reach, return_length=True) > 0)
+    candidates = _near_cells(centres, changed, reach)
+    assert len(candidates) < len(centres) / 2
+    assert np.array_equal(candidates[tree.query_ball_point(centres[candidates], reach, return_length=True) > 0], within)

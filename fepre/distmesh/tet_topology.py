@@ -126,12 +126,11 @@ def face_neighbours(tets: np.ndarray, n_points: int) -> np.ndarray:
 
 
 def vertex_stars(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR lists of the tetrahedra around each vertex: ``(offsets (N+1,), tet indices)``."""
-    flat = tets.ravel()
-    order = np.argsort(flat, kind="stable")
-    offsets = np.zeros(n_points + 1, dtype=np.int64)
-    np.cumsum(np.bincount(flat, minlength=n_points), out=offsets[1:])
-    return offsets, order // 4
+    """CSR lists of the tetrahedra around each vertex: ``(offsets (N+1,), tet indices)``, each
+    vertex's in increasing order."""
+    from .._cell_kernels import cells_by_vertex
+
+    return cells_by_vertex(tets, n_points)
 
 
 def faces_on_boundary(tets: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
