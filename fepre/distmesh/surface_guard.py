@@ -121,6 +121,10 @@ def folding_vertices(old: np.ndarray, new: np.ndarray, boundary_face_keys: np.nd
     return np.unique(vertices[is_moved[vertices]])
 
 
+#: a grid cell and its 26 neighbours, as offsets
+_NEIGHBOUR_CELLS = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
+
+
 def _near_cells(centres: np.ndarray, changed: np.ndarray, reach: float) -> np.ndarray:
     """The indices (increasing) of the ``centres`` in the grid cells, ``reach`` wide, holding or
     touching a cell that holds a ``changed`` centre: a superset of those within ``reach`` of
@@ -132,8 +136,7 @@ def _near_cells(centres: np.ndarray, changed: np.ndarray, reach: float) -> np.nd
     origin = centres.min(axis=0)
     cell = np.floor((centres - origin) / width).astype(np.int64)
     span = cell.max(axis=0) + 3
-    offsets = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
-    wanted = (cell[changed][:, None, :] + 1 + offsets).reshape(-1, 3)
+    wanted = (cell[changed][:, None, :] + 1 + _NEIGHBOUR_CELLS).reshape(-1, 3)
 
     def key(cells: np.ndarray) -> np.ndarray:
         return (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..distmesh.tet_topology import vertex_stars
 from .cell import PeriodicCell
 
 __all__ = ["smooth_face_nodes"]
@@ -23,14 +24,6 @@ ROUNDS = 6
 CANDIDATES = 32
 #: cells scoring below the target plus this (degrees) are worked on
 MARGIN = 3.0
-
-
-def _incidence(tets: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of the cells around each node: ``cells[start[i]:start[i + 1]]``."""
-    nodes = tets.ravel()
-    order = np.argsort(nodes, kind="stable")
-    start = np.searchsorted(nodes[order], np.arange(n + 1))
-    return start, order // 4
 
 
 def _in_plane_projection(model, points: np.ndarray, axis: int) -> np.ndarray:
@@ -67,7 +60,7 @@ def smooth_face_nodes(points: np.ndarray, tets: np.ndarray, cell: PeriodicCell, 
     slave_group = np.repeat(np.arange(group_masters.size), np.diff(np.append(first, masters.size)))
     chosen = movable[slave_group]
     group_of[slaves[order][chosen]] = slave_group[chosen]
-    start, cell_ids = _incidence(tets, n)
+    start, cell_ids = vertex_stars(tets, n)
     score = targets.score
     quality = score(points[tets])
     rng = np.random.default_rng(seed)

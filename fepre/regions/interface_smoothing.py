@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..distmesh.node_moves import best_candidate
-from ..periodic.face_smoothing import CANDIDATES, MARGIN, ROUNDS, _incidence
+from ..distmesh.tet_topology import vertex_stars
+from ..periodic.face_smoothing import CANDIDATES, MARGIN, ROUNDS
 from .interface import interface_faces, onto_interface_rim
 from .partition import RegionSet
 
@@ -59,7 +60,7 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
     movable = on_interface & (_smooth_nodes(points, faces) | rim)
     if pinned is not None:
         movable &= ~pinned
-    start, cell_ids = _incidence(tets, n)
+    start, cell_ids = vertex_stars(tets, n)
     score = targets.score
     quality = score(points[tets])
     rng = np.random.default_rng(seed)
