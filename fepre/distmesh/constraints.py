@@ -117,6 +117,12 @@ class MeshConstraint:
         (:class:`~fepre.distmesh.validate.Defect`; the validation stage refuses a mesh with any)."""
         return []
 
+    def cell_models(self, job: MeshingJob) -> list | None:
+        """``[(model, cells), ...]``: the model each group of final cells fills (``cells`` an (M,)
+        bool mask), for the checks that measure where a cell lies (a region's own thickness), or
+        None: every cell fills ``job.model``."""
+        return None
+
     def check(self, job: MeshingJob) -> None:
         """Check the final mesh; add entries to ``job.history``; warn or raise MeshingError."""
 

@@ -279,9 +279,11 @@ def check_mesh(job: MeshingJob) -> None:
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
         if o.slivers:
-            from .thin_cells import thin_bad_cells, thin_cells_message
+            from .thin_cells import combined, thin_bad_cells, thin_cells_message
 
-            thin = thin_bad_cells(job.model, job.points, job.tets, h, _local_size(job))
+            groups = next((found for c in job.constraints if (found := c.cell_models(job)) is not None), None)
+            groups = [(job.model, slice(None))] if groups is None else groups
+            thin = combined(thin_bad_cells(model, job.points, job.tets[cells], h, _local_size(job)) for model, cells in groups)
             message = thin_cells_message(thin, None if job.absolute else h, job.frame_offset)
             if message:
                 warn_user(f"distmesh: {message}", ResolutionWarning)

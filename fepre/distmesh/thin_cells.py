@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "THIN_SHARE"]
+__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "combined", "THIN_SHARE"]
 
 #: a cell is in a thin part where the part there is thinner than this times the local element
 #: size (fewer than two elements across)
@@ -141,6 +141,14 @@ def thin_bad_cells(model, points: np.ndarray, tets: np.ndarray, h: float, local_
     thickness = _thickness(model, points, tets, bad, centres, depth, size)
     thin = thickness < THIN_SHARE * size
     return ThinCells(count, centres[thin], thickness[thin], size[thin])
+
+
+def combined(parts) -> ThinCells:
+    """One :class:`ThinCells` of several meshes' (a region mesh's regions, each measured in its
+    own model: a thin sheet of one material inside a thick part is thin for its cells)."""
+    parts = list(parts)
+    return ThinCells(sum(part.bad for part in parts), np.concatenate([part.centres for part in parts]).reshape(-1, 3),
+                     *(np.concatenate([getattr(part, name) for part in parts]) for name in ("thickness", "size")))
 
 
 def _places(found: ThinCells) -> list[np.ndarray]:

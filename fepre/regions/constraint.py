@@ -92,6 +92,9 @@ class RegionConstraint(MeshConstraint):
             job.options.seed, job.size)
         return True
 
+    def cell_models(self, job) -> list:
+        return [(model, self.region_ids == k) for k, model in enumerate(self.region_set.models)]
+
     def check(self, job) -> None:
         faces, _ = check_interfaces(job.points, job.tets, self.region_ids, self.region_set, job.model, job.h)  # MeshingError
         job.history.update(interface_faces=np.array([len(faces)]), interface_nodes_dropped=np.array([self.dropped]))

@@ -7,8 +7,15 @@ interface nodes of such cells along the interface: random moves in the tangent p
 on the interface, of which the one that raises the worst score of the node's cells (in every
 region) most is kept; every cell stays positive. A node on the rim of an interface (on the
 part's surface) moves along the rim, put back on the curve where the interface meets the
-surface. Nodes the quality stage pins (the part's sharp edges and corners) and nodes on a sharp
-edge of an interface do not move.
+surface. Nodes the quality stage pins (the part's sharp edges and corners) do not move.
+
+A node where the interface bends (its faces' normals spread by more than ``EDGE_ANGLE``) may lie
+on a sharp edge of the interface, which a move along the surface would cut across, or on an edge
+rounded over a voxel or so (a label image's flat cap meeting a curved side), where the loop left
+nodes a fraction of h apart and the cells between them flat. Such a node takes only moves that
+keep its interface faces on the interface: the centres of its faces and of their edges stay
+within ``max(before, BEND_TOL h)`` of it, so a node on a sharp edge stays (a face across the edge
+would stand off it) while one on a rounded edge slides along it.
 """
 
 from __future__ import annotations
@@ -24,8 +31,10 @@ from .partition import RegionSet
 __all__ = ["smooth_interface_nodes", "EDGE_ANGLE"]
 
 #: Interface faces around a node whose normals differ by more than this (degrees) meet at a
-#: sharp edge of the interface: the node stays.
+#: sharp edge of the interface, or a rounded one: the node moves only if its faces stay on the interface.
 EDGE_ANGLE = 20.0
+#: A bent node's faces may stand this far (times h) off the interface after a move, or as far as before.
+BEND_TOL = 1e-3
 
 
 def _smooth_nodes(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -40,6 +49,17 @@ def _smooth_nodes(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     worst = np.ones(len(points))
     np.minimum.at(worst, faces.ravel(), cosine)
     return worst >= np.cos(np.radians(EDGE_ANGLE))
+
+
+def _face_deviation(candidates: np.ndarray, node: int, node_faces: np.ndarray, points: np.ndarray,
+                    regions: RegionSet) -> np.ndarray:
+    """(C,) the largest distance from the interface (the second-smallest region value) of the
+    centres of ``node_faces`` and of their edges, with ``node`` at each of ``candidates`` (C, 3)."""
+    corners = np.broadcast_to(points[node_faces], (len(candidates),) + node_faces.shape + (3,)).copy()
+    corners[:, node_faces == node] = candidates[:, None, :]
+    samples = np.concatenate([corners.mean(axis=2)[:, :, None], 0.5 * (corners + np.roll(corners, 1, axis=2))], axis=2)
+    values = np.sort(np.abs(regions.values(samples.reshape(-1, 3))), axis=1)[:, 1]
+    return values.reshape(len(candidates), -1).max(axis=1)
 
 
 def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.ndarray, regions: RegionSet, model,
@@ -57,10 +77,12 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
     other = np.full(n, -1, np.int64)
     other[faces.ravel()] = np.repeat(region_ids[second], 3)
     rim = on_interface & (np.abs(np.asarray(model(points))) <= 1e-6 * h)
-    movable = on_interface & (_smooth_nodes(points, faces) | rim)
+    bent = on_interface & ~_smooth_nodes(points, faces) & ~rim
+    movable = on_interface.copy()
     if pinned is not None:
         movable &= ~pinned
     start, cell_ids = vertex_stars(tets, n)
+    face_start, face_ids = vertex_stars(faces, n)
     score = targets.score
     quality = score(points[tets])
     rng = np.random.default_rng(seed)
@@ -86,6 +108,10 @@ def smooth_interface_nodes(points: np.ndarray, tets: np.ndarray, region_ids: np.
                 candidates = region.project(points[node] + offsets, iterations=20, tol=1e-6 * h, warn=False)
                 on = regions.on_interface(candidates, 1e-4 * h) & (np.asarray(model(candidates)) < -1e-6 * h)
             candidates = candidates[on]
+            if bent[node] and len(candidates):
+                node_faces = faces[face_ids[face_start[node]:face_start[node + 1]]]
+                before = _face_deviation(points[node][None], node, node_faces, points, regions)[0]
+                candidates = candidates[_face_deviation(candidates, node, node_faces, points, regions) <= max(before, BEND_TOL * h)]
             moved = np.broadcast_to(points[tets[star]], (len(candidates), len(star), 4, 3)).copy()
             moved[:, tets[star] == node] = candidates[:, None, :]
             chosen = best_candidate(moved, quality[star].min(), score) if len(candidates) else None
