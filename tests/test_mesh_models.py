@@ -197,18 +197,30 @@ def test_holes_are_closed():
 
 
 def test_overlapping_shells_are_united():
+    # the shells cross between grid vertices: their inner walls are dropped by the winding number
+    # (triangles crossing the other shell split at the seam)
     fine = lambda center: pv.Cube(center=center).triangulate().subdivide(4, "linear")  # sides 1/16
-    model = sdf.mesh(fine((0, 0, 0)) + fine((0.5, 0.5, 0.5)))
+    model = sdf.mesh(fine((0, 0, 0)) + fine((0.47, 0.53, 0.5)))
     assert model.repaired.internal > 0 and not model.exact
-    # inside the overlap the solid goes on: the inner walls are gone. Triangles that cross the
-    # other shell are kept whole, so the distance is right to within a triangle near the seams:
-    # the nearest boundary of the union is the re-entrant edge x = 0.5, y = 0 at 0.354
-    assert model([0.25, 0.25, 0.25]) == pytest.approx(-np.sqrt(2) / 4, abs=np.sqrt(2) / 16)
-    assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.25, abs=1e-12)
+    # inside the overlap the solid goes on: the inner walls are gone; the nearest boundary of the
+    # union is the re-entrant edge x = 0.5, y = 0.03, to within a triangle near the seams
+    assert model([0.25, 0.25, 0.25]) == pytest.approx(-np.hypot(0.25, 0.22), abs=np.sqrt(2) / 16)
+    assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.22, abs=1e-6)  # in the second cube only
     assert model([0.9, 0.9, 0.9]) < 0 and model([-0.4, -0.4, -0.4]) < 0 and model([0.9, -0.4, 0.0]) > 0
     grid = fepre.sample(model, spacing=0.02)
-    assert grid.fepre.isosurface().volume == pytest.approx(2.0 - 0.125, rel=0.01)
+    assert grid.fepre.isosurface().volume == pytest.approx(2.0 - 0.53 * 0.47 * 0.5, rel=0.01)
 
+
+def test_overlapping_shells_that_meet_along_shared_edges_are_united_exactly():
+    # offset by whole grid steps, the shells share the vertices and edges where their faces cross
+    # (edges of four triangles): the patches each encloses in the other are contacts, dropped
+    # whole, and the union's boundary is exact
+    fine = lambda center: pv.Cube(center=center).triangulate().subdivide(4, "linear")  # sides 1/16
+    model = sdf.mesh(fine((0, 0, 0)) + fine((0.5, 0.5, 0.5)))
+    assert model.repaired.contacts > 0 and model.repaired.closed
+    assert model.volume == pytest.approx(2.0 - 0.125, abs=1e-12)
+    assert model([0.25, 0.25, 0.25]) == pytest.approx(-np.sqrt(2) / 4, abs=1e-12)  # the re-entrant edge
+    assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.25, abs=1e-12)
 
 
 def test_an_assembly_s_winding_number_summed_body_by_body_is_the_whole_s():

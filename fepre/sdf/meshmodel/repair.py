@@ -9,7 +9,11 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    vertex and duplicates (the same three vertices in any order);
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
-   material lies outside it) the right way;
+   material lies outside it) the right way; where bodies that touch share their contact face,
+   written once (a fragmented multi-volume export) or twice, the patch between them, bounded by
+   edges of three or more triangles, is dropped when the rest of the surface encloses it (its
+   winding number there is near 1, not 1/2 as at a patch of the boundary), and the rest oriented
+   again: the union's boundary;
 3. close holes: every boundary loop that is a simple cycle is closed, flat when its rim is planar
    (a missing CAD face), else with a smooth patch (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
@@ -64,6 +68,9 @@ class Repair:
         (signed: positive where they bulge out).
     open_edges : int
         Boundary edges left open (where the edges into and out of a vertex do not match).
+    contacts : int
+        Triangles dropped from patches between touching bodies (faces of a contact written once
+        or twice; step 2).
     closed : bool
         Every edge is shared by exactly two triangles that traverse it in opposite directions.
     filled : ndarray
@@ -88,6 +95,7 @@ class Repair:
     flat_holes: int = 0
     hole_bulge: float = 0.0
     cut_holes: int = 0
+    contacts: int = 0
     tree: Any = field(default=None, repr=False, compare=False)
 
     def __getstate__(self) -> dict:
@@ -99,7 +107,7 @@ class Repair:
     @property
     def changed(self) -> bool:
         """True when anything beyond merging vertices was needed."""
-        return bool(self.degenerate or self.duplicates or self.flipped or self.holes or self.internal)
+        return bool(self.degenerate or self.duplicates or self.flipped or self.holes or self.internal or self.contacts)
 
     def summary(self) -> str:
         """What was repaired, in words (empty when the input was clean)."""
@@ -110,6 +118,7 @@ class Repair:
             (self.flipped, "triangles turned over"),
             (self.holes, f"holes closed (area {self.hole_area:.4g}, {self.flat_holes} of them flat"
                          + (f", {self.cut_holes} across a cut" if self.cut_holes else "") + ")"),
+            (self.contacts, "triangles between touching bodies dropped"),
             (self.internal, "triangles inside or outside the solid dropped"),
             (self.open_edges, "boundary edges left open"),
         ):
@@ -144,6 +153,39 @@ def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int,
     new[1:] = np.any(ordered[order[1:]] != ordered[order[:-1]], axis=1)
     first = np.sort(order[new])
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
+
+
+#: A patch bounded by edges of three or more triangles lies between two bodies when the rest of
+#: the surface's winding number on it exceeds this (about 1 there, about 1/2 on a boundary patch).
+CONTACT_WINDING = 0.75
+
+
+def _drop_contacts(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """Faces less the patches between touching bodies (see the module's step 2) and their count."""
+    edges, face_edge, forward = edge_table(faces)
+    a, b, _, counts = manifold_pairs(face_edge, forward, len(edges))
+    branched = (counts[face_edge] >= 3).any(axis=1)
+    if not branched.any():
+        return faces, 0
+    graph = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(len(faces), len(faces))).tocsr()
+    _, label = csgraph.connected_components(graph, directed=False)
+    candidates = np.unique(label[branched])
+    if len(candidates) > MAX_NESTED_PIECES:  # an assembly of many bodies: left to the winding-number step
+        return faces, 0
+    import igl
+
+    _, areas = face_normals(vertices, faces)
+    dropped = np.zeros(len(faces), dtype=bool)
+    for piece in candidates.tolist():  # a few patches, each asked at one point
+        members = np.flatnonzero(label == piece)
+        largest = members[np.argmax(areas[members])]
+        rest = faces[(label != piece) & ~dropped]
+        if not len(rest):
+            continue
+        point = vertices[faces[largest]].mean(axis=0)[None]
+        if abs(float(np.asarray(igl.winding_number(vertices, rest, point)).ravel()[0])) > CONTACT_WINDING:
+            dropped[members] = True
+    return faces[~dropped], int(dropped.sum())
 
 
 def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
@@ -449,6 +491,9 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
                       flipped=0, holes=0, hole_area=0.0, internal=0, open_edges=0, closed=True,
                       filled=np.zeros(len(faces), dtype=bool))
     faces, flipped = _orient(vertices, faces)
+    faces, contacts = _drop_contacts(vertices, faces)
+    if contacts:
+        faces, flipped = _orient(vertices, faces)
     original = len(faces)
     holes = fill_holes(vertices, faces)
     vertices, faces, open_edges = holes.vertices, holes.faces, holes.open_edges
@@ -470,6 +515,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
         holes=holes.holes,
         hole_area=holes.area,
         internal=internal,
+        contacts=contacts,
         open_edges=open_edges,
         closed=_is_closed(faces),
         filled=filled,
