@@ -90,3 +90,14 @@ def test_the_reference_of_overlapping_shells_is_their_union(tmp_path):
     ref = real_models.reference(tmp_path / "two.stl", samples=400_000)
     assert ref.closed and ref.overlapping
     assert ref.volume == pytest.approx(1.5, rel=0.01)
+
+
+def test_the_reference_of_a_closed_surface_written_inside_out_is_its_volume(tmp_path):
+    """CGAL's beam.off, a box whose faces all point inwards: closed and consistently oriented,
+    its winding number -1 inside; it was taken for overlapping shells and its volume for 0."""
+    box = pv.Cube(x_length=0.4, y_length=0.4, z_length=3.6).triangulate()
+    pv.PolyData(box.points, np.column_stack([np.full(box.n_cells, 3), box.faces.reshape(-1, 4)[:, 1:][:, ::-1]]).ravel()).save(
+        tmp_path / "beam.stl")
+    ref = real_models.reference(tmp_path / "beam.stl", samples=100_000)
+    assert ref.closed and not ref.overlapping
+    assert ref.volume == pytest.approx(0.576, rel=1e-6)  # the STL's float32 coordinates

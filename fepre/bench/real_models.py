@@ -121,6 +121,10 @@ def reference(path: Path, samples: int = 1_000_000) -> Reference:
     faces = inverse.reshape(-1)[faces]
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
     closed = _closed_and_oriented(faces)
+    if closed:
+        a, b, c = (rounded[faces[:, k]] for k in range(3))
+        if np.einsum("ij,ij->i", a, np.cross(b, c)).sum() < 0:  # written inside out: its winding number is -1
+            faces = faces[:, ::-1]
     overlapping = closed and _overlaps(rounded, faces, max(samples // 10, 10_000))
     if closed and not overlapping:
         a, b, c = (rounded[faces[:, k]] for k in range(3))
