@@ -270,3 +270,35 @@ def test_touching_bodies_that_share_their_contact_face_are_their_union(tmp_path,
     assert model([[1.0, 1.0, 1.05]])[0] == pytest.approx(-0.5, abs=1e-9)  # in the cube, above the contact
     assert model([[1.0, 1.0, 0.95]])[0] == pytest.approx(-np.hypot(0.5, 0.05), abs=1e-9)  # in the slab: to the contact's rim
     assert model([[0.25, 0.25, 1.05]])[0] == pytest.approx(0.05, abs=1e-9)  # above the slab, beside the cube
+
+
+def test_contacts_that_meet_each_other_are_left_to_the_winding_number(tmp_path):
+    # a 2 x 2 x 2 stack of fragmented cubes: twelve contact squares meeting along lines, each
+    # one's answer biased by the others beside it; a partial drop would leave the surface open
+    # (before this guard: 8 open edges), so the step drops nothing and the winding-number step
+    # runs as before
+    import sys
+
+    import gmsh
+
+    repair_module = sys.modules["fepre.sdf.meshmodel.repair"]
+    from fepre.sdf.meshmodel.read import read_triangles
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        cubes = [(3, occ.addBox(i, j, k, 1, 1, 1)) for i in range(2) for j in range(2) for k in range(2)]
+        occ.fragment(cubes[:1], cubes[1:])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(tmp_path / "stack.stl"))
+    finally:
+        gmsh.finalize()
+    vertices, faces, _ = read_triangles(tmp_path / "stack.stl")
+    vertices, faces, _ = repair_module._merge_vertices(vertices, faces, weld=True)
+    faces, _, _ = repair_module._drop_degenerate_and_duplicates(faces)
+    faces, _ = repair_module._orient(vertices, faces)
+    kept, dropped = repair_module._drop_contacts(vertices, faces)
+    assert dropped == 0 and len(kept) == len(faces)
