@@ -9,11 +9,11 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    vertex and duplicates (the same three vertices in any order);
 2. orient every connected piece consistently across its manifold edges, keeping the
    orientation most of its triangles had, and turn pieces that are inside out (a solid whose
-   material lies outside it) the right way; where bodies that touch share their contact face,
-   written once (a fragmented multi-volume export) or twice, the patch between them, bounded by
-   edges of three or more triangles, is dropped when the rest of the surface encloses it (its
-   winding number there is near 1, not 1/2 as at a patch of the boundary), and the rest oriented
-   again: the union's boundary;
+   material lies outside it) the right way; where bodies that touch share their contact faces,
+   written once (a fragmented multi-volume export) or twice, the faces with material on both
+   sides are dropped and the rest oriented again: the union's boundary (the sides of the faces
+   are joined into the cells of space they bound, sorting the triangles around each edge of
+   three or more by angle);
 3. close holes: every boundary loop that is a simple cycle is closed, flat when its rim is planar
    (a missing CAD face), else with a smooth patch (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
@@ -155,58 +155,70 @@ def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int,
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
 
 
-#: A patch bounded by edges of three or more triangles lies between two bodies when the rest of
-#: the surface's winding number on it exceeds this (about 1 there, about 1/2 on a boundary patch).
-CONTACT_WINDING = 0.75
-#: Patches times triangles beyond which the patches are not asked (each one's point reads every
-#: triangle): about a second.
-CONTACT_WORK = 5e7
+def _material_sides(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray, edges: np.ndarray,
+                    face_edge: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """(F, 2) bool: whether the cell of space in front of (column 0) and behind (1) each face is
+    material, from the cells of the faces' arrangement.
 
-
-def _solid_angles_by_piece(vertices: np.ndarray, faces: np.ndarray, label: np.ndarray, pieces: int,
-                           points: np.ndarray) -> np.ndarray:
-    """(P, pieces): the winding number of each piece's triangles at each point (Van Oosterom and
-    Strackee's solid angle over 4 pi; a point on a triangle gets 0 from it)."""
-    out = np.zeros((len(points), pieces))
-    membership = sparse.csr_matrix((np.ones(len(faces)), (label, np.arange(len(faces)))), shape=(pieces, len(faces)))
-    rows = max(1, int(4e6 // max(len(faces), 1)))
-    for first in range(0, len(points), rows):
-        p = points[first:first + rows, None, None, :]
-        a, b, c = (vertices[faces[:, k]][None] - p[:, :, 0] for k in range(3))
-        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
-        numerator = np.einsum("pfk,pfk->pf", a, np.cross(b, c))
-        denominator = (la * lb * lc + np.einsum("pfk,pfk->pf", a, b) * lc + np.einsum("pfk,pfk->pf", a, c) * lb
-                       + np.einsum("pfk,pfk->pf", b, c) * la)
-        angle = 2.0 * np.arctan2(numerator, denominator) / (4.0 * np.pi)
-        out[first:first + len(angle)] = (membership @ angle.T).T
-    return out
+    Each face has two sides. Across an edge of two triangles the sides join as the orientation
+    says; around an edge of three or more the triangles are sorted by angle and the sides that
+    face each other across each wedge between neighbours join. The joined sides are the cells.
+    The cell that the face farthest along -x looks into is outside; a cell that every one of its
+    faces looks into (their normals point into it) is a void; every other cell is material.
+    """
+    count = len(faces)
+    owner = np.repeat(np.arange(count), 3)
+    edge, direction = face_edge.reshape(-1), forward.reshape(-1)
+    order = np.argsort(edge, kind="stable")
+    edge, owner, direction = edge[order], owner[order], direction[order]
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    normals, areas = face_normals(vertices, faces)
+    two = np.flatnonzero(counts == 2)
+    f, g = owner[starts[two]], owner[starts[two] + 1]
+    agree = direction[starts[two]] != direction[starts[two] + 1]  # side k of face f is node 2 f + k
+    rows = [2 * f, 2 * f + 1]
+    cols = [np.where(agree, 2 * g, 2 * g + 1), np.where(agree, 2 * g + 1, 2 * g)]
+    many = np.flatnonzero(counts >= 3)
+    sizes = counts[many]
+    offsets = np.cumsum(sizes) - sizes
+    group = np.repeat(np.arange(len(many)), sizes)
+    fs = owner[np.repeat(starts[many], sizes) + np.arange(sizes.sum()) - np.repeat(offsets, sizes)]
+    ends = edges[many[group]]
+    axis = vertices[ends[:, 1]] - vertices[ends[:, 0]]
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    spoke = vertices[faces[fs].sum(axis=1) - ends.sum(axis=1)] - vertices[ends[:, 0]]  # to the third corner
+    spoke -= np.einsum("ij,ij->i", spoke, axis)[:, None] * axis
+    spoke /= np.maximum(np.linalg.norm(spoke, axis=1), 1e-300)[:, None]
+    reference = spoke[np.repeat(offsets, sizes)]
+    angle = np.arctan2(np.einsum("ij,ij->i", spoke, np.cross(axis, reference)), np.einsum("ij,ij->i", spoke, reference))
+    order = np.lexsort((angle, group))
+    fs, spoke, axis = fs[order], spoke[order], axis[order]
+    ahead = np.einsum("ij,ij->i", normals[fs], np.cross(axis, spoke)) > 0  # the front faces the larger angles
+    following = np.arange(len(fs)) + 1
+    following[offsets + sizes - 1] = offsets  # around the edge
+    rows.append(np.where(ahead, 2 * fs, 2 * fs + 1))
+    cols.append(np.where(ahead, 2 * fs + 1, 2 * fs)[following])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = sparse.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(2 * count, 2 * count))
+    cells, cell = csgraph.connected_components(graph, directed=False)
+    behind = np.bincount(cell, weights=np.column_stack([-areas, areas]).ravel(), minlength=cells)
+    material = behind > -0.999 * np.bincount(cell, weights=np.repeat(areas, 2), minlength=cells)
+    low = np.argsort(vertices[faces].mean(axis=1)[:, 0], kind="stable")[: max(1, count // 100)]
+    lowest = low[np.argmax(np.abs(normals[low, 0]))]
+    material[cell[2 * lowest + int(normals[lowest, 0] >= 0)]] = False
+    return material[cell].reshape(-1, 2)
 
 
 def _drop_contacts(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
-    """Faces less the patches between touching bodies (see the module's step 2) and their count;
-    kept whole unless what is left is closed (every edge in an even number of triangles)."""
+    """Faces less those between two material cells (see the module's step 2, :func:`_material_sides`)
+    and their count; kept whole unless every edge is then in an even number of triangles."""
     edges, face_edge, forward = edge_table(faces)
-    a, b, _, counts = manifold_pairs(face_edge, forward, len(edges))
-    branched = (counts[face_edge] >= 3).any(axis=1)
-    if not branched.any():
+    counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
+    if not (counts >= 3).any():
         return faces, 0
-    graph = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(len(faces), len(faces))).tocsr()
-    pieces, label = csgraph.connected_components(graph, directed=False)
-    candidates = np.unique(label[branched])
-    if len(candidates) * len(faces) > CONTACT_WORK:  # left to the winding-number step
-        return faces, 0
-    _, areas = face_normals(vertices, faces)
-    largest = np.array([members[np.argmax(areas[members])] for members in
-                        np.split(np.argsort(label, kind="stable"), np.cumsum(np.bincount(label, minlength=pieces))[:-1])])
-    points = vertices[faces[largest[candidates]]].mean(axis=1)
-    by_piece = _solid_angles_by_piece(vertices, faces, label, pieces, points)
-    by_piece[np.arange(len(candidates)), candidates] = 0.0  # each asks the rest of the surface
-    inside = np.abs(by_piece.sum(axis=1)) > CONTACT_WINDING
-    dropped = np.isin(label, candidates[inside])
+    sides = _material_sides(vertices, faces, counts, edges, face_edge, forward)
+    dropped = sides.all(axis=1)
     if not dropped.any() or not _even_edges(faces[~dropped]):
-        # several contacts meeting: each one's answer is biased by the others' single-sided faces
-        # beside its point (by up to 0.8 in a 2 x 2 x 2 stack of cubes), so the drops do not close
-        # the surface; left to the winding-number step, as before
         return faces, 0
     return faces[~dropped], int(dropped.sum())
 
