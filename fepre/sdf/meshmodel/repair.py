@@ -155,8 +155,8 @@ def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int,
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
 
 
-def _material_sides(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray, edges: np.ndarray,
-                    face_edge: np.ndarray, forward: np.ndarray) -> np.ndarray:
+def _material_sides(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, face_edge: np.ndarray,
+                    forward: np.ndarray) -> np.ndarray:
     """(F, 2) bool: whether the cell of space in front of (column 0) and behind (1) each face is
     material, from the cells of the faces' arrangement.
 
@@ -167,23 +167,19 @@ def _material_sides(vertices: np.ndarray, faces: np.ndarray, counts: np.ndarray,
     faces looks into (their normals point into it) is a void; every other cell is material.
     """
     count = len(faces)
-    owner = np.repeat(np.arange(count), 3)
-    edge, direction = face_edge.reshape(-1), forward.reshape(-1)
-    order = np.argsort(edge, kind="stable")
-    edge, owner, direction = edge[order], owner[order], direction[order]
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    f, g, agree, counts = manifold_pairs(face_edge, forward, len(edges))
     normals, areas = face_normals(vertices, faces)
-    two = np.flatnonzero(counts == 2)
-    f, g = owner[starts[two]], owner[starts[two] + 1]
-    agree = direction[starts[two]] != direction[starts[two] + 1]  # side k of face f is node 2 f + k
-    rows = [2 * f, 2 * f + 1]
+    rows = [2 * f, 2 * f + 1]  # side k of face f is node 2 f + k
     cols = [np.where(agree, 2 * g, 2 * g + 1), np.where(agree, 2 * g + 1, 2 * g)]
-    many = np.flatnonzero(counts >= 3)
-    sizes = counts[many]
+    # the triangles around each edge of three or more, grouped by edge
+    branched = counts[face_edge.reshape(-1)] >= 3
+    edge = face_edge.reshape(-1)[branched]
+    order = np.argsort(edge, kind="stable")
+    edge, fs = edge[order], np.repeat(np.arange(count), 3)[branched][order]
+    many, sizes = np.unique(edge, return_counts=True)
     offsets = np.cumsum(sizes) - sizes
     group = np.repeat(np.arange(len(many)), sizes)
-    fs = owner[np.repeat(starts[many], sizes) + np.arange(sizes.sum()) - np.repeat(offsets, sizes)]
-    ends = edges[many[group]]
+    ends = edges[edge]
     axis = vertices[ends[:, 1]] - vertices[ends[:, 0]]
     axis /= np.linalg.norm(axis, axis=1)[:, None]
     spoke = vertices[faces[fs].sum(axis=1) - ends.sum(axis=1)] - vertices[ends[:, 0]]  # to the third corner
@@ -213,10 +209,9 @@ def _drop_contacts(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     """Faces less those between two material cells (see the module's step 2, :func:`_material_sides`)
     and their count; kept whole unless every edge is then in an even number of triangles."""
     edges, face_edge, forward = edge_table(faces)
-    counts = np.bincount(face_edge.reshape(-1), minlength=len(edges))
-    if not (counts >= 3).any():
+    if not (np.bincount(face_edge.reshape(-1), minlength=len(edges)) >= 3).any():
         return faces, 0
-    sides = _material_sides(vertices, faces, counts, edges, face_edge, forward)
+    sides = _material_sides(vertices, faces, edges, face_edge, forward)
     dropped = sides.all(axis=1)
     if not dropped.any() or not _even_edges(faces[~dropped]):
         return faces, 0
@@ -535,7 +530,8 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     faces, flipped = _orient(vertices, faces)
     faces, contacts = _drop_contacts(vertices, faces)
     if contacts:
-        faces, flipped = _orient(vertices, faces)
+        faces, turned = _orient(vertices, faces)  # the union's boundary is one surface now
+        flipped += turned
     original = len(faces)
     holes = fill_holes(vertices, faces)
     vertices, faces, open_edges = holes.vertices, holes.faces, holes.open_edges
