@@ -139,9 +139,9 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--set", choices=("thin", "cad"), default="thin",
                         help="thin: the thin-feature parts (default); cad: ordinary CAD parts (fepre.cad_parts) "
                              "against issue 33's targets, each at its own (hmin, hmax)")
-    parser.add_argument("--uniform-limit", type=float, default=60_000,
+    parser.add_argument("--uniform-limit", type=float, default=250_000,
                         help="--set cad: mesh the uniform mesh at hmin when its estimated cells are at most this "
-                             "(default 60000), else print the estimate")
+                             "(default 250000: every part of the set; 4 s for the largest), else print the estimate")
     parser.add_argument("--no-far", action="store_true", help="--set cad: skip the copy translated far from the origin")
     args = parser.parse_args(argv)
     if not args.hmin > 0:

@@ -3,7 +3,10 @@
 DistMesh's meshes hold about ``CELLS_PER_H3`` cells per ``h^3`` of volume (measured: a revolved
 shaft, 17,760 cells in 17,090 mm^3 at h = 2; a sphere, a box with holes and a gyroid block fall
 within 10% of it). For a size field the count is the integral of ``CELLS_PER_H3 / size^3`` over
-the part, summed over the nodes of a grid inside it.
+the part, summed over the nodes of a 48^3 grid, each weighted by the share of its cell inside the
+part (``1/2 - value / spacing``, clipped to [0, 1]). Counting only the nodes inside left walls a
+few grid cells thick short by up to 18% (a housing with 3 mm walls: 0.817 of its volume, now
+1.000); the 14 CAD parts of :mod:`fepre.cad_parts` now come within 1%.
 """
 
 from __future__ import annotations
@@ -40,14 +43,14 @@ def estimated_cells(model, size, h: float, lower: np.ndarray, upper: np.ndarray,
     axes = [np.linspace(lower[k], upper[k], counts) for k in range(3)]
     cell = np.prod((upper - lower) / (counts - 1))
     values = model.values_on_axes(*axes, dtype=np.float64)
-    inside = values < 0
-    if not inside.any():
+    share = np.clip(0.5 - values / cell ** (1.0 / 3.0), 0.0, 1.0)  # of each node's cell inside the part
+    if not share.any():
         return 0.0
     if size is None:
-        return float(CELLS_PER_H3 * inside.sum() * cell / h**3)
-    z, y, x = np.nonzero(inside)
+        return float(CELLS_PER_H3 * share.sum() * cell / h**3)
+    z, y, x = np.nonzero(share)
     points = np.stack([axes[0][x], axes[1][y], axes[2][z]], axis=1)
     sizes = np.asarray(size(points), dtype=np.float64)
     if not absolute:
         sizes = h * sizes / sizes.min()
-    return float(CELLS_PER_H3 * cell * np.sum(np.maximum(sizes, h) ** -3.0))
+    return float(CELLS_PER_H3 * cell * np.sum(share[z, y, x] * np.maximum(sizes, h) ** -3.0))
