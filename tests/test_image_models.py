@@ -187,3 +187,25 @@ def test_nifti_and_tiff_stacks(tmp_path, ball_image, ball):
     tifffile.imwrite(tmp_path / "ball.tif", np.transpose(values, (2, 1, 0)))  # slices along z
     stack = sdf.image(tmp_path / "ball.tif", level=0.5)  # voxels of 1, from the origin
     assert np.allclose(stack.vertices * SPACING + np.asarray(ball_image.origin), ball.vertices, atol=1e-6)
+
+
+def test_samples_a_hair_off_the_level_give_no_collapsed_triangles():
+    """Samples one float32 step above the level put the crossings of their edges at the node
+    once the coordinates are rounded: triangles with two corners at one position reached the
+    distance kernel, which divided 0 by 0 (ZeroDivisionError on evaluating the model)."""
+    x, y, z = np.mgrid[-1:1:21j, -1:1:21j, -1:1:21j]
+    values = (1.0 - np.sqrt(x**2 + y**2 + z**2)).astype(np.float32)
+    level = np.float32(0.3)
+    near = np.abs(values - level) < 0.04
+    values[near] = np.nextafter(level, np.float32(1))
+    model = sdf.image(values, level=float(level), spacing=0.1, origin=-1.0, refine=1)
+    corners = [model.vertices[model.faces[:, k]] for k in range(3)]
+    assert not any((corners[i] == corners[j]).all(axis=1).any() for i, j in ((0, 1), (1, 2), (0, 2)))
+    points = np.stack(np.meshgrid(*[np.linspace(-1, 1, 23)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    values_at = model(points)
+    inside = values_at < 0
+    # the solid holds every sample above the level and none more than a voxel beyond them
+    above = (1.0 - np.linalg.norm(points, axis=1)) > 0.3 + 0.04 + 0.1 * np.sqrt(3)
+    assert inside[above].all()
+    assert not inside[np.linalg.norm(points, axis=1) > 0.7 + 0.04 + 0.1 * np.sqrt(3)].any()
+    assert model.volume == pytest.approx(4 / 3 * np.pi * 0.7**3, rel=0.1)

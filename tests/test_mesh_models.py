@@ -364,8 +364,13 @@ def test_tree_on_triangle_soup_against_brute_force(seed):
     count = 300
     vertices = rng.uniform(-1, 1, (3 * count, 3)) * rng.uniform(0.01, 1.0, (3 * count, 1))
     faces = np.arange(3 * count).reshape(-1, 3)
-    faces[:10, 2] = faces[:10, 1]  # zero-area triangles (two corners equal)
+    # zero-area triangles: two corners equal, each pair (a = b divided 0 by 0 before), or all three
+    faces[:3, 1] = faces[:3, 0]
+    faces[3:6, 2] = faces[3:6, 1]
+    faces[6:9, 2] = faces[6:9, 0]
+    faces[9, 1:] = faces[9, 0]
     vertices[faces[10:20, 2]] = vertices[faces[10:20, 0]] * 0.5 + vertices[faces[10:20, 1]] * 0.5  # collinear
+    vertices[faces[10:13, 1]] = vertices[faces[10:13, 0]]  # and two of them at one position
     points = rng.uniform(-1.5, 1.5, (500, 3))
     squared, face, closest, _ = TriangleTree(vertices, faces).query(points)
     expected = brute_distance(points, vertices, faces[20:])  # the brute force skips degenerate ones

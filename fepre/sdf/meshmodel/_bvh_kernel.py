@@ -17,6 +17,27 @@ def _box_squared(px, py, pz, lower, upper, node):
 
 
 @njit(cache=True, nogil=True)
+def _closest_on_sides(px, py, pz, tri, out):
+    """The closest point on the three sides of a triangle of zero area (collinear or coincident
+    corners); writes it into out[0:3] and returns the side's region code (3: ab, 4: bc, 5: ca)."""
+    best = np.inf
+    region = 3
+    for side in range(3):
+        s, e = side, (side + 1) % 3
+        ex, ey, ez = tri[e, 0] - tri[s, 0], tri[e, 1] - tri[s, 1], tri[e, 2] - tri[s, 2]
+        length = ex * ex + ey * ey + ez * ez
+        t = ((px - tri[s, 0]) * ex + (py - tri[s, 1]) * ey + (pz - tri[s, 2]) * ez) / length if length > 0.0 else 0.0
+        t = min(max(t, 0.0), 1.0)
+        qx, qy, qz = tri[s, 0] + t * ex, tri[s, 1] + t * ey, tri[s, 2] + t * ez
+        squared = (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
+        if squared < best:
+            best = squared
+            out[0], out[1], out[2] = qx, qy, qz
+            region = (3, 4, 5)[side]
+    return region
+
+
+@njit(cache=True, nogil=True)
 def _closest_on_triangle(px, py, pz, tri, out):
     """Ericson's closest point on a triangle (Real-Time Collision Detection, 5.1.5): writes the
     point into out[0:3] and returns the region code (0-2 corner, 3-5 side, 6 interior)."""
@@ -39,6 +60,8 @@ def _closest_on_triangle(px, py, pz, tri, out):
         return 1
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        if d1 <= d3:  # d1 - d3 = |ab|^2: a and b coincide, the triangle is its side ca
+            return _closest_on_sides(px, py, pz, tri, out)
         v = d1 / (d1 - d3)
         out[0], out[1], out[2] = ax + v * abx, ay + v * aby, az + v * abz
         return 3
@@ -50,18 +73,22 @@ def _closest_on_triangle(px, py, pz, tri, out):
         return 2
     vb = d5 * d2 - d1 * d6
     if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        if d2 <= d6:  # |ac|^2
+            return _closest_on_sides(px, py, pz, tri, out)
         w = d2 / (d2 - d6)
         out[0], out[1], out[2] = ax + w * acx, ay + w * acy, az + w * acz
         return 5
     va = d3 * d6 - d5 * d4
     if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        side = (d4 - d3) + (d5 - d6)  # |bc|^2
+        if side <= 0.0:
+            return _closest_on_sides(px, py, pz, tri, out)
+        w = (d4 - d3) / side
         out[0], out[1], out[2] = bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz)
         return 4
     total = va + vb + vc
-    if total == 0.0:  # a degenerate triangle: its longest side holds the closest point
-        out[0], out[1], out[2] = ax, ay, az
-        return 0
+    if total == 0.0:  # a degenerate triangle (collinear corners): its sides hold the closest point
+        return _closest_on_sides(px, py, pz, tri, out)
     v = vb / total
     w = vc / total
     out[0] = ax + abx * v + acx * w

@@ -144,6 +144,12 @@ def _merge_vertices(vertices: np.ndarray, faces: np.ndarray, *, weld: bool = Fal
     return ordered[new], remap[faces], int(len(used) - int(new.sum()))
 
 
+def _collapsed(vertices: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether some triangle has two corners at the same position."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    return bool(((a == b).all(axis=1) | (b == c).all(axis=1) | (a == c).all(axis=1)).any())
+
+
 def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int, int]:
     repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
     faces = faces[~repeated]
@@ -504,7 +510,9 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     alike) stops after step 1 when the surface is then closed: the steps after it would leave
     such a surface as it is, and on millions of triangles they cost gigabytes. With
     ``coincident=False`` as well (no grid node exactly on the level: no two crossings meet, so
-    no vertex repeats and no triangle collapses) step 1 is skipped too.
+    no vertex repeats and no triangle collapses) step 1 is skipped too, unless a triangle has two
+    corners at one position anyway: a node a hair off the level puts the crossings of its edges
+    at the node once rounded to float32 coordinates.
 
     Examples
     --------
@@ -518,7 +526,7 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    if level_set and not coincident and _closed_oriented(faces):
+    if level_set and not coincident and not _collapsed(vertices, faces) and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=0, degenerate=0, duplicates=0, flipped=0, holes=0,
                       hole_area=0.0, internal=0, open_edges=0, closed=True, filled=np.zeros(len(faces), dtype=bool))
     vertices, faces, merged = _merge_vertices(vertices, faces, weld=not level_set)
