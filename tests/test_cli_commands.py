@@ -96,6 +96,16 @@ def test_info_prints_counts_quality_and_sets(meshed, capsys):
     assert "radius_ratio" in capsys.readouterr().out
 
 
+def test_info_on_a_model_file_names_the_commands_that_take_it(folder, capsys):
+    assert main(["info", str(folder / "ball.py")]) == 1
+    err = capsys.readouterr().err
+    assert "is a model file, not a mesh" in err and f"fepre mesh {folder / 'ball.py'} --h H" in err
+    step = folder / "part.step"
+    step.write_text("ISO-10303-21;\n")
+    assert main(["info", str(step)]) == 1
+    assert "fepre features" in capsys.readouterr().err
+
+
 def test_view_screenshots_are_not_blank(meshed, folder, capsys):
     for source, png in ((meshed / "ball.vtu", "mesh.png"), (folder / "ball.py", "model.png")):
         assert main(["view", str(source), "--screenshot", str(folder / png)]) == 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -21,11 +22,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+#: model files that are not meshes: ``fepre info`` names the commands that take them
+_MODEL_SUFFIXES = (".step", ".stp", ".brep", ".iges", ".igs", ".py", ".nii", ".tif", ".tiff", ".zarr")
+
+
 def _describe_file(name: str) -> str:
     import pyvista as pv
 
     from ..plotting import tetrahedra_of
 
+    if name.lower().endswith(_MODEL_SUFFIXES + (".nii.gz",)) and Path(name).exists():
+        raise ValueError(f"{name} is a model file, not a mesh: fepre info reads meshes and surfaces. Mesh it first "
+                         f"(fepre mesh {name} --h H -o part.vtu, then fepre info part.vtu), or list its sharp "
+                         f"edges with fepre features {name}")
     mesh, sets = files.read_mesh(name)
     celltypes = np.asarray(mesh.celltypes if isinstance(mesh, pv.UnstructuredGrid) else mesh.cast_to_unstructured_grid().celltypes)
     types = {pv.CellType(int(t)).name: int(n) for t, n in zip(*np.unique(celltypes, return_counts=True))}
