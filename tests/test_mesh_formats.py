@@ -297,3 +297,65 @@ def test_contacts_that_meet_each_other_are_dropped_too(tmp_path, count, stagger)
     assert model.volume == pytest.approx(count**3, rel=1e-6)  # the STL's float32 coordinates
     on_contacts = np.array([[1.0, 1.0, 0.5], [1.0, 0.5, 1.0]])
     assert (model(on_contacts) < -0.1).all()  # inside, as far from the surface as the cubes allow
+
+
+def _cylinders_on_one_ring(n: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Two closed cylinders of radius 0.5 standing on one ring of vertices at z = 0, a short one
+    (0.2 high) inside a tall one (1.2 high): their walls lie over each other, and their bottoms
+    (a fan from the centre, a fan from a ring vertex) overlap without being duplicates."""
+    turn = 2 * np.pi * np.arange(n) / n
+    ring = np.stack([0.5 * np.cos(turn), 0.5 * np.sin(turn), np.zeros(n)], axis=1)
+    vertices = np.concatenate([ring, ring + [0, 0, 0.2], ring + [0, 0, 1.2], [[0, 0, 0], [0, 0, 0.2], [0, 0, 1.2]]])
+    r, s, t, centre, short_top, tall_top = 0, n, 2 * n, 3 * n, 3 * n + 1, 3 * n + 2
+    faces = []
+    for k in range(n):
+        j = (k + 1) % n
+        faces += [[r + k, r + j, s + j], [r + k, s + j, s + k], [r + k, r + j, t + j], [r + k, t + j, t + k],
+                  [centre, r + j, r + k], [short_top, s + k, s + j], [tall_top, t + k, t + j]]
+    faces += [[r, r + k + 1, r + k] for k in range(1, n - 1)]
+    return vertices, np.array(faces)
+
+
+def test_a_body_beside_the_lowest_one_is_not_taken_for_material():
+    """The cylinders share 24 edges of four triangles, so the contact step runs. It took the one
+    cell outside the whole surface from the face lowest in x, a box's beside them: the cylinders'
+    own outer cell, whose faces do not all look into it (their walls lie over each other), read as
+    material, every face of theirs had material on both sides, and the cylinders vanished (inside
+    volume 0; a UR20 forearm's STL lost 10%). Each piece now has its own outside cell."""
+    import pyvista as pv
+
+    vertices, faces = _cylinders_on_one_ring()
+    box = pv.Box(bounds=(-3, -2, -0.5, 0.5, 0, 1)).triangulate()
+    box_faces = box.faces.reshape(-1, 4)[:, 1:] + len(vertices)
+    surface = pv.PolyData.from_regular_faces(np.concatenate([vertices, box.points]), np.concatenate([faces, box_faces]))
+    model = sdf.mesh(surface)
+    assert model.repaired.contacts == 0
+    prism = 24 * 0.5 * 0.25 * np.sin(2 * np.pi / 24) * 1.2
+    axis, height = np.linspace(-0.6, 0.6, 61), np.linspace(-0.1, 1.3, 71)
+    points = np.stack(np.meshgrid(axis, axis, height, indexing="ij"), -1).reshape(-1, 3)
+    inside = np.count_nonzero(model(points) < 0) * (axis[1] - axis[0]) ** 2 * (height[1] - height[0])
+    assert inside == pytest.approx(prism, rel=0.02)
+    assert model([[-2.5, 0.0, 0.5]])[0] == pytest.approx(-0.5, abs=1e-9)  # the box kept too
+
+
+def test_a_contact_face_is_dropped_only_where_the_surface_left_encloses_it(tmp_path, monkeypatch):
+    """The guard behind the arrangement's cells: faces the cells wrongly call material on both
+    sides (here, made so: the slab's bottom) stay unless the winding number of the surface left
+    is above 3/4 on both sides of them; the real contact square still goes."""
+    import importlib
+
+    repair = importlib.import_module("fepre.sdf.meshmodel.repair")
+    path = tmp_path / "slab_and_cube.stl"
+    _write_touching_boxes(path, contact_twice=False)
+    honest = sdf.mesh(path).repaired.contacts
+    true_sides = repair._material_sides
+
+    def with_the_bottom(vertices, faces, *args):
+        sides = true_sides(vertices, faces, *args)
+        sides[(np.abs(vertices[faces][..., 2]) < 1e-9).all(axis=1)] = True
+        return sides
+
+    monkeypatch.setattr(repair, "_material_sides", with_the_bottom)
+    model = sdf.mesh(path)
+    assert model.repaired.contacts == honest >= 2 and model.repaired.closed
+    assert model.volume == pytest.approx(5.0, abs=1e-9)

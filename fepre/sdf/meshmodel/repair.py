@@ -13,7 +13,10 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    written once (a fragmented multi-volume export) or twice, the faces with material on both
    sides are dropped and the rest oriented again: the union's boundary (the sides of the faces
    are joined into the cells of space they bound, sorting the triangles around each edge of
-   three or more by angle);
+   three or more by angle). A face is dropped only if the surface left then encloses it (its
+   winding number above ``CONTACT_WINDING`` just in front of it and just behind it): on a
+   surface that crosses itself the cells leak, and a robot link's whole outer shell was taken
+   for material on both sides;
 3. close holes: every boundary loop that is a simple cycle is closed, flat when its rim is planar
    (a missing CAD face), else with a smooth patch (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
@@ -169,8 +172,12 @@ def _material_sides(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, 
     Each face has two sides. Across an edge of two triangles the sides join as the orientation
     says; around an edge of three or more the triangles are sorted by angle and the sides that
     face each other across each wedge between neighbours join. The joined sides are the cells.
-    The cell that the face farthest along -x looks into is outside; a cell that every one of its
-    faces looks into (their normals point into it) is a void; every other cell is material.
+    In each piece of the arrangement (faces joined through shared edges), the cell that its face
+    farthest along -x looks into is outside; a cell that every one of its faces looks into (their
+    normals point into it) is a void; every other cell is material. With one outside cell for
+    the whole surface, a second piece whose own outer cell its faces did not all look into (two
+    bodies of a robot link standing on one ring of edges, their walls over each other) was taken
+    for material, and the whole piece dropped.
     """
     count = len(faces)
     f, g, agree, counts = manifold_pairs(face_edge, forward, len(edges))
@@ -205,23 +212,59 @@ def _material_sides(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, 
     cells, cell = csgraph.connected_components(graph, directed=False)
     behind = np.bincount(cell, weights=np.column_stack([-areas, areas]).ravel(), minlength=cells)
     material = behind > -0.999 * np.bincount(cell, weights=np.repeat(areas, 2), minlength=cells)
-    low = np.argsort(vertices[faces].mean(axis=1)[:, 0], kind="stable")[: max(1, count // 100)]
-    lowest = low[np.argmax(np.abs(normals[low, 0]))]
-    material[cell[2 * lowest + int(normals[lowest, 0] >= 0)]] = False
+    lowest = _lowest_faces(faces, face_edge, len(edges), vertices[faces].mean(axis=1)[:, 0], np.abs(normals[:, 0]))
+    material[cell[2 * lowest + (normals[lowest, 0] >= 0)]] = False
     return material[cell].reshape(-1, 2)
+
+
+def _lowest_faces(faces: np.ndarray, face_edge: np.ndarray, edge_count: int, x: np.ndarray,
+                  facing: np.ndarray) -> np.ndarray:
+    """Per piece of faces joined through shared edges: of its hundredth of faces lowest in ``x``
+    (at least one), the one whose normal is most along x (``facing``, its |n_x|)."""
+    count = len(faces)
+    incidence = sparse.coo_matrix((np.ones(3 * count), (np.repeat(np.arange(count), 3), count + face_edge.reshape(-1))),
+                                  shape=(count + edge_count, count + edge_count))
+    pieces, label = csgraph.connected_components(incidence, directed=False)
+    piece = label[:count]
+    order = np.lexsort((x, piece))
+    starts = np.searchsorted(piece[order], np.arange(pieces + 1))
+    sizes = np.diff(starts)
+    rank = np.arange(count) - np.repeat(starts[:-1], sizes)
+    low = order[rank < np.repeat(np.maximum(1, sizes // 100), sizes)]
+    best = low[np.lexsort((-facing[low], piece[low]))]
+    return best[np.unique(piece[best], return_index=True)[1]]
+
+
+#: the winding number a dropped contact face must have, on both sides, of the surface left
+CONTACT_WINDING = 0.75
 
 
 def _drop_contacts(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
     """Faces less those between two material cells (see the module's step 2, :func:`_material_sides`)
-    and their count; kept whole unless every edge is then in an even number of triangles."""
+    that the surface left encloses, and their count; kept whole unless every edge is then in an
+    even number of triangles."""
     edges, face_edge, forward = edge_table(faces)
     if not (np.bincount(face_edge.reshape(-1), minlength=len(edges)) >= 3).any():
         return faces, 0
     sides = _material_sides(vertices, faces, edges, face_edge, forward)
     dropped = sides.all(axis=1)
+    if dropped.any():
+        dropped[dropped] = _enclosed(vertices, faces[~dropped], faces[dropped])
     if not dropped.any() or not _even_edges(faces[~dropped]):
         return faces, 0
     return faces[~dropped], int(dropped.sum())
+
+
+def _enclosed(vertices: np.ndarray, kept: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Whether the winding number of the ``kept`` faces exceeds :data:`CONTACT_WINDING` just in
+    front of and just behind each of ``faces``."""
+    normals, _ = face_normals(vertices, faces)
+    corners = vertices[faces]
+    step = 1e-3 * _longest_side(corners)[:, None] * normals
+    centres = corners.mean(axis=1)
+    w = winding_numbers(vertices, kept, np.concatenate([centres + step, centres - step]))
+    count = len(faces)
+    return (w[:count] > CONTACT_WINDING) & (w[count:] > CONTACT_WINDING)
 
 
 def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
