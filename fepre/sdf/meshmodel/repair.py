@@ -13,10 +13,10 @@ small holes, and shells that overlap. The steps, each vectorised over the triang
    written once (a fragmented multi-volume export) or twice, the faces with material on both
    sides are dropped and the rest oriented again: the union's boundary (the sides of the faces
    are joined into the cells of space they bound, sorting the triangles around each edge of
-   three or more by angle). A face is dropped only if the surface left then encloses it (its
-   winding number above ``CONTACT_WINDING`` just in front of it and just behind it): on a
-   surface that crosses itself the cells leak, and a robot link's whole outer shell was taken
-   for material on both sides;
+   three or more by angle; each piece of faces joined through edges has its own outside cell).
+   A face is dropped only if the surface left then encloses it (its winding number above
+   ``CONTACT_WINDING`` just in front of it and just behind it), a second check where cells can
+   leak: surfaces that cross themselves or lie over each other;
 3. close holes: every boundary loop that is a simple cycle is closed, flat when its rim is planar
    (a missing CAD face), else with a smooth patch (:mod:`.hole_fill`);
 4. drop triangles that do not separate inside from outside: where the generalised winding number
