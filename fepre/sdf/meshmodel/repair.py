@@ -260,11 +260,8 @@ def _enclosed(vertices: np.ndarray, kept: np.ndarray, faces: np.ndarray) -> np.n
     front of and just behind each of ``faces``."""
     normals, _ = face_normals(vertices, faces)
     corners = vertices[faces]
-    step = 1e-3 * _longest_side(corners)[:, None] * normals
-    centres = corners.mean(axis=1)
-    w = winding_numbers(vertices, kept, np.concatenate([centres + step, centres - step]))
-    count = len(faces)
-    return (w[:count] > CONTACT_WINDING) & (w[count:] > CONTACT_WINDING)
+    front, behind = _sides(vertices, kept, corners.mean(axis=1), normals, _longest_side(corners), level=CONTACT_WINDING)
+    return front & behind
 
 
 def _orient(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
@@ -428,8 +425,8 @@ def _piecewise_winding(vertices: np.ndarray, faces: np.ndarray):
     return winding
 
 
-def _sides(vertices, faces, centres, normals, sizes, winding=None):
-    """Whether the solid (winding number above 1/2) is in front of and behind each centre
+def _sides(vertices, faces, centres, normals, sizes, winding=None, level=0.5):
+    """Whether the solid (winding number above ``level``) is in front of and behind each centre
     (``winding``: the surface's winding number as a function of points, if prepared)."""
     step = 1e-3 * sizes[:, None] * normals
     probes = np.concatenate([centres + step, centres - step])
@@ -442,7 +439,7 @@ def _sides(vertices, faces, centres, normals, sizes, winding=None):
         doubtful = doubtful[np.argsort(sizes[doubtful], kind="stable")[:EXACT_RECHECK]]
         exact = np.asarray(igl.winding_number(vertices, faces, np.concatenate([probes[doubtful], probes[count + doubtful]])))
         w[doubtful], w[count + doubtful] = exact[: len(doubtful)], exact[len(doubtful) :]
-    return w[:count] > 0.5, w[count:] > 0.5
+    return w[:count] > level, w[count:] > level
 
 
 def _longest_side(corners: np.ndarray) -> np.ndarray:
