@@ -60,8 +60,8 @@ def _closest_on_triangle(px, py, pz, tri, out):
         return 1
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        if d1 <= d3:  # d1 - d3 = |ab|^2: a and b coincide, the triangle is its side ca
-            return _closest_on_sides(px, py, pz, tri, out)
+        if d1 <= d3:  # d1 - d3 = |ab|^2: a and b coincide
+            return -1
         v = d1 / (d1 - d3)
         out[0], out[1], out[2] = ax + v * abx, ay + v * aby, az + v * abz
         return 3
@@ -74,7 +74,7 @@ def _closest_on_triangle(px, py, pz, tri, out):
     vb = d5 * d2 - d1 * d6
     if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
         if d2 <= d6:  # |ac|^2
-            return _closest_on_sides(px, py, pz, tri, out)
+            return -1
         w = d2 / (d2 - d6)
         out[0], out[1], out[2] = ax + w * acx, ay + w * acy, az + w * acz
         return 5
@@ -82,13 +82,13 @@ def _closest_on_triangle(px, py, pz, tri, out):
     if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
         side = (d4 - d3) + (d5 - d6)  # |bc|^2
         if side <= 0.0:
-            return _closest_on_sides(px, py, pz, tri, out)
+            return -1
         w = (d4 - d3) / side
         out[0], out[1], out[2] = bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz)
         return 4
     total = va + vb + vc
-    if total == 0.0:  # a degenerate triangle (collinear corners): its sides hold the closest point
-        return _closest_on_sides(px, py, pz, tri, out)
+    if total == 0.0:  # collinear corners
+        return -1
     v = vb / total
     w = vc / total
     out[0] = ax + abx * v + acx * w
@@ -97,9 +97,11 @@ def _closest_on_triangle(px, py, pz, tri, out):
     return 6
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _squared_to(px, py, pz, tri, scratch):
     region = _closest_on_triangle(px, py, pz, tri, scratch)
+    if region < 0:  # a triangle of zero area: its sides hold the closest point
+        region = _closest_on_sides(px, py, pz, tri, scratch)
     dx, dy, dz = px - scratch[0], py - scratch[1], pz - scratch[2]
     return dx * dx + dy * dy + dz * dz, region
 
