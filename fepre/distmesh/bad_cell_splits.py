@@ -146,6 +146,7 @@ def split_bad_cells(
     targets: ShapeTargets | None = None,
     off_surface_first: bool = False,
     tried: np.ndarray | None = None,
+    locked: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Split one edge of every cell whose score is below ``targets`` (see :func:`split_candidates`).
 
@@ -166,6 +167,9 @@ def split_bad_cells(
         The :func:`stable_edge_keys` of edges split before whose splits the stage undid (the
         edge is back): they come after every other candidate, so that a cell whose first choice
         was undone gets its next one (the same split would give the same mesh again).
+    locked : (N,) bool, optional
+        Vertices no edge between two of which is split and no cavity crosses a face of three
+        (a region mesh's interface nodes: the faces between regions stay).
 
     A bad cell's first choice that is a boundary edge whose new vertex lies beyond the edge's
     cells is split into a cavity first; a call that makes such splits makes only those.
@@ -201,17 +205,18 @@ def split_bad_cells(
     off = _off_surface(points, tets[bad], model, h) if off_surface_first else None
     if len(bad):
         first, _ = _choices(points, tets, bad, points.shape[0], off)
-        points_after, tets_after, cavities = _cavity_splits(points, tets, model, h, first, tried)
+        points_after, tets_after, cavities = _cavity_splits(points, tets, model, h, first, tried, locked)
         if cavities:
             return points_after, tets_after, cavities
     edges = split_candidates(points, tets, bad, points.shape[0], off)
     if tried is not None and len(tried):
         again = np.isin(stable_edge_keys(edges), tried)
         edges = np.concatenate([edges[~again], edges[again]])
-    return split_edges(points, tets, model, h, edges)
+    return split_edges(points, tets, model, h, edges, locked)
 
 
-def _cavity_splits(points, tets, model, h: float, first: np.ndarray, tried) -> tuple[np.ndarray, np.ndarray, int]:
+def _cavity_splits(points, tets, model, h: float, first: np.ndarray, tried,
+                   locked: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The bad cells' first choices that are boundary edges whose new vertex lies beyond their
     own cells (a chord across a valley of a wall thinner than 2 h: every half of a plain split
     inverted), split into cavities (:func:`~fepre.distmesh.cavity_split.cavity_split`), worst
@@ -228,7 +233,10 @@ def _cavity_splits(points, tets, model, h: float, first: np.ndarray, tried) -> t
         first = first[~np.isin(stable_edge_keys(first), tried)]
     done = 0
     for edge in first:
-        new_points, new_tets, split = cavity_split(points, tets, model, h, edge, MAX_PROJECTION, beyond_ring=True)
+        if locked is not None:
+            locked = np.concatenate([locked, np.zeros(points.shape[0] - locked.shape[0], dtype=bool)])
+        new_points, new_tets, split = cavity_split(points, tets, model, h, edge, MAX_PROJECTION, beyond_ring=True,
+                                                   locked=locked)
         if split and not _crossing_new_vertices(new_points, new_tets, points.shape[0]).any():
             points, tets, done = new_points, new_tets, done + 1
     return points, tets, done

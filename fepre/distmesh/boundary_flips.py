@@ -111,7 +111,8 @@ def boundary_edge_round(
     targets: ShapeTargets,
     guard: SurfaceGuard,
     locked: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+    labels: np.ndarray | None = None,
+) -> tuple:
     """One round of boundary edge removals around the bad cells (score below ``threshold``).
 
     Parameters
@@ -129,6 +130,9 @@ def boundary_edge_round(
         Checks that the new boundary faces lie on the surface.
     locked : (N,) bool, optional
         Vertices whose boundary faces must stay: no edge with a locked end is flipped.
+    labels : (M,) int array, optional
+        A label of each cell (its region): only edges whose cells all hold one label are
+        flipped, and the new cells take it. It is returned last, updated.
 
     Returns
     -------
@@ -136,6 +140,7 @@ def boundary_edge_round(
     flips : the number of boundary edges removed
     boundary_face_keys, boundary_edges : the updated keys
     touched : (N,) bool, the vertices of the new cells
+    labels : the new cells' labels (only when ``labels`` is given)
 
     Examples
     --------
@@ -163,7 +168,7 @@ def boundary_edge_round(
     """
     n_points = points.shape[0]
     touched = np.zeros(n_points, dtype=bool)
-    unchanged = (tets, quality, 0, boundary_face_keys, boundary_edges, touched)
+    unchanged = (tets, quality, 0, boundary_face_keys, boundary_edges, touched) + (() if labels is None else (labels,))
     bad = np.flatnonzero(quality < threshold)
     bad = bad[on_boundary[tets[bad]].sum(axis=1) >= 3]
     if bad.size == 0:
@@ -181,7 +186,7 @@ def boundary_edge_round(
     candidates, surface_changes = [], []
     for n, cells, ring, a, b in _open_rings(sub, wanted, n_points):
         cells = region[cells]
-        allowed = _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points)
+        allowed = _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points, labels)
         if not allowed.any():
             continue
         cells, ring, a, b = cells[allowed], ring[allowed], a[allowed], b[allowed]
@@ -201,27 +206,32 @@ def boundary_edge_round(
             continue
         best = table[choice[good]]
         rows = rows[good, None]
-        candidates.append((cells[good], new_cells[rows, best], worst[good], (q_cells[rows, best],)))
+        values = (q_cells[rows, best],) + (() if labels is None else (np.broadcast_to(labels[cells[good][:, :1]], best.shape),))
+        candidates.append((cells[good], new_cells[rows, best], worst[good], values))
         surface_changes.append((cells[good], a[good], b[good], ring[good][:, 0], ring[good][:, -1]))
     if not candidates:
         return unchanged
     chosen: list[np.ndarray] = []
-    tets, values, applied, new_vertices = _apply(tets, candidates, [quality], chosen)
+    tets, values, applied, new_vertices = _apply(tets, candidates, [quality] + ([] if labels is None else [labels]), chosen)
     boundary_face_keys, boundary_edges = _surface_after(
         [tuple(item[mask] for item in change) for change, mask in zip(surface_changes, chosen)],
         boundary_face_keys, boundary_edges, n_points)
     touched[new_vertices] = True
-    return tets, values[0], applied, boundary_face_keys, boundary_edges, touched
+    return (tets, values[0], applied, boundary_face_keys, boundary_edges, touched) + tuple(values[1:])
 
 
-def _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points) -> np.ndarray:
-    """Mask of the ring flips that keep the surface where it is (see the module docstring)."""
+def _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points,
+                  labels=None) -> np.ndarray:
+    """Mask of the ring flips that keep the surface where it is (see the module docstring) and,
+    with ``labels``, whose cells all hold one label."""
     w, x = ring[:, 0], ring[:, -1]
     allowed = in_sorted(face_keys(np.stack([a, b, w], 1), n_points), boundary_face_keys)
     allowed &= in_sorted(face_keys(np.stack([a, b, x], 1), n_points), boundary_face_keys)
     allowed &= ~in_sorted(edge_keys(np.stack([w, x], 1), n_points), existing)
     if locked is not None:
         allowed &= ~(locked[a] | locked[b])
+    if labels is not None:
+        allowed &= (labels[cells] == labels[cells[:, :1]]).all(axis=1)
     old_faces = [_outward(points, np.stack([a, b, w], 1), ring[:, 1]),
                  _outward(points, np.stack([a, b, x], 1), ring[:, -2])]
     normals = [_unit_normals(points[f]) for f in old_faces]

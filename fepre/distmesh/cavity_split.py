@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from .tet_shape import ShapeTargets, signed_volume
-from .tet_topology import NonManifoldCells, face_neighbours
+from .tet_topology import FACE_OF_TET, NonManifoldCells, face_neighbours
 
 __all__ = ["cavity_split", "CAVITY_CELLS"]
 
@@ -42,6 +42,7 @@ def cavity_split(
     max_projection: float = 0.3,
     neighbours: np.ndarray | None = None,
     beyond_ring: bool = False,
+    locked: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """Split ``edge`` (its two vertex numbers) at its midpoint (projected onto the model's zero set
     when it is a boundary edge) into a star-shaped cavity of cells grown from its ring.
@@ -62,6 +63,9 @@ def cavity_split(
     beyond_ring : bool
         Refuse the split when the edge's ring is the cavity (a plain split, which
         :func:`~fepre.distmesh.surface_refine.split_edges` makes).
+    locked : (N,) bool, optional
+        Vertices whose faces must stay (the faces between two regions of a region mesh): an
+        edge between two of them is not split, and a cavity never grows across a face of three.
 
     Returns
     -------
@@ -69,8 +73,8 @@ def cavity_split(
     tets : the cells, the cavity's replaced (appended at the end)
     done : bool
         False when the split is refused (the vertex off the model or too far from the midpoint,
-        a cavity reaching the boundary or over ``CAVITY_CELLS``, a vertex swallowed, a new cell
-        of zero score, a face used three times).
+        a cavity reaching the boundary, a locked face or over ``CAVITY_CELLS``, a vertex
+        swallowed, a new cell of zero score, a face used three times).
 
     Examples
     --------
@@ -89,6 +93,8 @@ def cavity_split(
     u, v = int(edge[0]), int(edge[1])
     n = points.shape[0]
     refused = (points, tets, False)
+    if locked is not None and locked[u] and locked[v]:
+        return refused
     if neighbours is None:
         neighbours = face_neighbours(tets, n)
     ring = np.flatnonzero((tets == u).any(axis=1) & (tets == v).any(axis=1))
@@ -107,7 +113,7 @@ def cavity_split(
     value = float(model(new[None])[0])
     if np.linalg.norm(new - middle) > max_projection * length or (abs(value) > 1e-3 * h if boundary else value >= 0):
         return refused
-    cavity = _grow(points, tets, neighbours, ring, new, u, v)
+    cavity = _grow(points, tets, neighbours, ring, new, u, v, locked)
     if cavity is None or (beyond_ring and cavity.size == ring.size):
         return refused
     cones, kept_vertices = _cones(tets, neighbours, cavity, n, u, v)
@@ -140,10 +146,12 @@ def _border(tets, neighbours, cavity: np.ndarray, u: int, v: int):
     return cells[face], local[face], across[face]
 
 
-def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v: int) -> np.ndarray | None:
+def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v: int,
+          locked: np.ndarray | None = None) -> np.ndarray | None:
     """The cavity: the ring and every cell across a face the new vertex does not see from inside
     (the cone on it would not be positive), until none is left; None when such a face is on the
-    boundary (off the edge) or the cavity grows over ``CAVITY_CELLS``."""
+    boundary (off the edge) or has three ``locked`` vertices, or the cavity grows over
+    ``CAVITY_CELLS``."""
     cavity = ring
     scale = float(np.linalg.norm(points[u] - points[v])) ** 3
     while cavity.size <= CAVITY_CELLS:
@@ -155,6 +163,11 @@ def _grow(points, tets, neighbours, ring: np.ndarray, new: np.ndarray, u: int, v
             return cavity
         if (across[blind] < 0).any():
             return None
+        if locked is not None:
+            corners = tets[cells[blind]]
+            face = corners[np.arange(corners.shape[0])[:, None], FACE_OF_TET[local[blind]]]
+            if locked[face].all(axis=1).any():
+                return None
         cavity = np.union1d(cavity, across[blind])
     return None
 

@@ -217,6 +217,19 @@ def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard, cel
     return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0), gone, exposed
 
 
+def _may_remove(keep: int, gone: int, flap: bool, on_boundary, movable, removable, locked, labels, cells_of) -> bool:
+    """Whether ``gone`` may be collapsed into ``keep`` (see :func:`collapse_round`)."""
+    if not removable[gone] or (locked is not None and locked[gone]):
+        return False
+    if on_boundary[gone] and not on_boundary[keep]:
+        return False
+    if flap and cells_of(gone).size != 1:  # a flap's apex goes with its one cell, nothing else
+        return False
+    if not flap and not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
+        return False
+    return labels is None or np.unique(labels[np.union1d(cells_of(gone), cells_of(keep))]).size == 1
+
+
 def collapse_round(
     points: np.ndarray,
     tets: np.ndarray,
@@ -232,7 +245,8 @@ def collapse_round(
     guard: SurfaceGuard,
     locked: np.ndarray | None = None,
     inner: bool = False,
-) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
+    labels: np.ndarray | None = None,
+) -> tuple:
     """One round of edge collapses: the bad flaps' apexes removed with their cells, then the short
     boundary edges of the bad cells.
 
@@ -255,6 +269,10 @@ def collapse_round(
     inner : bool
         Also collapse the short edges with an inner vertex at one end, removing the inner one
         (a vertex crowding another, which no move of the stage pushed away).
+    labels : (M,) int array, optional
+        A label of each cell (its region): a vertex is only removed into another when every
+        cell at either holds one label (the faces between labels stay). It is returned last,
+        updated.
 
     Returns
     -------
@@ -262,6 +280,7 @@ def collapse_round(
     collapses : the number of vertices removed (they stay in ``points``, in no cell)
     boundary_face_keys, boundary_edges : the updated keys
     touched : (N,) bool, the vertices that kept a collapsed vertex's cells
+    labels : the remaining cells' labels (only when ``labels`` is given)
 
     Examples
     --------
@@ -301,13 +320,7 @@ def collapse_round(
     for k, pairs in enumerate(tries):
         flap = k < len(flaps)
         for keep, gone in pairs:
-            if not removable[gone] or (locked is not None and locked[gone]):
-                continue
-            if on_boundary[gone] and not on_boundary[keep]:
-                continue
-            if flap and cells_of(gone).size != 1:  # a flap's apex goes with its one cell, nothing else
-                continue
-            if not flap and not movable[gone] and movable[keep]:  # a node pinned on a crease joins another one
+            if not _may_remove(keep, gone, flap, on_boundary, movable, removable, locked, labels, cells_of):
                 continue
             result = _try_collapse(points, tets, quality, keep, gone, boundary_face_keys, targets, guard, cells_of)
             if result is None:
@@ -319,6 +332,8 @@ def collapse_round(
             alive = np.ones(tets.shape[0], dtype=bool)
             alive[removed] = False
             tets, quality = tets[alive], quality[alive]
+            if labels is not None:
+                labels = labels[alive]
             cells_of = _CellsOf(tets, n)
             boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, face_keys(old_faces, n)),
                                             face_keys(new_faces, n))
@@ -332,4 +347,4 @@ def collapse_round(
             touched[keep] = True
             done += 1
             break
-    return tets, quality, done, boundary_face_keys, boundary_edges, touched
+    return (tets, quality, done, boundary_face_keys, boundary_edges, touched) + (() if labels is None else (labels,))

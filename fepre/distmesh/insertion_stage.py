@@ -22,17 +22,19 @@ the series converged).
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from ..errors import ConvergenceWarning, MeshingError
 from .bad_cell_splits import knife_edge, split_bad_cells, stable_edge_keys
+from .cell_labels import refined_labels
 from .improve_mesh import stage_pins
 from .tet_shape import ShapeTargets
 from .tet_topology import EDGE_OF_TET
 
-__all__ = ["stage_with_insertions", "INSERTION_ROUNDS"]
+__all__ = ["stage_with_insertions", "LabelledCells", "INSERTION_ROUNDS"]
 
 #: Rounds of vertex insertion at most.
 INSERTION_ROUNDS = 6
@@ -41,54 +43,106 @@ MAX_BAD_CELLS = 64
 MAX_BAD_SHARE = 1e-3
 
 
-def _run(job, pinned, removable: Callable, local_size, bad_cells_only: bool, reshaping: bool = False):
-    """One run of the stage on ``job``'s mesh: points, cells, info and the warnings it gave."""
+@dataclass
+class LabelledCells:
+    """Cells in labelled regions (a region mesh) for :func:`stage_with_insertions`.
+
+    Attributes
+    ----------
+    labels : (M,) int array
+        Each cell's region.
+    frozen : (N,) bool array
+        The vertices of the faces between regions: fixed, no edge between two of them is split
+        and no cavity crosses a face of three (vertices appended later are not frozen).
+    node_regions : callable
+        ``node_regions(points) -> (owner, region_of)``, the stage's ``node_regions``
+        (:func:`~fepre.distmesh.slivers.improve_arrays`): each boundary vertex slides within its region.
+    valid : callable
+        ``valid(points, tets, labels) -> bool``: a round's mesh is kept only if its regions meet
+        as they should.
+    """
+
+    labels: np.ndarray
+    frozen: np.ndarray
+    node_regions: Callable
+    valid: Callable
+
+    def frozen_among(self, n_points: int) -> np.ndarray:
+        """``frozen`` for ``n_points`` vertices (those added since are not)."""
+        return np.concatenate([self.frozen, np.zeros(n_points - self.frozen.shape[0], dtype=bool)])
+
+
+def _run(job, pinned, removable: Callable, local_size, bad_cells_only: bool, reshaping: bool = False,
+         labelled: LabelledCells | None = None, labels: np.ndarray | None = None):
+    """One run of the stage on ``job``'s mesh: points, cells, info and the warnings it gave
+    (with ``labelled``, the cells' ``labels`` go in and ``info["labels"]`` comes out)."""
     from .slivers import improve_arrays
 
+    collapse, extra = removable(job), {}
+    if labelled is not None:
+        frozen = labelled.frozen_among(job.points.shape[0])
+        pinned, collapse = pinned | frozen, collapse & ~frozen
+        extra = {"labels": labels, "node_regions": labelled.node_regions(job.points)}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         points, tets, info = improve_arrays(
             job.points, job.tets, job.model, job.h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
-            collapse=removable(job), local_size=local_size, bad_cells_only=bad_cells_only,
-            inner_collapses=reshaping)
+            collapse=collapse, local_size=local_size, bad_cells_only=bad_cells_only,
+            inner_collapses=reshaping, **extra)
     return points, tets, info, list(caught)
 
 
-def _valid(job, points, tets) -> bool:
+def _valid(job, points, tets, labelled: LabelledCells | None = None, labels: np.ndarray | None = None) -> bool:
     from .validate import mesh_defects
 
     used = np.unique(tets)
     number = np.full(len(points), -1)
     number[used] = np.arange(len(used))
-    return not mesh_defects(points[used], number[tets], job.model, job.h, job.size, job.absolute, (job.lower, job.upper))
+    if mesh_defects(points[used], number[tets], job.model, job.h, job.size, job.absolute, (job.lower, job.upper)):
+        return False
+    return labelled is None or bool(labelled.valid(points, tets, labels))
 
 
-def stage_with_insertions(job, pinned: np.ndarray, removable: Callable, local_size) -> None:
+def stage_with_insertions(job, pinned: np.ndarray, removable: Callable, local_size,
+                          labelled: LabelledCells | None = None, first_run: Callable | None = None) -> np.ndarray | None:
     """The quality stage on ``job`` with vertex insertion (see the module docstring); sets
     ``job.points``, ``job.tets``, ``job.fixed_mask`` and ``job.inserted_nodes``.
 
     ``removable(job)`` gives the nodes edge collapses may remove, ``local_size`` the graded
-    mesh's edge length at points (None when uniform).
+    mesh's edge length at points (None when uniform). With ``labelled`` (a region mesh's cells),
+    every run and split keeps the faces between regions and the cells' labels are carried
+    through; ``first_run()`` then makes the stage's first run, ``(points, tets, labels)`` (the
+    region mesh's stage, which also moves interface nodes along their interfaces). Returns the
+    cells' labels (None without ``labelled``).
     """
     targets = ShapeTargets()
-    points, tets, info, caught = _run(job, pinned, removable, local_size, False)
+    if first_run is None:
+        points, tets, info, caught = _run(job, pinned, removable, local_size, False, False, labelled,
+                                          None if labelled is None else labelled.labels)
+    else:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            points, tets, labels = first_run()
+        caught = list(caught)
+        info = {"labels": labels, "converged": bool(targets.score(points[tets]).min() >= targets.min_dihedral)}
     first = (float(targets.score(points[tets]).min()), points, tets, job.fixed_mask, caught, info)
     best = first
     for reshaping in (False, True):
-        best = _insertion_rounds(job, first, best, removable, local_size, targets, reshaping)
+        best = _insertion_rounds(job, first, best, removable, local_size, targets, reshaping, labelled)
         if best[0] >= targets.min_dihedral:
             break
-    _, job.points, job.tets, job.fixed_mask, caught, _ = best
+    _, job.points, job.tets, job.fixed_mask, caught, info = best
     job.inserted_nodes = len(job.fixed_mask) - len(first[3])
     for item in caught:
         message = str(item.message)
         if issubclass(item.category, ConvergenceWarning):
             message += _knife_edge_note(job, targets)
         warnings.warn_explicit(message, item.category, item.filename, item.lineno)
+    return None if labelled is None else info["labels"]
 
 
 def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local_size, targets: ShapeTargets,
-                      reshaping: bool) -> tuple:
+                      reshaping: bool, labelled: LabelledCells | None = None) -> tuple:
     """Up to ``INSERTION_ROUNDS`` rounds of splits and the stage on the bad cells, from the
     stage's ``first`` result; returns the best of ``best`` and the valid rounds' meshes.
 
@@ -102,19 +156,21 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
     for _ in range(INSERTION_ROUNDS):
         if info["converged"] or _too_many_bad(points, tets, targets) or _worst_at_knife(points, tets, job.model, targets):
             break
+        frozen = None if labelled is None else labelled.frozen_among(points.shape[0])
         job.points, job.tets, split = split_bad_cells(points, tets, job.model, job.h, targets,
-                                                      off_surface_first=reshaping, tried=tried)
+                                                      off_surface_first=reshaping, tried=tried, locked=frozen)
         if split == 0:
             break
+        labels = None if labelled is None else refined_labels(job.points, tets, info["labels"], job.tets)
         tried = np.union1d(tried, _split_away(points, tets, job.tets, targets))
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
         pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, job.h)
         try:
-            points, tets, info, caught = _run(job, pinned, removable, local_size, True, reshaping)
+            points, tets, info, caught = _run(job, pinned, removable, local_size, True, reshaping, labelled, labels)
         except MeshingError:
             break  # the run refused its own result: the best so far stands
         worst = float(targets.score(points[tets]).min())
-        if worst > best[0] and _valid(job, points, tets):
+        if worst > best[0] and _valid(job, points, tets, labelled, info.get("labels")):
             best = (worst, points, tets, job.fixed_mask, caught, info)
     return best
 

@@ -24,7 +24,8 @@ from .loop import iterate
 from .output import to_grid
 
 __all__ = ["MeshingJob", "STAGES", "run_pipeline", "constraint_nodes", "starting_points", "run_loop",
-           "make_final_mesh", "quality_stage", "validate_mesh", "check_mesh", "output_grid"]
+           "make_final_mesh", "quality_stage", "validate_mesh", "check_mesh", "output_grid",
+           "fill_surface_gaps", "removable_nodes", "local_size"]  # the last three: for a constraint's own quality stage
 
 
 def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
@@ -113,7 +114,7 @@ def quality_stage(job: MeshingJob) -> None:
     started = time.perf_counter()
     job.unimproved = (job.points, job.tets, job.fixed_mask)  # what validate_mesh falls back on
     if _default_quality_stage(job) and not any(c.locked_nodes(job) is not None for c in job.constraints):
-        _fill_surface_gaps(job)
+        fill_surface_gaps(job)
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
     pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
     locked = _either(*(constraint.locked_nodes(job) for constraint in job.constraints))
@@ -122,11 +123,11 @@ def quality_stage(job: MeshingJob) -> None:
             if locked is None and _default_quality_stage(job):
                 from .insertion_stage import stage_with_insertions
 
-                stage_with_insertions(job, pinned, _removable_nodes, _local_size(job))
+                stage_with_insertions(job, pinned, removable_nodes, local_size(job))
             else:
                 job.points, job.tets, _ = improve_arrays(
                     job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
-                    collapse=_removable_nodes(job), local_size=_local_size(job))
+                    collapse=removable_nodes(job), local_size=local_size(job))
             _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
@@ -148,7 +149,7 @@ def quality_stage(job: MeshingJob) -> None:
                       f"{measured['radius_ratio'].min():.3f}")
 
 
-def _local_size(job: MeshingJob):
+def local_size(job: MeshingJob):
     """The graded mesh's edge length at points, in units of length (None when uniform)."""
     if job.size is None:
         return None
@@ -157,20 +158,21 @@ def _local_size(job: MeshingJob):
     return lambda x: job.h * np.asarray(job.size(x), dtype=float)
 
 
-def _fill_surface_gaps(job: MeshingJob) -> None:
+def fill_surface_gaps(job: MeshingJob, locked: np.ndarray | None = None) -> None:
     """Long boundary edges split at their midpoints on the zero set (new free nodes appended):
-    the gaps a faceted surface leaves in the boundary nodes, which no vertex move repairs."""
+    the gaps a faceted surface leaves in the boundary nodes, which no vertex move repairs. No
+    edge between two ``locked`` nodes is split (a region mesh's interface nodes)."""
     from .surface_refine import split_long_boundary_edges
 
     h = job.h
     relative = None if job.size is None else ((lambda x: job.size(x) / h) if job.absolute else job.size)
-    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, h, relative)
+    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, h, relative, locked=locked)
     if split:
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
     job.split_edges = split
 
 
-def _removable_nodes(job: MeshingJob) -> np.ndarray:
+def removable_nodes(job: MeshingJob) -> np.ndarray:
     """The nodes an edge collapse may remove: every node but the user's fixed points and the
     feature corners (a feature curve's node only into another node on a crease)."""
     from .output import feature_flags
@@ -283,7 +285,7 @@ def check_mesh(job: MeshingJob) -> None:
 
             groups = next((found for c in job.constraints if (found := c.cell_models(job)) is not None), None)
             groups = [(job.model, slice(None))] if groups is None else groups
-            thin = combined(thin_bad_cells(model, job.points, job.tets[cells], h, _local_size(job)) for model, cells in groups)
+            thin = combined(thin_bad_cells(model, job.points, job.tets[cells], h, local_size(job)) for model, cells in groups)
             message = thin_cells_message(thin, None if job.absolute else h, job.frame_offset)
             if message:
                 warn_user(f"distmesh: {message}", ResolutionWarning)

@@ -458,18 +458,23 @@ class _SliverStage:
 
     def boundary_flips(self) -> tuple[int, np.ndarray]:
         """Boundary edge removals and collapses of short boundary edges around the bad cells
-        (not between labelled regions: both change which cells a region holds)."""
-        if self.labels is not None:
-            return 0, np.zeros(self.points.shape[0], dtype=bool)
-        self.tets, self.quality, flips, self.boundary_face_keys, self.boundary_edges, touched = self.timed(
+        (with labelled regions, each within one region: the faces between regions stay)."""
+        result = self.timed(
             "flip", boundary_edge_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
-            self.boundary_face_keys, self.boundary_edges, targets=self.targets, guard=self.guard, locked=self.locked)
+            self.boundary_face_keys, self.boundary_edges, targets=self.targets, guard=self.guard, locked=self.locked,
+            **self.tagged)
+        self.tets, self.quality, flips, self.boundary_face_keys, self.boundary_edges, touched = result[:6]
+        if self.labels is not None:
+            self.tagged["labels"] = result[6]
         if self.removable is None:
             return flips, touched
-        self.tets, self.quality, collapses, self.boundary_face_keys, self.boundary_edges, collapsed = self.timed(
+        result = self.timed(
             "flip", collapse_round, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
             self.movable, self.removable, self.boundary_face_keys, self.boundary_edges, targets=self.targets,
-            guard=self.guard, locked=self.locked, inner=self.inner_collapses)
+            guard=self.guard, locked=self.locked, inner=self.inner_collapses, **self.tagged)
+        self.tets, self.quality, collapses, self.boundary_face_keys, self.boundary_edges, collapsed = result[:6]
+        if self.labels is not None:
+            self.tagged["labels"] = result[6]
         self.counts["collapses"] += collapses
         return flips + collapses, touched | collapsed
 

@@ -85,15 +85,17 @@ def _long_edges(points, tets, h, size, scale) -> tuple[np.ndarray, np.ndarray, n
     return candidates[keep], middle[keep], length[keep]
 
 
-def _split_pass(points, tets, model, h, size, scale: float, first_new: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+def _split_pass(points, tets, model, h, size, scale: float, first_new: int = 0,
+                locked: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """One pass of splits; only the cells with a vertex numbered ``first_new`` or above are
     searched for long edges (the halves of the last pass's splits)."""
     searched = tets if first_new == 0 else tets[(tets >= first_new).any(axis=1)]
     edges, middle, length = _long_edges(points, searched, h, size, scale)
-    return split_edges(points, tets, model, h, edges)
+    return split_edges(points, tets, model, h, edges, locked)
 
 
-def split_edges(points: np.ndarray, tets: np.ndarray, model, h: float, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def split_edges(points: np.ndarray, tets: np.ndarray, model, h: float, edges: np.ndarray,
+                locked: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Split ``edges`` (E, 2), in priority order, at their midpoints: a boundary edge's midpoint
     projected onto the zero set, an inner edge's kept where it is (if inside the model).
 
@@ -102,11 +104,12 @@ def split_edges(points: np.ndarray, tets: np.ndarray, model, h: float, edges: np
     touch disjoint cells), and so is a split whose new boundary faces cross the boundary (a
     midpoint projected onto the zero set across a thin wall: on libigl's halftunnel.off as a
     winding-number solid at ``h=(D/100, D/25)``, 21 crossing pairs, and the whole quality stage
-    was then dropped for a 0.2 deg mesh). Returns the points with the K new vertices appended,
-    the cells and K.
+    was then dropped for a 0.2 deg mesh). An edge between two ``locked`` vertices (N,) bool is
+    never split (with cells in labelled regions, the faces between two regions are made of such
+    vertices and stay). Returns the points with the K new vertices appended, the cells and K.
     """
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    allowed = np.ones(edges.shape[0], dtype=bool)
+    allowed = np.ones(edges.shape[0], dtype=bool) if locked is None else ~locked[edges].all(axis=1)
     for _ in range(MAX_RETRIES):
         new_points, new_tets, chosen = _split_chosen(points, tets, model, h, edges, allowed)
         if chosen.size == 0:
@@ -220,6 +223,7 @@ def split_long_boundary_edges(
     h: float,
     size: Callable | None = None,
     scale: float | None = None,
+    locked: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Split the edges longer than ``LONG_EDGE`` local sizes (times ``scale``) at their midpoints,
     projected onto the zero set for boundary edges.
@@ -238,6 +242,8 @@ def split_long_boundary_edges(
         The mesh's edge length over the local size; measured when None (the median over up to
         ``SCALE_SAMPLES`` edges, at least 1): a graded DistMesh mesh's edges are its sizes times
         one factor, and only edges long for the mesh itself are gaps.
+    locked : (N,) bool, optional
+        Vertices no edge between two of which is split (a region mesh's interface nodes).
 
     Returns
     -------
@@ -267,7 +273,9 @@ def split_long_boundary_edges(
         scale = max(1.0, _mesh_scale(points, tets[:, EDGE_OF_TET].reshape(-1, 2), h, size))
     for _ in range(MAX_PASSES):
         count = points.shape[0]
-        points, tets, splits = _split_pass(points, tets, model, h, size, scale, first_new)
+        if locked is not None:
+            locked = np.concatenate([locked, np.zeros(points.shape[0] - locked.shape[0], dtype=bool)])
+        points, tets, splits = _split_pass(points, tets, model, h, size, scale, first_new, locked)
         first_new = count
         total += splits
         if splits == 0:

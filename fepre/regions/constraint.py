@@ -3,8 +3,9 @@
 The interface nodes are laid first (:func:`~fepre.regions.interface.interface_nodes`), free points
 keep out of the interface triangles' diametral balls (dropped at the start, pushed out after each
 move), the final mesh repairs cells crossing an interface
-(:func:`~fepre.regions.conform.final_region_mesh`), the quality stage flips within one region
-(:func:`~fepre.regions.conform.region_quality_stage`), the interfaces are checked at the end and the
+(:func:`~fepre.regions.conform.final_region_mesh`), the quality stage works within one region
+(long boundary edges split, :func:`~fepre.regions.conform.region_quality_stage`, vertex
+insertion), the interfaces are checked at the end and the
 grid gets ``region_id``, ``region_names`` and ``interface``.
 """
 
@@ -16,7 +17,7 @@ import numpy as np
 
 from ..distmesh.constraints import MeshConstraint
 from ..errors import MeshingError
-from .conform import check_interfaces, final_region_mesh, region_quality_stage
+from .conform import check_interfaces, final_region_mesh, node_regions, region_quality_stage
 from .interface import interface_node_mask, interface_nodes
 from .partition import RegionSet, region_set
 from .protection import InterfaceProtection, drop_protected
@@ -87,9 +88,38 @@ class RegionConstraint(MeshConstraint):
         return True
 
     def quality_stage(self, job, pinned: np.ndarray, locked: np.ndarray | None) -> bool:
-        job.points, job.tets, self.region_ids = region_quality_stage(
-            job.points, job.tets, self.region_ids, self.region_set, job.model, job.h, pinned, self.interface_mask,
-            job.options.seed, job.size)
+        """The stage of a plain mesh within each region: long boundary edges split, the region
+        mesh's stage (:func:`~fepre.regions.conform.region_quality_stage`), then vertex insertion
+        at the cells it leaves under the targets; no face between two regions changes."""
+        from ..distmesh.cell_labels import refined_labels
+        from ..distmesh.improve_mesh import stage_pins
+        from ..distmesh.insertion_stage import LabelledCells, stage_with_insertions
+        from ..distmesh.pipeline import fill_surface_gaps, local_size, removable_nodes
+
+        regions, h = self.region_set, job.h
+        before = job.tets
+        fill_surface_gaps(job, locked=self.interface_mask)
+        if job.split_edges:
+            self.region_ids = refined_labels(job.points, before, self.region_ids, job.tets)
+            self.interface_mask = np.concatenate([self.interface_mask, np.zeros(job.split_edges, dtype=bool)])
+            pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
+
+        def meet(points, tets, region_ids) -> bool:  # the regions meet on faces on the interfaces only
+            try:
+                check_interfaces(*_used(points, tets), region_ids, regions, job.model, h)
+            except MeshingError:
+                return False
+            return True
+
+        labelled = LabelledCells(self.region_ids, self.interface_mask,
+                                 lambda points: (node_regions(points, regions, h), regions.region_of), meet)
+
+        def first_run():
+            return region_quality_stage(job.points, job.tets, self.region_ids, regions, job.model, h, pinned,
+                                        self.interface_mask, job.options.seed, job.size)
+
+        self.region_ids = stage_with_insertions(job, pinned, removable_nodes, local_size(job), labelled, first_run)
+        self.interface_mask = interface_node_mask(job.tets, self.region_ids, len(job.points))
         return True
 
     def cell_models(self, job) -> list:
@@ -103,3 +133,11 @@ class RegionConstraint(MeshConstraint):
         grid.cell_data["region_id"] = self.region_ids
         grid.field_data["region_names"] = np.array(self.region_set.names)
         grid.point_data["interface"] = interface_node_mask(job.tets, self.region_ids, len(job.points)).astype(np.uint8)
+
+
+def _used(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points in some cell and the cells renumbered to them."""
+    used = np.unique(tets)
+    number = np.full(len(points), -1)
+    number[used] = np.arange(len(used))
+    return points[used], number[tets]
