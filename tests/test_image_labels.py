@@ -158,6 +158,15 @@ def test_voxels_touching_along_an_edge_give_manifold_surfaces():
     assert len(faces) == (3 * 6 - 4) * 2 + 6 * 36 * 2
 
 
+def _assert_targets_in_every_region(mesh, count: int) -> None:
+    """The quality targets of plain meshes (25 deg, 150 deg, radius ratio 0.25) in each region."""
+    for k in range(count):
+        chosen = mesh["region_id"] == k
+        assert mesh["min_dihedral_angle"][chosen].min() >= 25.0
+        assert mesh["max_dihedral_angle"][chosen].max() <= 150.0
+        assert mesh["radius_ratio"][chosen].min() >= 0.25
+
+
 @pytest.mark.slow
 def test_label_mesh_quality_at_four_voxels_per_h():
     # h = 4 voxels: with the cube's edges rounded to half a voxel and no creases the matrix had
@@ -165,11 +174,7 @@ def test_label_mesh_quality_at_four_voxels_per_h():
     grid = label_image([CUBE, BALL], (-0.6,) * 3, (0.6,) * 3, 0.025)
     fine = sdf.labels(grid, names={1: "matrix", 2: "inclusion"})
     mesh = fepre.distmesh(fine.part, 0.1, regions=fine, progress=False)
-    for k in range(2):
-        chosen = mesh["region_id"] == k
-        assert mesh["min_dihedral_angle"][chosen].min() >= 25.0
-        assert mesh["max_dihedral_angle"][chosen].max() <= 150.0
-        assert mesh["radius_ratio"][chosen].min() >= 0.25
+    _assert_targets_in_every_region(mesh, 2)
     volumes = np.bincount(mesh["region_id"], mesh["volume"])
     assert volumes[0] == pytest.approx(1 - BALL_VOLUME, rel=0.02)
 
@@ -433,11 +438,7 @@ def test_rims_away_from_the_interfaces_meet_the_targets():
     grid = label_image([shaft, hub], (-13, -13, -21), (13, 13, 21), 0.25)
     regions = sdf.labels(grid, names={1: "shaft", 2: "hub"})
     mesh = fepre.distmesh(regions.part, 2.0, regions=regions, progress=False)
-    for k in range(2):
-        chosen = mesh["region_id"] == k
-        assert mesh["min_dihedral_angle"][chosen].min() >= 25.0
-        assert mesh["max_dihedral_angle"][chosen].max() <= 150.0
-        assert mesh["radius_ratio"][chosen].min() >= 0.25
+    _assert_targets_in_every_region(mesh, 2)
     volumes = np.bincount(mesh["region_id"], mesh["volume"])
     assert volumes == pytest.approx([np.pi * 25 * 40, np.pi * (144 - 25) * 10], rel=0.02)
     # the interface, the shaft's side inside the hub, is a band of faces of its area
