@@ -429,14 +429,19 @@ def test_sharp_interface_edges_stay_sharp():
     assert min(_worst_per_region(mesh, 2)) >= 25.0
 
 
+def _shaft_and_hub():
+    """A shaft (label 1, radius 5, 40 long) through a hub (label 2, radii 5 to 12, 10 thick)."""
+    hub = sdf.cylinder(12, 10) - sdf.cylinder(5, 12)
+    shaft = sdf.cylinder(5, 40)
+    grid = label_image([shaft, hub], (-13, -13, -21), (13, 13, 21), 0.25)
+    return sdf.labels(grid, names={1: "shaft", 2: "hub"})
+
+
 def test_rims_away_from_the_interfaces_meet_the_targets():
     # a hub on a shaft as a label image: the hub's outer rims are far from the interface, where
     # a plain mesh gets its long boundary edges split, its boundary edges flipped and vertices
     # inserted; without those in the region path the hub kept cells of 9.2 deg at h = 2 (3.2 at h = 1)
-    hub = sdf.cylinder(12, 10) - sdf.cylinder(5, 12)
-    shaft = sdf.cylinder(5, 40)
-    grid = label_image([shaft, hub], (-13, -13, -21), (13, 13, 21), 0.25)
-    regions = sdf.labels(grid, names={1: "shaft", 2: "hub"})
+    regions = _shaft_and_hub()
     mesh = fepre.distmesh(regions.part, 2.0, regions=regions, progress=False)
     _assert_targets_in_every_region(mesh, 2)
     volumes = np.bincount(mesh["region_id"], mesh["volume"])
@@ -447,3 +452,15 @@ def test_rims_away_from_the_interfaces_meet_the_targets():
     corners = mesh.points[faces]
     area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
     assert area == pytest.approx(2 * np.pi * 5 * 10, rel=0.02)
+
+
+def test_rims_at_a_concave_edge_without_features():
+    # the shaft leaves the hub at a concave edge of the part, where the interface ends: with
+    # features=False its rim was not laid as interface nodes, the cells there bridged the corner
+    # from the shaft's side to the hub's face, and dropping their nodes for six rounds left a
+    # hole (MeshingError: "the closed choice keeps cells outside the part") at every h tried
+    regions = _shaft_and_hub()
+    mesh = fepre.distmesh(regions.part, 2.0, regions=regions, features=False, progress=False)
+    _assert_targets_in_every_region(mesh, 2)
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    assert volumes == pytest.approx([np.pi * 25 * 40, np.pi * (144 - 25) * 10], rel=0.02)

@@ -35,7 +35,10 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
     its interfaces with them (where a lattice meets a
     skin, the rim of each contact patch is a sharp edge of the lattice's part, not of the
     skin's). The boundary faces of its mesh on the interfaces with the later regions (nodes on
-    both zero sets, centroid inside the model) are kept.
+    both zero sets, centroid inside the model) are kept. The rims (the creases where an
+    interface meets the part's surface) are laid with ``features=False`` too: they bound the
+    interface, and where one runs along a concave edge of the part (a shaft leaving a hub)
+    without nodes on it, the cells there bridged the edge from one region's face to the other's.
 
     Returns
     -------
@@ -57,14 +60,16 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
     # feature search samples each part on a grid of h/4 (most of a label image's meshing time)
     parts = [region if getattr(region, "within", None) is model else model & region for region in regions.models]
     creases = [np.zeros((0, 3))] * len(parts)
+    for j in range(len(parts)):
+        # a rim (interface meeting the part's surface) is kept however shallow its crease
+        found_j = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False)
+        creases[j] = _corners_first(found_j.corners, found_j.nodes)
+        if not options.features:
+            creases[j] = creases[j][np.abs(np.asarray(model(creases[j]))) <= tol] if len(creases[j]) else creases[j]
     if options.features:
         if part_features is None:
             part_features = detect_features(model, h, angle=options.feature_angle, bounds=bounds, warn=False)
         part_features = _corners_first(part_features.corners, part_features.nodes)
-        for j in range(len(parts)):
-            # a rim (interface meeting the part's surface) is kept however shallow its crease
-            found_j = detect_features(parts[j], h, angle=min(RIM_ANGLE, options.feature_angle), bounds=bounds, warn=False)
-            creases[j] = _corners_first(found_j.corners, found_j.nodes)
     else:
         part_features = np.zeros((0, 3))
     order = regions.meshing_order()
