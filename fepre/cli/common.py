@@ -101,6 +101,9 @@ def label_arguments(parser: argparse.ArgumentParser) -> None:
                              "one region (element set) per label, meshed conformally; label 0 is the background")
     parser.add_argument("--label", action="append", metavar="VALUE=NAME",
                         help="with --labels: the region name of a label (repeat; default label_<VALUE>)")
+    parser.add_argument("--fill-cracks", action="store_true",
+                        help="with --labels: give each background voxel between two different labels (a crack one "
+                             "voxel wide between materials that touch) the smaller of the two")
 
 
 IMAGE_INSIDE = ("above", "below")
@@ -120,12 +123,16 @@ def image_options(args: argparse.Namespace) -> dict:
             options[name] = getattr(args, name)
     if getattr(args, "label", None) and not getattr(args, "labels", False):
         raise ValueError("--label names a region of a label image: add --labels")
+    if getattr(args, "fill_cracks", False) and not getattr(args, "labels", False):
+        raise ValueError("--fill-cracks is for a label image: add --labels")
     if getattr(args, "labels", False):
         if options.pop("level") is not None:
             raise ValueError("--level is for a grey image; a label image (--labels) has none")
         options.pop("inside", None)
         options["labels"] = True
         options["names"] = label_names(args.label or [])
+        if getattr(args, "fill_cracks", False):
+            options["fill_cracks"] = True
     return options
 
 

@@ -132,6 +132,7 @@ def labels(
     origin: Any = None,
     array: str | None = None,
     chunks: Any = None,
+    fill_cracks: bool = False,
 ) -> LabelRegions:
     """A segmented label image (CT or MRI segmentation, phases of a material) as the regions of
     one conformal mesh.
@@ -166,6 +167,12 @@ def labels(
         Nodes per chunk along x, y, z: the image is then processed chunk by chunk, never held
         whole, with the same triangles bit for bit (default 128 for a zarr store or a dask
         array, which are always processed so).
+    fill_cracks : bool
+        Give each background voxel that lies between two different labels along an axis (a
+        crack one voxel wide between two materials, :mod:`fepre.sdf.imagemodel.cracks`) the
+        smaller of the two labels. Without it such voxels are warned of
+        (:class:`fepre.ResolutionWarning`): a crack that thin through the part is beyond any mesh
+        coarser than the voxels. Images in memory only.
 
     Returns
     -------
@@ -193,6 +200,9 @@ def labels(
     from .model import is_chunked_source
 
     if chunks is not None or is_chunked_source(source):
+        if fill_cracks:
+            raise ValueError("fill_cracks=True needs the image in memory; it is not done chunk by chunk "
+                             "(read the image whole, or fill its cracks before)")
         from ...backends import provided
 
         return provided("labels_chunked")(source, names=names, background=background, keep_background=keep_background,
@@ -203,6 +213,8 @@ def labels(
     if not (np.issubdtype(values.dtype, np.integer) or values.dtype == bool):
         if not np.array_equal(values, np.round(values)):
             raise ImageInputError(non_integer_message(data.name, values.dtype))
+    if not keep_background:
+        values = _cracks_handled(data, values, background, fill_cracks)
     plan = label_plan(data, np.unique(values), names, background, keep_background)
     indices = plan.indices(values)
     origin = np.asarray(data.origin, dtype=np.float64)
@@ -212,6 +224,26 @@ def labels(
         origin = origin - BORDER_COPIES * np.asarray(data.spacing, dtype=np.float64)
     surface = label_surface(indices, len(plan.order), data.spacing, origin, smoothing, 0, ITERATIONS)
     return label_regions(surface, data, plan, reaches)
+
+
+def _cracks_handled(data: Image, values: np.ndarray, background: int, fill: bool) -> np.ndarray:
+    """``values`` with the background voxels between two labels filled (``fill``), or warned of."""
+    from ...errors import ResolutionWarning, warn_user
+    from .cracks import background_cracks, filled_cracks
+
+    if fill:
+        return filled_cracks(values, background)[0]
+    count, first, pairs = background_cracks(values, background)
+    if count:
+        where = ", ".join(f"{v:.6g}" for v in np.asarray(data.origin) + np.asarray(data.spacing) * first)
+        between = ", ".join(f"{a} and {b}" for a, b in pairs[:4].tolist()) + (" and more" if len(pairs) > 4 else "")
+        warn_user(
+            f"{data.name}: {count} background voxel(s) lie one voxel wide between two labels ({between}; e.g. "
+            f"at ({where})): a crack through the part between those regions, which no mesh coarser than "
+            "the voxels resolves (meshing fails or bridges it); if the materials touch there, pass "
+            "fill_cracks=True (fepre mesh: --fill-cracks) to give each the smaller of its two labels",
+            ResolutionWarning)
+    return values
 
 
 def non_integer_message(name: str, dtype) -> str:

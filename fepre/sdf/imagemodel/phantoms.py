@@ -75,7 +75,9 @@ def partial_volume(model, lower: Any, upper: Any, spacing: float, *, sub: int = 
 
 def label_image(models: Sequence, lower: Any, upper: Any, spacing: float, labels: Sequence[int] | None = None):
     """A label image: at each voxel centre the label of the last of ``models`` that holds it
-    (``labels[k]`` for ``models[k]``, default ``k + 1``), 0 where none does.
+    (``labels[k]`` for ``models[k]``, default ``k + 1``), 0 where none does. A voxel centre on
+    the face two models share (both zero there, neither holding it) takes the last of them: it
+    lies inside the part, and a background voxel there would be a crack between the two.
 
     Examples
     --------
@@ -87,6 +89,13 @@ def label_image(models: Sequence, lower: Any, upper: Any, spacing: float, labels
     points, first, shape = voxel_centres(lower, upper, spacing)
     labels = list(range(1, len(models) + 1)) if labels is None else list(labels)
     result = np.zeros(len(points), dtype=np.int16)
+    on_face = np.zeros(len(points), dtype=np.int16)  # models zero at the point
+    tied = np.zeros(len(points), dtype=np.int16)  # the last of them
     for label, model in zip(labels, models):
-        result[np.asarray(model(points)) < 0] = label
+        values = np.asarray(model(points))
+        result[values < 0] = label
+        on_face += values == 0
+        tied[values == 0] = label
+    shared = (result == 0) & (on_face >= 2)
+    result[shared] = tied[shared]
     return _grid(result.reshape(shape), first, spacing, "labels")
