@@ -464,3 +464,22 @@ def test_rims_at_a_concave_edge_without_features():
     _assert_targets_in_every_region(mesh, 2)
     volumes = np.bincount(mesh["region_id"], mesh["volume"])
     assert volumes == pytest.approx([np.pi * 25 * 40, np.pi * (144 - 25) * 10], rel=0.02)
+
+
+def test_graded_regions_take_the_sizes_of_a_thin_region():
+    # a shell 1.5 thick round a core, h = (0.5, 2): the part is a solid block, whose own field
+    # is coarse inside; the shell's walls need 0.5 (three elements across). The field is the
+    # smallest of the part's and the regions' (it was the part's: the shell was one cell thick,
+    # and on a screw through such a shell 12.8 deg, the interfaces laid at hmin beside cells of 2)
+    block, core = sdf.box((12, 12, 10)), sdf.box((9, 9, 7))
+    grid = label_image([block - core, core], (-6.5, -6.5, -5.5), (6.5, 6.5, 5.5), 0.25)
+    regions = sdf.labels(grid, names={1: "shell", 2: "core"})
+    mesh = fepre.distmesh(regions.part, (0.5, 2.0), regions=regions, progress=False)
+    _assert_targets_in_every_region(mesh, 2)
+    ids = np.asarray(mesh["region_id"])
+    edges = mesh.extract_cells(np.flatnonzero(ids == 0)).extract_all_edges()
+    lengths = edges.compute_cell_sizes(length=True, area=False, volume=False)["Length"]
+    assert np.median(lengths) < 0.75
+    volumes = np.bincount(ids, mesh["volume"])
+    voxels = np.bincount(np.asarray(grid["labels"]), minlength=3)[1:] * 0.25**3
+    assert volumes == pytest.approx(voxels, rel=0.02)

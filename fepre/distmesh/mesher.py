@@ -29,9 +29,11 @@ def _is_dataset(value: Any) -> bool:
     return isinstance(value, pv.DataSet)
 
 
-def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any):
+def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any, regions: Any = None):
     """``(h, size, absolute)``: the smallest edge length, the size callable and whether its
-    values are edge lengths (a size field) rather than relative sizes."""
+    values are edge lengths (a size field) rather than relative sizes. With ``regions``, the
+    automatic field is the smallest of the part's and each region's (a region thinner than the
+    part, a bone's cortical shell round its core, gets the sizes its own walls need)."""
     import pyvista as pv
 
     from ..sizing import SizeField, size_field
@@ -41,6 +43,9 @@ def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any):
         if pair.size != 2:
             raise ValueError(f"h must be a number or a pair (hmin, hmax); got {shown(h)}")
         field = size_field(model, pair[0], pair[1], bounds=bounds)
+        if isinstance(regions, dict) and len(regions) > 1:
+            own = [region if getattr(region, "within", None) is model else model & region for region in regions.values()]
+            field = field.minimum(*(size_field(part, pair[0], pair[1], bounds=bounds) for part in own))
         if size is not None:
             field = field.minimum(_as_field(size, model, bounds) if isinstance(size, pv.DataSet) else size)
         return field.hmin, field, True
@@ -102,6 +107,8 @@ def distmesh(
         ``hmin`` and sharp edges closer than ``hmin`` get ``hmin``, named in a
         :class:`fepre.ResolutionWarning` with the size each would need. Optional when
         ``size`` is a size field or a background mesh (then it clamps the sizes from below).
+        With ``regions``, the field is the smallest of the part's and each region's (a
+        region's thin walls get their sizes even where the part is thick).
     bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
         Box holding the solid; defaults to ``model.bounds``.
     size : callable, fepre.SizeField or pyvista.DataSet, optional
@@ -189,7 +196,7 @@ def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: A
     if size is not None and not callable(size) and not _is_dataset(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
     keyword_constraints = [constraint_for(key, value, job) for key, value in job.keywords.items() if value is not None]
-    job.h, job.size, job.absolute = _resolve_sizes(model, h, size, job.bounds)
+    job.h, job.size, job.absolute = _resolve_sizes(model, h, size, job.bounds, regions)
     for constraint in keyword_constraints:
         constraint.restrict_domain(job)
     job.lower, job.upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(job.model, job.bounds))

@@ -53,8 +53,10 @@ class RegionConstraint(MeshConstraint):
 
     def fixed_nodes(self, job, fixed: np.ndarray) -> np.ndarray:
         found = job.detected_features() if job.options.features else None  # the part's features, laid on the interfaces too
+        relative = None if job.size is None else ((lambda x: job.size(x) / job.h) if job.absolute else job.size)
         on_interface, triangles, inner = interface_nodes(
-            job.model, self.region_set, job.h, (job.lower, job.upper), job.options, job.progress, part_features=found)
+            job.model, self.region_set, job.h, (job.lower, job.upper), job.options, job.progress, part_features=found,
+            size=relative)
         if len(fixed) and len(on_interface):  # a fixed point on an interface stands for its node
             from scipy.spatial import cKDTree
 

@@ -26,7 +26,7 @@ RIM_ALTERNATIONS = 3
 
 
 def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progress: bool = False,
-                    part_features=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    part_features=None, size=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes and triangles of every interface between regions, about ``h`` apart.
 
     Each region but the last of :meth:`RegionSet.meshing_order` (smallest first) is meshed by
@@ -35,7 +35,9 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
     its interfaces with them (where a lattice meets a
     skin, the rim of each contact patch is a sharp edge of the lattice's part, not of the
     skin's). The boundary faces of its mesh on the interfaces with the later regions (nodes on
-    both zero sets, centroid inside the model) are kept. The rims (the creases where an
+    both zero sets, centroid inside the model) are kept. With ``size`` (the whole mesh's
+    relative size function, for a graded mesh) each region's own mesh is graded by it too, so
+    the interfaces are laid at the sizes the cells beside them get. The rims (the creases where an
     interface meets the part's surface) are laid with ``features=False`` too: they bound the
     interface, and where one runs along a concave edge of the part (a shaft leaving a hub)
     without nodes on it, the cells there bridged the edge from one region's face to the other's.
@@ -108,7 +110,7 @@ def interface_nodes(model, regions: RegionSet, h: float, bounds, options, progre
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the whole mesh reports on itself
             try:
-                mesh = distmesh(parts[i], h, bounds=bounds, fixed=fixed if len(fixed) else None,
+                mesh = distmesh(parts[i], h, bounds=bounds, fixed=fixed if len(fixed) else None, size=size,
                                 options=own_options, check_resolution=False)
             except (MeshingError, ValueError) as exc:
                 raise MeshingError(f"distmesh: region {regions.names[i]!r} could not be meshed to lay its interface nodes: {exc}") from exc
