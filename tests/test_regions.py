@@ -215,6 +215,8 @@ def test_bad_regions_are_refused():
         fepre.distmesh(BAR, 0.25, regions=[LEFT, RIGHT])
     with pytest.raises(TypeError, match=r"regions\['b'\] must be a 3D fepre.sdf.SDF"):
         fepre.distmesh(BAR, 0.25, regions={"a": LEFT, "b": lambda p: p[:, 0]})
+    with pytest.raises(TypeError, match=r"regions\['b'\] must be a 3D fepre.sdf.SDF"):  # before the regions' size fields
+        fepre.distmesh(BAR, (0.1, 0.3), regions={"a": LEFT, "b": 3})
     with pytest.raises(ValueError, match="'1a' is not accepted"):
         fepre.distmesh(BAR, 0.25, regions={"1a": LEFT, "b": RIGHT})
     with pytest.raises(ValueError, match="hold no part of the model"):

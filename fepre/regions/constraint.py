@@ -19,7 +19,7 @@ from ..distmesh.constraints import MeshConstraint
 from ..errors import MeshingError
 from .conform import check_interfaces, final_region_mesh, node_regions, region_quality_stage
 from .interface import interface_node_mask, interface_nodes
-from .partition import RegionSet, region_set
+from .partition import RegionSet, check_regions, region_set
 from .protection import InterfaceProtection, drop_protected
 
 __all__ = ["RegionConstraint"]
@@ -45,7 +45,9 @@ class RegionConstraint(MeshConstraint):
 
     @classmethod
     def from_keyword(cls, regions: Any, job) -> RegionConstraint:
-        """The constraint of ``distmesh(..., regions=regions)``."""
+        """The constraint of ``distmesh(..., regions=regions)``, its regions' types checked (before
+        the size field, which takes each region's with ``h=(hmin, hmax)``)."""
+        check_regions(regions)
         return cls(regions)
 
     def check_domain(self, job) -> None:

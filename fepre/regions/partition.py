@@ -61,13 +61,9 @@ class RegionSet:
         return values[:, 1] <= tol
 
 
-def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarray) -> RegionSet:
-    """The checked regions of ``distmesh(..., regions=)``.
-
-    ``regions`` maps at least two names to 3D SDFs. They must not overlap inside the part and
-    must cover it: both are checked on a grid over the bounds (spacing about ``h/2``, at most
-    ``CHECK_SAMPLES`` points) to ``OVERLAP_DEPTH h``.
-    """
+def check_regions(regions: Any) -> None:
+    """Check that ``regions`` maps at least two solver-safe names to 3D SDFs (TypeError or
+    ValueError naming what is wrong), before any work that uses them."""
     from ..arguments import check_names
     from ..sdf.core import SDF
 
@@ -76,11 +72,21 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
     if len(regions) < 2:
         got = f"{len(regions)} region"
         raise ValueError(f"regions must be a dict of at least two names to fepre SDFs (e.g. {{'skin': ..., 'core': ...}}); got {got}")
-    names = list(regions)
-    check_names(names, "regions")
+    check_names(list(regions), "regions")
     for name, region in regions.items():
         if not isinstance(region, SDF) or region.dim != 3:
             raise TypeError(f"regions[{name!r}] must be a 3D fepre.sdf.SDF; got {type(region).__name__}")
+
+
+def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarray) -> RegionSet:
+    """The checked regions of ``distmesh(..., regions=)``.
+
+    ``regions`` maps at least two names to 3D SDFs. They must not overlap inside the part and
+    must cover it: both are checked on a grid over the bounds (spacing about ``h/2``, at most
+    ``CHECK_SAMPLES`` points) to ``OVERLAP_DEPTH h``.
+    """
+    check_regions(regions)
+    names = list(regions)
     found = RegionSet(tuple(names), tuple(regions.values()))
     if all(getattr(region, "within", None) is model for region in regions.values()):
         # a label image's regions in their own part: one shared surface splits it, without gaps
