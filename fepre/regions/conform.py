@@ -142,5 +142,9 @@ def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> 
     outer = boundary_faces(tets)
     inner = on[outer].all(axis=1) & (np.asarray(model(points[outer].mean(axis=1))) < -0.1 * h)
     if inner.any():
-        raise MeshingError(f"distmesh: {int(inner.sum())} face(s) on an interface have a cell on one side only")
+        where = np.round(points[outer[inner][0]].mean(axis=0), 6).tolist()
+        raise MeshingError(
+            f"distmesh: {int(inner.sum())} face(s) on an interface have a cell on one side only (e.g. at {where}: a "
+            f"region's cells next to the interface were removed, where a region is about one element thick); the "
+            f"interfaces are not resolved at h={h:g} (try a smaller h)")
     return faces, np.column_stack([region_ids[first], region_ids[second]])
