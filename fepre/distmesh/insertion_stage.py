@@ -58,8 +58,8 @@ class LabelledCells:
         ``node_regions(points) -> (owner, region_of)``, the stage's ``node_regions``
         (:func:`~fepre.distmesh.slivers.improve_arrays`): each boundary vertex slides within its region.
     valid : callable
-        ``valid(points, tets, labels) -> bool``: a round's mesh is kept only if its regions meet
-        as they should.
+        ``valid(points, tets, labels) -> bool`` (every point in some cell): a round's mesh is
+        kept only if its regions meet as they should.
     """
 
     labels: np.ndarray
@@ -98,7 +98,8 @@ def _valid(job, points, tets, labelled: LabelledCells | None = None, labels: np.
     used = np.unique(tets)
     number = np.full(len(points), -1)
     number[used] = np.arange(len(used))
-    if mesh_defects(points[used], number[tets], job.model, job.h, job.size, job.absolute, (job.lower, job.upper)):
+    points, tets = points[used], number[tets]
+    if mesh_defects(points, tets, job.model, job.h, job.size, job.absolute, (job.lower, job.upper)):
         return False
     return labelled is None or bool(labelled.valid(points, tets, labels))
 

@@ -25,7 +25,7 @@ from .output import to_grid
 
 __all__ = ["MeshingJob", "STAGES", "run_pipeline", "constraint_nodes", "starting_points", "run_loop",
            "make_final_mesh", "quality_stage", "validate_mesh", "check_mesh", "output_grid",
-           "fill_surface_gaps", "removable_nodes", "local_size"]  # the last three: for a constraint's own quality stage
+           "fill_surface_gaps", "removable_nodes", "local_size", "relative_size"]  # the last four: for constraints
 
 
 def _check_domain(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> None:
@@ -158,15 +158,23 @@ def local_size(job: MeshingJob):
     return lambda x: job.h * np.asarray(job.size(x), dtype=float)
 
 
+def relative_size(job: MeshingJob):
+    """The graded mesh's size at points over ``h`` (None when uniform)."""
+    if job.size is None:
+        return None
+    if job.absolute:
+        return lambda x: job.size(x) / job.h
+    return job.size
+
+
 def fill_surface_gaps(job: MeshingJob, locked: np.ndarray | None = None) -> None:
     """Long boundary edges split at their midpoints on the zero set (new free nodes appended):
     the gaps a faceted surface leaves in the boundary nodes, which no vertex move repairs. No
     edge between two ``locked`` nodes is split (a region mesh's interface nodes)."""
     from .surface_refine import split_long_boundary_edges
 
-    h = job.h
-    relative = None if job.size is None else ((lambda x: job.size(x) / h) if job.absolute else job.size)
-    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, h, relative, locked=locked)
+    job.points, job.tets, split = split_long_boundary_edges(job.points, job.tets, job.model, job.h, relative_size(job),
+                                                            locked=locked)
     if split:
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
     job.split_edges = split

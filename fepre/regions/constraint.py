@@ -55,10 +55,11 @@ class RegionConstraint(MeshConstraint):
 
     def fixed_nodes(self, job, fixed: np.ndarray) -> np.ndarray:
         found = job.detected_features() if job.options.features else None  # the part's features, laid on the interfaces too
-        relative = None if job.size is None else ((lambda x: job.size(x) / job.h) if job.absolute else job.size)
+        from ..distmesh.pipeline import relative_size
+
         on_interface, triangles, inner = interface_nodes(
             job.model, self.region_set, job.h, (job.lower, job.upper), job.options, job.progress, part_features=found,
-            size=relative)
+            size=relative_size(job))
         if len(fixed) and len(on_interface):  # a fixed point on an interface stands for its node
             from scipy.spatial import cKDTree
 
@@ -110,7 +111,7 @@ class RegionConstraint(MeshConstraint):
 
         def meet(points, tets, region_ids) -> bool:  # the regions meet on faces on the interfaces only
             try:
-                check_interfaces(*_used(points, tets), region_ids, regions, job.model, h)
+                check_interfaces(points, tets, region_ids, regions, job.model, h)
             except MeshingError:
                 return False
             return True
@@ -138,10 +139,3 @@ class RegionConstraint(MeshConstraint):
         grid.field_data["region_names"] = np.array(self.region_set.names)
         grid.point_data["interface"] = interface_node_mask(job.tets, self.region_ids, len(job.points)).astype(np.uint8)
 
-
-def _used(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The points in some cell and the cells renumbered to them."""
-    used = np.unique(tets)
-    number = np.full(len(points), -1)
-    number[used] = np.arange(len(used))
-    return points[used], number[tets]
