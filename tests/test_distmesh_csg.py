@@ -117,6 +117,21 @@ def test_final_mesh_merges_collapsed_points_and_drops_a_bridge():
     assert check_topology(tets, len(out)).ok
 
 
+def test_a_triangulation_with_a_void_inside_is_cracked():
+    # a flat cell dropped from among interior nodes (four interface nodes in a rectangle on a
+    # label image's voxel step) leaves a closed void: the boundary is two shells, not the hull
+    from scipy.spatial import Delaunay
+
+    from fepre.distmesh.finalize import _cracked
+
+    points = np.random.default_rng(3).uniform(-1.0, 1.0, (200, 3))
+    tets = Delaunay(points).simplices.astype(np.int64)
+    hull = np.unique(Delaunay(points).convex_hull)
+    inner = np.flatnonzero(~np.isin(tets, hull).any(axis=1))
+    assert not _cracked(tets, len(points))
+    assert _cracked(np.delete(tets, inner[0], axis=0), len(points))
+
+
 def test_repair_selection_fills_or_carves_the_cheaper_side():
     # four cells around the edge (0, 1); two opposite ones selected make it non-manifold
     tets = np.array([[0, 1, 2, 3], [0, 1, 3, 4], [0, 1, 4, 5], [0, 1, 5, 2]])

@@ -483,3 +483,30 @@ def test_graded_regions_take_the_sizes_of_a_thin_region():
     volumes = np.bincount(ids, mesh["volume"])
     voxels = np.bincount(np.asarray(grid["labels"]), minlength=3)[1:] * 0.25**3
     assert volumes == pytest.approx(voxels, rel=0.02)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [5, 6, 8])
+def test_random_label_images_mesh_graded(seed):
+    # seeds of `fepre bench label-corpus` that failed at h = (0.5, 2). 6: a flat cell among four
+    # interface nodes in a rectangle on a voxel step was dropped and left a void of no volume,
+    # which the final mesh's choice refused. 8: a face across a rim, where an inclusion leaves
+    # the block near its edge at a grazing angle, 0.1 h deep, was taken for a removed cell.
+    # 5: the block's corner piece beyond an inclusion, 0.4 thick, is not meshed: a warning
+    import warnings
+
+    from fepre.bench.label_corpus import phantom
+    from fepre.errors import ResolutionWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the cracks between labels
+        regions = sdf.labels(phantom(seed, 0.25))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(regions.part, (0.5, 2.0), regions=regions, progress=False)
+    thin = [str(w.message) for w in caught if issubclass(w.category, ResolutionWarning) and "not meshed" in str(w.message)]
+    assert len(thin) == (seed == 5)
+    worst = [mesh["min_dihedral_angle"][mesh["region_id"] == k].min() for k in range(len(regions))]
+    assert min(worst) >= (22.0 if seed == 5 else 25.0)  # seed 5: 22.3 deg beside the piece left out
+    plain = fepre.distmesh(regions.part, (0.5, 2.0), progress=False)
+    assert mesh.volume == pytest.approx(plain.volume, rel=0.005)

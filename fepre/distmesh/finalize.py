@@ -158,11 +158,29 @@ def _manifold(tets: np.ndarray, n_points: int) -> bool:
 
 
 def _cracked(tets: np.ndarray, n_points: int) -> bool:
-    """True when the cells' boundary is not a closed 2-manifold: dropping a flat cell inside the
-    point set (four co-planar points, e.g. the diagonal plane of a box corner's prism) leaves a
-    crack whose faces meet four at an edge."""
+    """True when the cells' boundary is not one closed 2-manifold, the hull's: dropping a flat
+    cell inside the point set (four co-planar points, e.g. the diagonal plane of a box corner's
+    prism) leaves a crack whose faces meet four at an edge, or, when the flat cell stands alone,
+    a void of no volume closed by its four faces (four interface nodes on one flat voxel step of
+    a label image, in a rectangle)."""
     report = check_topology(tets, n_points)
-    return bool(report.overused_faces or report.nonmanifold_edges or report.pinched_vertices)
+    if report.overused_faces or report.nonmanifold_edges or report.pinched_vertices:
+        return True
+    return _shells(report.boundary_faces, n_points) > 1
+
+
+def _shells(faces: np.ndarray, n_points: int) -> int:
+    """Number of connected pieces of the surface ``faces`` (faces joined at shared nodes)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    if len(faces) == 0:
+        return 0
+    rows = np.repeat(np.arange(len(faces)), 3)
+    graph = coo_matrix((np.ones(rows.size), (rows, faces.ravel())), shape=(len(faces), n_points)).tocsr()
+    nodes = np.unique(faces)
+    count, _ = connected_components((graph.T @ graph)[nodes][:, nodes], directed=False)
+    return int(count)
 
 
 def _orient_like_neighbours(tets: np.ndarray, flat: np.ndarray, neighbours: np.ndarray) -> np.ndarray:

@@ -7,10 +7,19 @@ import numpy as np
 from .interface import ON_INTERFACE, interface_faces
 from .partition import RegionSet
 
-__all__ = ["cell_regions", "node_regions", "improve_regions", "region_quality_stage", "check_interfaces", "final_region_mesh"]
+__all__ = ["cell_regions", "node_regions", "improve_regions", "region_quality_stage", "check_interfaces", "exposed_interface_faces",
+           "final_region_mesh"]
 
 #: Rounds of dropping the free nodes of cells that cross an interface and triangulating again.
 REPAIR_ROUNDS = 6
+#: Deepest centroid, in the face's longest edge, of a boundary face whose three nodes lie on a rim
+#: (an interface and the part's surface): a chord across a wedge of a region thinner than that,
+#: as a chord of a curved surface cuts off a cap. Deeper, a region's cell was removed.
+RIM_CHORD_DEPTH = 0.25
+#: Deepest centroid, in h, of a face on an interface with a cell on one side only that is kept
+#: with a ResolutionWarning: a piece of a region thinner than that beyond it is not meshed, as the
+#: plain mesh loses parts thinner than h. Deeper, a region's cells were removed (a MeshingError).
+THIN_PIECE = 0.5
 
 
 def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray:
@@ -125,9 +134,8 @@ def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> 
     Returns the interface faces and the pair of regions on either side of each. Raises
     ``MeshingError`` when a face between two regions has a node off the interface (more than
     ``ON_INTERFACE h``) or a face of the part's surface has all its nodes on an interface
-    strictly inside the part (a region's cell removed next to the interface).
+    more than :data:`THIN_PIECE` h inside the part (a region's cell removed next to the interface).
     """
-    from ..distmesh.topology import boundary_faces
     from ..errors import MeshingError
 
     faces, first, second = interface_faces(tets, region_ids, len(points))
@@ -139,12 +147,38 @@ def check_interfaces(points, tets, region_ids, regions: RegionSet, model, h) -> 
             f"distmesh: {int(off.sum())} face(s) between regions have a node off the interface "
             f"(e.g. at {np.round(points[worst[~on[worst]][0]], 6).tolist()}); the interface is not resolved at h={h:g}"
         )
-    outer = boundary_faces(tets)
-    inner = on[outer].all(axis=1) & (np.asarray(model(points[outer].mean(axis=1))) < -0.1 * h)
-    if inner.any():
-        where = np.round(points[outer[inner][0]].mean(axis=0), 6).tolist()
+    exposed, depth = exposed_interface_faces(points, tets, model, h, on)
+    deep = depth > THIN_PIECE * h
+    if deep.any():
+        where = np.round(points[exposed[deep][0]].mean(axis=0), 6).tolist()
         raise MeshingError(
-            f"distmesh: {int(inner.sum())} face(s) on an interface have a cell on one side only (e.g. at {where}: a "
-            f"region's cells next to the interface were removed, where a region is about one element thick); the "
-            f"interfaces are not resolved at h={h:g} (try a smaller h)")
+            f"distmesh: {int(deep.sum())} face(s) on an interface have a cell on one side only (e.g. at {where}, "
+            f"{depth[deep][0]:.3g} inside the part: a region's cells next to the interface were removed, where a "
+            f"region is about one element thick); the interfaces are not resolved at h={h:g} (try a smaller h)")
     return faces, np.column_stack([region_ids[first], region_ids[second]])
+
+
+def exposed_interface_faces(points, tets, model, h, on_interface: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Faces on an interface with a cell on one side only, and how deep inside the part each lies.
+
+    A boundary face whose nodes all lie on an interface (``on_interface``, (N,) bool) and whose
+    centroid lies more than 0.1 h inside the part, and deeper than a chord across a rim
+    (:data:`RIM_CHORD_DEPTH`), exposes a piece of a region that is not meshed. Returns the (F, 3)
+    faces and their centroids' (F,) depth below the part's surface.
+    """
+    from ..distmesh.topology import boundary_faces
+
+    outer = boundary_faces(tets)
+    outer = outer[on_interface[outer].all(axis=1)]
+    depth = -np.asarray(model(points[outer].mean(axis=1)), np.float64)
+    exposed = (depth > 0.1 * h) & (depth > _chord_depth(points, outer, model, h))
+    return outer[exposed], depth[exposed]
+
+
+def _chord_depth(points, faces, model, h) -> np.ndarray:
+    """(F,) deepest centroid allowed for each face: :data:`RIM_CHORD_DEPTH` of its longest edge
+    for a face whose nodes all lie on the part's surface (a chord across a rim), 0 otherwise."""
+    corners = points[faces]
+    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    on_surface = (np.abs(np.asarray(model(corners.reshape(-1, 3)), np.float64)) <= ON_INTERFACE * h).reshape(-1, 3).all(axis=1)
+    return np.where(on_surface, RIM_CHORD_DEPTH * longest, 0.0)

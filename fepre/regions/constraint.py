@@ -17,8 +17,8 @@ import numpy as np
 
 from ..distmesh.constraints import MeshConstraint
 from ..errors import MeshingError
-from .conform import check_interfaces, final_region_mesh, node_regions, region_quality_stage
-from .interface import interface_node_mask, interface_nodes
+from .conform import check_interfaces, exposed_interface_faces, final_region_mesh, node_regions, region_quality_stage
+from .interface import ON_INTERFACE, interface_node_mask, interface_nodes
 from .partition import RegionSet, check_regions, region_set
 from .protection import InterfaceProtection, drop_protected
 
@@ -132,7 +132,25 @@ class RegionConstraint(MeshConstraint):
 
     def check(self, job) -> None:
         faces, _ = check_interfaces(job.points, job.tets, self.region_ids, self.region_set, job.model, job.h)  # MeshingError
+        self._warn_thin_pieces(job)
         job.history.update(interface_faces=np.array([len(faces)]), interface_nodes_dropped=np.array([self.dropped]))
+
+    def _warn_thin_pieces(self, job) -> None:
+        """A ResolutionWarning for pieces of regions thinner than :data:`~fepre.regions.conform.THIN_PIECE`
+        h left unmeshed beyond an interface (the plain mesh loses parts thinner than h the same way)."""
+        import warnings
+
+        from ..errors import ResolutionWarning
+
+        on = self.region_set.on_interface(job.points, ON_INTERFACE * job.h)
+        exposed, depth = exposed_interface_faces(job.points, job.tets, job.model, job.h, on)
+        if len(exposed):
+            worst = int(np.argmax(depth))
+            where = np.round(job.points[exposed[worst]].mean(axis=0), 6).tolist()
+            warnings.warn(
+                f"distmesh: {len(exposed)} face(s) on an interface lie on the mesh's surface: a piece of a region "
+                f"beyond them, up to {depth[worst]:.3g} thick (at {where}), is thinner than h={job.h:g} and is not "
+                f"meshed; h={depth[worst]:.2g} or smaller would mesh it", ResolutionWarning, stacklevel=2)
 
     def annotate(self, job, grid) -> None:
         grid.cell_data["region_id"] = self.region_ids
