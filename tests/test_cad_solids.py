@@ -90,7 +90,7 @@ def test_the_solids_mesh_conformally(assembly):
 
 def test_an_overlap_goes_to_the_first_solid_with_a_warning(tmp_path):
     write_assembly(tmp_path / "sunk.step", overlap=1.0)
-    with pytest.warns(ResolutionWarning, match=r"solid_1 and solid_3 overlap by a volume of 300 .*part of solid_1"):
+    with pytest.warns(ResolutionWarning, match=r"1 pair\(s\) of solids overlap \(interference\): solid_1 and solid_3 by a volume of 300; each overlap is meshed as part of the first"):
         solids = sdf.cad_solids(tmp_path / "sunk.step")
     assert solids.volumes["solid_1"] == pytest.approx(PLATE, rel=1e-9)
     assert solids.volumes["solid_3"] == pytest.approx(BLOCK - 300, rel=1e-9)

@@ -126,6 +126,18 @@ def _region_names(path: Path, file_names: list[str], names: dict | None) -> list
     return chosen
 
 
+def _overlaps_message(path: Path, overlaps: np.ndarray, names: list[str]) -> str:
+    """One line per pair of solids that overlap: the volume, in how many pieces, who gets it."""
+    pairs, inverse = np.unique(overlaps[:, :2].astype(np.int64), axis=0, return_inverse=True)
+    volumes = np.bincount(inverse.ravel(), overlaps[:, 2], minlength=len(pairs))
+    pieces = np.bincount(inverse.ravel(), minlength=len(pairs))
+    listed = "; ".join(
+        f"{names[a]} and {names[b]} by a volume of {v:.6g}" + (f" in {n} pieces" if n > 1 else "")
+        for (a, b), v, n in zip(pairs, volumes, pieces))
+    return (f"{path}: {len(pairs)} pair(s) of solids overlap (interference): {listed}; each overlap is meshed as part "
+            "of the first solid named")
+
+
 def _regions(path: Path, found: dict, names: dict | None) -> SolidRegions:
     """The region models from the child's arrays: each solid's faces once (a face between two of
     its own pieces, an overlap it took, is inside it), turned to face out of it."""
@@ -139,11 +151,8 @@ def _regions(path: Path, found: dict, names: dict | None) -> SolidRegions:
     owner = found["piece_owner"]  # (P,) the solid each fragment piece goes to
     piece, face = found["boundary_piece"], found["boundary_surface"]
     solid_names = _region_names(path, [str(n) for n in found["names"]], names)
-    for first, second, volume in found["overlaps"]:
-        warnings.warn(
-            f"{path}: solids {solid_names[int(first)]} and {solid_names[int(second)]} overlap by a volume of "
-            f"{volume:.6g} (an interference); the overlap is meshed as part of {solid_names[int(first)]}",
-            ResolutionWarning, stacklevel=3)
+    if len(found["overlaps"]):
+        warnings.warn(_overlaps_message(path, found["overlaps"], solid_names), ResolutionWarning, stacklevel=3)
     order = np.argsort(surface, kind="stable")
     starts = np.searchsorted(surface[order], np.arange(int(surface.max()) + 2)) if len(surface) else np.zeros(1, int)
 
