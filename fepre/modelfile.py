@@ -143,6 +143,32 @@ def _load_image(path: Path, image: dict | None) -> ModelFile:
         raise ModelFileError(str(exc)) from None
 
 
+def _load_mesh_file(path: Path, inside: str) -> ModelFile:
+    """A surface, volume mesh or CAD file as one model (``sdf.mesh``)."""
+    from .sdf import mesh
+
+    try:
+        return ModelFile(path=path, model=mesh(path, inside=inside))
+    except ValueError as exc:
+        raise ModelFileError(str(exc)) from None
+
+
+def _load_solids(path: Path, names: dict, inside: str) -> ModelFile:
+    """A CAD file's solids as regions (``--solids``)."""
+    from .sdf import cad_solids
+    from .sdf.meshmodel.cad_files import CAD_SUFFIXES as SOLID_SUFFIXES
+
+    if path.suffix.lower() not in SOLID_SUFFIXES:
+        raise ModelFileError(f"--solids takes a CAD file ({', '.join(SOLID_SUFFIXES)}), one region per solid; got {path}")
+    if inside != "closed":
+        raise ModelFileError(f"--inside {inside} applies to surface mesh files; {path} is a CAD file of solids")
+    try:
+        regions = cad_solids(path, names=names or None)
+    except ValueError as exc:
+        raise ModelFileError(str(exc)) from None
+    return ModelFile(path=path, model=regions.part, regions=dict(regions))
+
+
 def _is_image(path: Path) -> bool:
     from .sdf.imagemodel import IMAGE_SUFFIXES
 
@@ -150,7 +176,8 @@ def _is_image(path: Path) -> bool:
     return any(name.endswith(suffix) for suffix in IMAGE_SUFFIXES)
 
 
-def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: str = "closed") -> ModelFile:
+def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: str = "closed",
+               solids: dict | None = None) -> ModelFile:
     """Run a model file and return what it defines.
 
     Parameters
@@ -169,6 +196,8 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     inside : {"closed", "winding"}
         For a surface mesh file, ``inside=`` of :func:`fepre.sdf.mesh` (``"winding"``: the solid
         where the generalised winding number exceeds 1/2, for open surfaces).
+    solids : dict, optional
+        For a CAD file, each solid a region: ``names`` of :func:`fepre.sdf.cad_solids` ({} for its defaults).
 
     Returns
     -------
@@ -202,13 +231,10 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if image_inside in ("above", "below"):
         raise ModelFileError(f"model file {path}: --inside {image_inside} applies to images only; a surface mesh file "
                              "takes --inside closed or winding")
+    if solids is not None:
+        return _load_solids(path, solids, inside)
     if path.suffix.lower() in MESH_SUFFIXES:
-        from .sdf import mesh
-
-        try:
-            return ModelFile(path=path, model=mesh(path, inside=inside))
-        except ValueError as exc:
-            raise ModelFileError(str(exc)) from None
+        return _load_mesh_file(path, inside)
     if inside != "closed":
         raise ModelFileError(f"model file {path}: --inside {inside} applies to surface mesh files "
                              f"({', '.join(MESH_SUFFIXES)}) only; a Python model file defines its solid itself")

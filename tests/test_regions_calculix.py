@@ -73,3 +73,29 @@ def test_bar_in_parallel_gives_the_voigt_stiffness(tmp_path, order):
     force, _, _ = stretch(tmp_path, mesh, {"soft": (E1, 0.3), "stiff": (E2, 0.3)}, order)
     voigt = 0.5 * (E1 + E2)
     assert force == pytest.approx(voigt * STRETCH / 2.0, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_a_step_assembly_in_series_gives_the_reuss_stiffness(tmp_path):
+    # the same bar as two solids of one STEP file, touching face to face at x = 1: each solid
+    # its own element set and material, the shared face made of faces of the mesh
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.addBox(1, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.write(str(tmp_path / "bar.step"))
+    finally:
+        gmsh.finalize()
+    solids = sdf.cad_solids(tmp_path / "bar.step", names={1: "soft", 2: "stiff"})
+    mesh = fepre.distmesh(solids.part, 0.25, regions=solids, progress=False)
+    force, inp, dat = stretch(tmp_path, mesh, {"soft": (E1, 0.0), "stiff": (E2, 0.0)}, 1)
+    assert force == pytest.approx(1.0 / (1.0 / E1 + 1.0 / E2) * STRETCH, rel=1e-6)
+    displacement = dat_block(dat, "displacements")
+    u = dict(zip(displacement[:, 0].astype(int).tolist(), displacement[:, 1].tolist()))
+    interface = node_set(inp, "interface_soft_stiff")
+    assert interface.size > 20
+    assert np.allclose([u[n] for n in interface.tolist()], STRETCH * E2 / (E1 + E2), rtol=1e-5, atol=0)

@@ -106,6 +106,27 @@ def label_arguments(parser: argparse.ArgumentParser) -> None:
                              "voxel wide between materials that touch) the smaller of the two")
 
 
+def solid_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--solids`` and ``--solid NUMBER=NAME``: a CAD MODEL's solids as regions."""
+    parser.add_argument("--solids", action="store_true",
+                        help="MODEL is a STEP or BREP assembly: one region (element set) per solid, meshed conformally "
+                             "where solids touch (default: the solids united into one part)")
+    parser.add_argument("--solid", action="append", metavar="NUMBER=NAME",
+                        help="with --solids: the region name of a solid, numbered from 1 in the file's order "
+                             "(repeat; default the solid's name in the file, else solid_<NUMBER>)")
+
+
+def solid_options(args: argparse.Namespace) -> dict | None:
+    """``load_model(solids=)`` from ``--solids`` and ``--solid``: None without ``--solids``."""
+    if getattr(args, "solid", None) and not getattr(args, "solids", False):
+        raise ValueError("--solid names a solid of a CAD assembly: add --solids")
+    if not getattr(args, "solids", False):
+        return None
+    if getattr(args, "labels", False):
+        raise ValueError("--solids is for a CAD file and --labels for a label image: give one")
+    return numbered_names(args.solid or [], "--solid", "plate")
+
+
 IMAGE_INSIDE = ("above", "below")
 
 
@@ -138,15 +159,21 @@ def image_options(args: argparse.Namespace) -> dict:
 
 def label_names(values: list[str]) -> dict:
     """``--label 1=bone --label 2=implant`` as {1: "bone", 2: "implant"}."""
+    return numbered_names(values, "--label", "bone")
+
+
+def numbered_names(values: list[str], flag: str, example: str) -> dict:
+    """``FLAG 1=NAME`` values as {1: "NAME"}, each checked (``example``: a name for the message)."""
+    key = "VALUE" if flag == "--label" else "NUMBER"
     names = {}
     for value in values:
-        label, _, name = value.partition("=")
+        number, _, name = value.partition("=")
         try:
-            names[int(label)] = name
+            names[int(number)] = name
         except ValueError:
-            raise ValueError(f"--label must be VALUE=NAME with an integer VALUE (e.g. --label 1=bone); got {value!r}") from None
+            raise ValueError(f"{flag} must be {key}=NAME with an integer {key} (e.g. {flag} 1={example}); got {value!r}") from None
         if not name:
-            raise ValueError(f"--label must be VALUE=NAME (e.g. --label 1=bone); got {value!r}")
+            raise ValueError(f"{flag} must be {key}=NAME (e.g. {flag} 1={example}); got {value!r}")
     return names
 
 
@@ -157,7 +184,7 @@ def load_part(args: argparse.Namespace):
     from ..sdf import MeshModel
     from ..sdf.imagemodel import LabelModel
 
-    part = load_model(args.model, image=image_options(args), inside=mesh_inside(args))
+    part = load_model(args.model, image=image_options(args), inside=mesh_inside(args), solids=solid_options(args))
     image = image_of(part.model)
     if image is not None:
         if not getattr(args, "quiet", False):
@@ -171,6 +198,10 @@ def load_part(args: argparse.Namespace):
             voxels = " x ".join(map(str, first.image.values.shape))
             listed = ", ".join(f"{name} ({model.label})" for name, model in part.regions.items() if hasattr(model, "label"))
             say(f"{part.path}: label image of {voxels} voxels; regions {listed}")
+    elif getattr(args, "solids", False):
+        if not getattr(args, "quiet", False):
+            listed = ", ".join(f"{name} (volume {model.volume:.6g})" for name, model in part.regions.items())
+            say(f"{part.path}: {len(part.regions)} solid(s), one region each: {listed}")
     elif isinstance(part.model, MeshModel) and not getattr(args, "quiet", False):
         repaired = part.model.repaired.summary()
         say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"

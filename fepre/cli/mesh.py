@@ -18,6 +18,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     common.model_argument(parser)
     common.image_arguments(parser)
     common.label_arguments(parser)
+    common.solid_arguments(parser)
     parser.add_argument("-o", "--output", required=True, help="solver file: .inp, .msh, .vtu, .xdmf, .bdf, .mesh, .med")
     parser.add_argument("--h", type=float, help="target edge length (default: the model file's h); with --hmax, the smallest the size field gives "
                         "(thinner walls and narrower gaps get it too, and are named in a warning)")

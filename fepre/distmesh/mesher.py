@@ -229,6 +229,19 @@ def _frame_offset(model: SDF, bounds: Any) -> np.ndarray:
     return local_offset(lower, upper)
 
 
+def _moved_region(region: Any, model: SDF, local_model: SDF, offset: np.ndarray) -> Any:
+    """A region moved into the local frame; a region that lies ``within`` the part (a label
+    image's, an assembly's solid: its own part for sizes and interfaces) stays within the moved
+    part (else ``part & region`` doubles every evaluation, and the size field found walls 0.0008
+    thick where a pin's face lies on the part's, 1e3 from the origin)."""
+    if not isinstance(region, SDF):
+        return region  # not a model: the region checks say so
+    moved = region.translate(-offset)
+    if getattr(region, "within", None) is model:
+        moved.within = local_model
+    return moved
+
+
 def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: Any,
                     regions: Any, callback: Any, **rest: Any):
     """``distmesh`` of the part moved by ``-offset`` (every argument with it), its grid moved back.
@@ -249,8 +262,9 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
         local_fixed = None if fixed is None else np.asarray(fixed, np.float64) - offset
     except (TypeError, ValueError):  # not points: the checks say so
         local_fixed, fixed = fixed, None
+    local_model = model.translate(-offset)
     if isinstance(regions, dict):
-        regions = {name: part.translate(-offset) if isinstance(part, SDF) else part for name, part in regions.items()}
+        regions = {name: _moved_region(part, model, local_model, offset) for name, part in regions.items()}
     if callable(callback):
         given_callback = callback
 
@@ -259,7 +273,7 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
 
     try:
         with user_frame(offset):  # warnings raised below name places in the user's coordinates
-            grid = _mesh(model.translate(-offset), h, bounds=local_bounds, size=moved_size(size, -offset),
+            grid = _mesh(local_model, h, bounds=local_bounds, size=moved_size(size, -offset),
                          fixed=local_fixed, periodic=periodic, regions=regions, callback=callback,
                          _frame=offset, **rest)
     except (ValueError, MeshingError) as exc:

@@ -78,6 +78,14 @@ def check_regions(regions: Any) -> None:
             raise TypeError(f"regions[{name!r}] must be a 3D fepre.sdf.SDF; got {type(region).__name__}")
 
 
+def _own_volume(region) -> float:
+    """The volume of a region ``within`` its part: its mesh model's, through the translation
+    that moves it into the local frame of a part far from the origin."""
+    while not hasattr(region, "volume") and len(region.children) == 1:
+        region = region.children[0]
+    return float(region.volume)
+
+
 def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarray) -> RegionSet:
     """The checked regions of ``distmesh(..., regions=)``.
 
@@ -92,7 +100,7 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
         # a label image's regions in their own part: one shared surface splits it, without gaps
         # or overlaps, by construction (sdf.labels); sampling all of them at h/2 to check it was
         # 12 of 75-110 s of a 256^3 image's mesh. The shares (the meshing order) are their volumes.
-        volumes = np.array([float(region.volume) for region in regions.values()])
+        volumes = np.array([_own_volume(region) for region in regions.values()])
         return RegionSet(found.names, found.models, tuple((volumes / volumes.sum()).tolist()))
 
     extent = upper - lower

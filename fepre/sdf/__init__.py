@@ -21,13 +21,14 @@ from .deform import *  # noqa: F401,F403
 from .lattices import *  # noqa: F401,F403
 from .patterns import *  # noqa: F401,F403
 from .meshmodel import MeshModel, MeshInputError, mesh
+from .meshmodel.cad_solids import SolidRegions, cad_solids
 from . import meshmodel
 from .imagemodel import ImageModel, ImageInputError, LabelRegions, image, labels
 from . import imagemodel
 from . import booleans, deform, extrusions, lattices, patterns, shapes2d, solids, transforms
 
 __all__ = (
-    ["SDF", "mesh", "MeshModel", "MeshInputError", "image", "ImageModel", "ImageInputError", "labels", "LabelRegions"]
+    ["SDF", "mesh", "MeshModel", "MeshInputError", "cad_solids", "SolidRegions", "image", "ImageModel", "ImageInputError", "labels", "LabelRegions"]
     + solids.__all__
     + shapes2d.__all__
     + extrusions.__all__

@@ -3,7 +3,7 @@
 Engineers hold their parts as STEP files more often than as STL. :func:`read_cad_surface` imports
 one with OpenCASCADE (through gmsh, already a dependency), unites its solids when it holds
 several (an assembly's bodies that touch or overlap become one solid, as a mesh model of their
-STL would), and tessellates the boundary finely enough that the model is the part:
+STL would; :func:`~fepre.sdf.meshmodel.cad_solids.cad_solids` keeps each its own region), and tessellates the boundary finely enough that the model is the part:
 :data:`SEGMENTS` triangles per turn of a curved face (a chord sags 0.12% of its radius; a
 cylinder's area falls 0.16% short), planar faces as coarse as their outline allows.
 
