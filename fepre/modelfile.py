@@ -222,6 +222,8 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
         raise ModelFileError(f"model file {path} does not exist")
     if path.is_dir() and not _is_image(path):
         raise ModelFileError(f"model file {path} is a directory; give a .py file that defines `model`")
+    if solids is not None:
+        return _load_solids(path, solids, inside)
     image_inside = (image or {}).get("inside")
     if _is_image(path):
         if inside != "closed" or image_inside in ("closed", "winding"):
@@ -231,8 +233,6 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if image_inside in ("above", "below"):
         raise ModelFileError(f"model file {path}: --inside {image_inside} applies to images only; a surface mesh file "
                              "takes --inside closed or winding")
-    if solids is not None:
-        return _load_solids(path, solids, inside)
     if path.suffix.lower() in MESH_SUFFIXES:
         return _load_mesh_file(path, inside)
     if inside != "closed":

@@ -162,11 +162,17 @@ def test_the_cli_refuses_bad_solid_flags(tmp_path, assembly, flags, message):
     assert not (tmp_path / "out.inp").exists()
 
 
-def test_the_cli_refuses_solids_of_a_surface_file(tmp_path):
+@pytest.mark.parametrize("name", ["cube.stl", "cube.vti"])
+def test_the_cli_refuses_solids_of_a_surface_or_image_file(tmp_path, name):
     import pyvista as pv
 
-    pv.Cube().triangulate().save(tmp_path / "cube.stl")
-    done = _fepre("mesh", tmp_path / "cube.stl", "--solids", "--h", "0.2", "-o", tmp_path / "out.inp", cwd=tmp_path)
+    if name.endswith(".stl"):
+        pv.Cube().triangulate().save(tmp_path / name)
+    else:
+        image = pv.ImageData(dimensions=(4, 4, 4))
+        image["values"] = np.arange(64.0)
+        image.save(tmp_path / name)
+    done = _fepre("mesh", tmp_path / name, "--solids", "--h", "0.2", "-o", tmp_path / "out.inp", cwd=tmp_path)
     assert done.returncode != 0 and "--solids takes a CAD file (.step, .stp, .brep)" in done.stderr
 
 

@@ -146,7 +146,7 @@ class RegionConstraint(MeshConstraint):
         exposed, depth = exposed_interface_faces(job.points, job.tets, job.model, job.h, on)
         if len(exposed):
             worst = int(np.argmax(depth))
-            where = np.round(job.points[exposed[worst]].mean(axis=0), 6).tolist()
+            where = np.round(job.points[exposed[worst]].mean(axis=0) + job.frame_offset, 6).tolist()  # the user's frame
             warnings.warn(
                 f"distmesh: {len(exposed)} face(s) on an interface lie on the mesh's surface: a piece of a region "
                 f"beyond them, up to {depth[worst]:.3g} thick (at {where}), is thinner than h={job.h:g} and is not "

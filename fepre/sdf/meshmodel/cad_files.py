@@ -61,18 +61,39 @@ def read_cad_surface(path: str | os.PathLike, *, timeout: float = TIMEOUT):
     return pv.PolyData.from_regular_faces(points, triangles)
 
 
+def import_shapes(path: str) -> None:
+    """In the child, gmsh initialised: import ``path`` into OpenCASCADE (a ValueError if it cannot)."""
+    import gmsh
+
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        gmsh.model.occ.importShapes(path)
+    except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
+        raise ValueError(f"could not import the file ({str(exc).strip()[:200]})") from None
+    gmsh.model.occ.synchronize()
+
+
+def mesh_faces() -> None:
+    """In the child: tessellate every face, :data:`SEGMENTS` per turn, planar faces up to D/20."""
+    import gmsh
+
+    lower, upper = np.split(np.asarray(gmsh.model.getBoundingBox(-1, -1)), 2)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", SEGMENTS)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", float(np.linalg.norm(upper - lower)) / 20.0)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    try:
+        gmsh.model.mesh.generate(2)
+    except Exception as exc:  # noqa: BLE001
+        raise ValueError(f"gmsh could not tessellate its faces ({str(exc).strip()[:200]})") from None
+
+
 def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
     """In the child: import ``path``, unite its solids and mesh their boundary."""
     import gmsh
 
     gmsh.initialize(interruptible=False)
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            gmsh.model.occ.importShapes(path)
-        except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
-            raise ValueError(f"could not import the file ({str(exc).strip()[:200]})") from None
-        gmsh.model.occ.synchronize()
+        import_shapes(path)
         volumes = gmsh.model.getEntities(3)
         if len(volumes) > 1:
             try:
@@ -82,14 +103,7 @@ def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
                 pass
         if not gmsh.model.getEntities(2):
             raise ValueError("the file holds no surface (no face to tessellate)")
-        lower, upper = np.split(np.asarray(gmsh.model.getBoundingBox(-1, -1)), 2)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", SEGMENTS)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", float(np.linalg.norm(upper - lower)) / 20.0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-        try:
-            gmsh.model.mesh.generate(2)
-        except Exception as exc:  # noqa: BLE001
-            raise ValueError(f"gmsh could not tessellate its faces ({str(exc).strip()[:200]})") from None
+        mesh_faces()
         surface = gmsh_cells(2, 2, 3)  # gmsh gives a solid's faces' triangles facing out of it
         if surface is None:
             raise ValueError("tessellating its faces gave no triangles")

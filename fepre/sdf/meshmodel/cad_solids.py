@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ...child_runs import run_child
-from .cad_files import CAD_SUFFIXES, SEGMENTS, TIMEOUT
+from .cad_files import CAD_SUFFIXES, TIMEOUT, import_shapes, mesh_faces
 
 __all__ = ["cad_solids", "SolidRegions"]
 
@@ -185,12 +185,7 @@ def _tessellate_solids(path: str) -> dict:
 
     gmsh.initialize(interruptible=False)
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            gmsh.model.occ.importShapes(path)
-        except Exception as exc:  # noqa: BLE001 - gmsh raises plain Exceptions
-            raise ValueError(f"could not import the file ({str(exc).strip()[:200]})") from None
-        gmsh.model.occ.synchronize()
+        import_shapes(path)
         inputs = gmsh.model.getEntities(3)
         if not inputs:
             raise ValueError("the file holds no solid")
@@ -206,14 +201,7 @@ def _tessellate_solids(path: str) -> dict:
         holders = {tag: [i for i, found in enumerate(mapping) if (3, tag) in found] for tag in pieces}
         volumes = np.array([gmsh.model.occ.getMass(3, tag) for tag in pieces])
         overlaps = [(held[0], other, volumes[k]) for k, tag in enumerate(pieces) for held in [holders[tag]] for other in held[1:]]
-        lower, upper = np.split(np.asarray(gmsh.model.getBoundingBox(-1, -1)), 2)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", SEGMENTS)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", float(np.linalg.norm(upper - lower)) / 20.0)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-        try:
-            gmsh.model.mesh.generate(2)
-        except Exception as exc:  # noqa: BLE001
-            raise ValueError(f"gmsh could not tessellate its faces ({str(exc).strip()[:200]})") from None
+        mesh_faces()
         points, _ = gmsh_cells(2, 2, 3) or (None, None)
         if points is None:
             raise ValueError("tessellating its faces gave no triangles")
