@@ -200,7 +200,7 @@ def _tessellate_solids(path: str) -> dict:
         pieces = sorted({tag for found in mapping for dim, tag in found if dim == 3})
         holders = {tag: [i for i, found in enumerate(mapping) if (3, tag) in found] for tag in pieces}
         volumes = np.array([gmsh.model.occ.getMass(3, tag) for tag in pieces])
-        overlaps = [(held[0], other, volumes[k]) for k, tag in enumerate(pieces) for held in [holders[tag]] for other in held[1:]]
+        overlaps = [(holders[tag][0], other, volume) for tag, volume in zip(pieces, volumes) for other in holders[tag][1:]]
         mesh_faces()
         points, _ = gmsh_cells(2, 2, 3) or (None, None)
         if points is None:
