@@ -91,15 +91,11 @@ def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarr
 
     ``regions`` maps at least two names to 3D SDFs. They must not overlap inside the part and
     must cover it: both are checked on a grid over the bounds (spacing about ``h/2``, at most
-    ``CHECK_SAMPLES`` points) to ``OVERLAP_DEPTH h``. Regions that stand apart but face each
-    other across a gap the mesh would bridge are refused (:func:`~.clearance.check_clearances`).
+    ``CHECK_SAMPLES`` points) to ``OVERLAP_DEPTH h``.
     """
     check_regions(regions)
     names = list(regions)
     found = RegionSet(tuple(names), tuple(regions.values()))
-    from .clearance import check_clearances
-
-    check_clearances(found, model, lower, upper, h)
     if all(getattr(region, "within", None) is model for region in regions.values()):
         # a label image's regions in their own part: one shared surface splits it, without gaps
         # or overlaps, by construction (sdf.labels); sampling all of them at h/2 to check it was
