@@ -102,3 +102,13 @@ def test_the_cli_names_the_solids_a_clearance_parts(tmp_path):
     assert found and float(found.group(1)) == pytest.approx(200.0, rel=0.05), done.stderr  # the 20 x 10 faces
     assert "mesh the part without regions (CLI: without --solids)" in done.stderr
     assert not (tmp_path / "stack.inp").exists()
+
+
+def test_a_gap_outside_the_part_is_no_concern():
+    # two boxes 0.2 apart cut a part of two balls, one in each, that does not reach the gap
+    regions = _boxes(0.2)
+    balls = sdf.sphere(3.0, center=(5.0, 4.0, 3.0)) | sdf.sphere(3.0, center=(15.2, 4.0, 3.0))
+    found = narrow_clearances(RegionSet(("a", "b"), (regions["a"], regions["b"])), balls, (-1, -1, -1), (21.2, 9, 7), 1.0)
+    assert found == []
+    mesh = fepre.distmesh(balls, 1.0, regions=regions, progress=False)
+    assert np.bincount(mesh["region_id"], mesh["volume"]) == pytest.approx([36 * np.pi] * 2, rel=0.05)

@@ -76,9 +76,10 @@ def _surface_samples(regions: RegionSet, lower: np.ndarray, upper: np.ndarray, h
 def narrow_clearances(regions: RegionSet, model, lower, upper, h: float) -> list[Clearance]:
     """The gaps narrower than ``CLEARANCE h`` between faces of two regions that face each other.
 
-    A sample on one region's surface is in such a gap when the nearest other region is between
-    ``TOUCHING h`` and ``CLEARANCE h`` away, its face there looks back (normals within
-    ``FACING`` of opposite), and the middle of the gap lies in no region. Gaps spanning less than
+    A sample on one region's surface (and the part's) is in such a gap when the nearest other
+    region is between ``TOUCHING h`` and ``CLEARANCE h`` away, its face there looks back
+    (normals within ``FACING`` of opposite), and the middle of the gap lies in no region and
+    outside the part. Gaps spanning less than
     ``CLEARANCE_AREA h^2`` are left out. Regions that split the part by construction (a label
     image's) are not sampled.
 
@@ -114,7 +115,10 @@ def narrow_clearances(regions: RegionSet, model, lower, upper, h: float) -> list
             away = np.asarray(regions.models[b].value_and_gradient(p)[1])  # from the other region to p
             facing[mine] = (normal * away).sum(axis=1) < -FACING
             middle[mine] = p + 0.5 * width[candidate[mine], None] * normal
-    in_gap = facing & (regions.values(middle).min(axis=1) > 0.0)
+    # the gap is the part's: its middle outside the part and in no region, its faces on the
+    # part's surface (two regions apart where the part does not reach them are no concern)
+    on_part = np.asarray(model(points[candidate]), dtype=np.float64) <= TOUCHING * h
+    in_gap = facing & on_part & (np.asarray(model(middle), dtype=np.float64) > 0.0) & (regions.values(middle).min(axis=1) > 0.0)
     chosen = candidate[in_gap]
     pairs = np.sort(np.column_stack([owner[chosen], other[chosen]]), axis=1)
     for a, b in np.unique(pairs, axis=0).tolist():
