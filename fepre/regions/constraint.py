@@ -77,6 +77,13 @@ class RegionConstraint(MeshConstraint):
     def push(self, job):
         return self.guard.push
 
+    def failure_note(self, job) -> str | None:
+        if self.region_set is None:
+            return None
+        from .thickness import thin_regions_note
+
+        return thin_regions_note(self.region_set, job.model, job.lower, job.upper, job.h, job.frame_offset)
+
     def final_mesh(self, job) -> bool:
         o, h = job.options, job.h
         loop_points, loop_fixed, dropped = drop_protected(job.model, job.loop.points, job.loop.fixed_mask, self.guard, h)
