@@ -90,12 +90,57 @@ def test_the_solids_mesh_conformally(assembly):
     assert not ((pairs == [1, 2]).all(axis=1)).any()
 
 
-def test_an_overlap_goes_to_the_first_solid_with_a_warning(tmp_path):
+def test_an_overlap_goes_to_the_smaller_solid_with_a_warning(tmp_path):
     write_assembly(tmp_path / "sunk.step", overlap=1.0)
-    with pytest.warns(ResolutionWarning, match=r"1 pair\(s\) of solids overlap \(interference\): solid_1 and solid_3 by a volume of 300; each overlap is meshed as part of the first"):
+    with pytest.warns(ResolutionWarning, match=r"1 pair\(s\) of solids overlap \(interference\): solid_3 and solid_1 by a volume of 300; each overlap is meshed as part of the first solid named, the smaller"):
         solids = sdf.cad_solids(tmp_path / "sunk.step")
-    assert solids.volumes["solid_1"] == pytest.approx(PLATE, rel=1e-9)
-    assert solids.volumes["solid_3"] == pytest.approx(BLOCK - 300, rel=1e-9)
+    assert solids.volumes["solid_1"] == pytest.approx(PLATE - 300, rel=1e-9)  # the plate gets the block's seat
+    assert solids.volumes["solid_3"] == pytest.approx(BLOCK, rel=1e-9)  # the block stays whole
+
+
+def _write_solids(path, build) -> None:
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        build(gmsh.model.occ)
+        gmsh.model.occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def test_an_insert_modelled_whole_inside_its_housing_is_its_own_region(tmp_path):
+    # the housing is not cut: the insert overlaps it entirely, and it was emptied (a crash)
+    def build(occ):
+        occ.addBox(-20, -15, -10, 40, 30, 20)
+        occ.addCylinder(0, 0, -5, 0, 0, 10, 5)
+
+    _write_solids(tmp_path / "insert.step", build)
+    with pytest.warns(ResolutionWarning, match=r"insert and housing by a volume of 785\.398"):
+        solids = sdf.cad_solids(tmp_path / "insert.step", names={1: "housing", 2: "insert"})
+    insert = np.pi * 25 * 10
+    assert solids.volumes["insert"] == pytest.approx(insert, rel=1e-9)
+    assert solids.volumes["housing"] == pytest.approx(24000 - insert, rel=1e-9)
+    mesh = fepre.distmesh(solids.part, 1.5, regions=solids, progress=False)
+    volumes = np.bincount(mesh["region_id"], mesh["volume"])
+    assert volumes.sum() == pytest.approx(24000, rel=1e-9)  # the housing's box: all flat
+    assert volumes[1] == pytest.approx(insert, rel=0.02)  # the insert's chords at h = 1.5, r = 5
+    assert min(mesh["min_dihedral_angle"][mesh["region_id"] == k].min() for k in (0, 1)) >= 25.0
+
+
+def test_a_solid_written_twice_is_named(tmp_path):
+    def build(occ):
+        occ.addBox(0, 0, 0, 10, 10, 10)
+        occ.addBox(20, 0, 0, 5, 5, 5)
+        occ.addBox(20, 0, 0, 5, 5, 5)
+
+    _write_solids(tmp_path / "twice.step", build)
+    with pytest.raises(MeshInputError, match=r"solid 3 \(solid_3\) is the same body as solid_2: the file holds it twice"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sdf.cad_solids(tmp_path / "twice.step")
 
 
 def test_one_solid_is_its_own_part(tmp_path):

@@ -486,9 +486,12 @@ def test_graded_regions_take_the_sizes_of_a_thin_region():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [5, 6, 8])
+@pytest.mark.parametrize("seed", [4, 5, 6, 8])
 def test_random_label_images_mesh_graded(seed):
-    # seeds of `fepre bench label-corpus` that failed at h = (0.5, 2). 6: a flat cell among four
+    # seeds of `fepre bench label-corpus` that failed at h = (0.5, 2). 4: an inclusion pokes out
+    # of the block's face, a lip one voxel high; the cells from its corner node to the block's
+    # face crossed the interface, and each repair round dropped a free node of the face that
+    # the next round replaced (the lip's feature node is now dropped first). 6: a flat cell among four
     # interface nodes in a rectangle on a voxel step was dropped and left a void of no volume,
     # which the final mesh's choice refused. 8: a face across a rim, where an inclusion leaves
     # the block near its edge at a grazing angle, 0.1 h deep, was taken for a removed cell.

@@ -265,3 +265,18 @@ def test_interface_node_under_the_surface_goes_onto_the_rim(monkeypatch):
     assert np.linalg.norm(moved - node) / h == pytest.approx(0.0711, abs=1e-4)
     monkeypatch.setattr(interface, "RIM_SNAP", 0.05)
     assert np.array_equal(interface.snap_to_rims(node.copy(), box, regions, (0, 1), h), node)
+
+
+def test_graded_regions_name_a_thin_wall_once():
+    # the part's size field and each region's see the same plate 1 thick (3 elements need 0.33):
+    # one warning names it, where each field used to warn on its own
+    plate = sdf.box((12.0, 8.0, 1.0))
+    regions = {"left": plate & sdf.box((6.0, 10.0, 3.0), (-3.0, 0.0, 0.0)),
+               "right": plate & sdf.box((6.0, 10.0, 3.0), (3.0, 0.0, 0.0))}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(plate, (0.5, 2.0), regions=regions, progress=False)
+    fields = [str(w.message) for w in caught if "the size field stops at hmin" in str(w.message)]
+    assert len(fields) == 1, fields
+    assert "a wall 1 thick" in fields[0] and "would need 0.333" in fields[0]
+    assert mesh["volume"].sum() == pytest.approx(96.0, rel=1e-9)

@@ -72,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(run(args) or 0)
     except (ValueError, TypeError, OSError, MeshingError) as exc:
-        print(f"fepre {args.command}: error: {exc}", file=sys.stderr)
+        notes = " ".join(str(note) for note in getattr(exc, "__notes__", ()))  # the frame a place is in, the likely cause
+        print(f"fepre {args.command}: error: {exc}" + (f" ({notes})" if notes else ""), file=sys.stderr)
         return 1
     except ImportError as exc:  # an optional dependency the command needs is not installed
         print(f"fepre {args.command}: error: {exc}", file=sys.stderr)

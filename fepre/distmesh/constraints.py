@@ -59,7 +59,8 @@ class MeshConstraint:
       :meth:`after_quality_stage`;
     - validation: :meth:`defects`;
     - checks and output: :meth:`check` (history entries, warnings, errors), :meth:`annotate`
-      (the grid's data).
+      (the grid's data);
+    - on a MeshingError of any stage: :meth:`failure_note`.
     """
 
     def restrict_domain(self, job: MeshingJob) -> None:
@@ -128,6 +129,11 @@ class MeshConstraint:
 
     def annotate(self, job: MeshingJob, grid) -> None:
         """Add this constraint's point, cell or field data to the output ``grid``."""
+
+    def failure_note(self, job: MeshingJob) -> str | None:
+        """A sentence added to a MeshingError of the run (what in this constraint's input may
+        be the cause, and what to change), or None."""
+        return None
 
 
 class FixedPoints(MeshConstraint):

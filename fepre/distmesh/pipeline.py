@@ -345,7 +345,15 @@ STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_
 
 
 def run_pipeline(job: MeshingJob):
-    """Run :data:`STAGES` on ``job``; returns the output grid."""
-    for stage in STAGES[:-1]:
-        stage(job)
-    return STAGES[-1](job)
+    """Run :data:`STAGES` on ``job``; returns the output grid. A MeshingError of a stage gets
+    each constraint's :meth:`~fepre.distmesh.constraints.MeshConstraint.failure_note`."""
+    try:
+        for stage in STAGES[:-1]:
+            stage(job)
+        return STAGES[-1](job)
+    except MeshingError as exc:
+        for constraint in job.constraints:
+            note = constraint.failure_note(job)
+            if note and hasattr(exc, "add_note"):  # Python 3.11
+                exc.add_note(note)
+        raise

@@ -20,6 +20,9 @@ RIM_CHORD_DEPTH = 0.25
 #: with a ResolutionWarning: a piece of a region thinner than that beyond it is not meshed, as the
 #: plain mesh loses parts thinner than h. Deeper, a region's cells were removed (a MeshingError).
 THIN_PIECE = 0.5
+#: A feature node (not an interface node) of a cell crossing an interface is dropped before the
+#: cell's free nodes when it lies within this (times h) of the interface.
+FEATURE_DROP = 0.75
 
 
 def node_regions(points: np.ndarray, regions: RegionSet, h: float) -> np.ndarray:
@@ -75,7 +78,11 @@ def final_region_mesh(model, points, fixed, h, geps, backend, previous, regions:
             droppable |= fixed
         cells = tets[crossing]
         distance = regions.interface_distance(points[cells.ravel()])[0].reshape(cells.shape)
-        distance = np.where(droppable[cells], distance + np.where(fixed[cells], 1e3 * h, 0.0), np.inf)  # free nodes first
+        # free nodes first; but a feature node of a piece of a region thinner than THIN_PIECE h (a
+        # lip one voxel high where an inclusion pokes out of a block's face) before free nodes
+        # farther from the interface: else each round drops a far node the next round replaces
+        held = fixed[cells] & (distance > FEATURE_DROP * h)
+        distance = np.where(droppable[cells], distance + np.where(held, 1e3 * h, 0.0), np.inf)
         nearest = cells[np.arange(len(cells)), np.argmin(distance, axis=1)]
         nearest = np.unique(nearest[droppable[nearest]])
         if nearest.size == 0:

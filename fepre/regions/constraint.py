@@ -17,6 +17,7 @@ import numpy as np
 
 from ..distmesh.constraints import MeshConstraint
 from ..errors import MeshingError
+from .clearance import check_clearances
 from .conform import check_interfaces, exposed_interface_faces, final_region_mesh, node_regions, region_quality_stage
 from .interface import ON_INTERFACE, interface_node_mask, interface_nodes
 from .partition import RegionSet, check_regions, region_set
@@ -52,6 +53,7 @@ class RegionConstraint(MeshConstraint):
 
     def check_domain(self, job) -> None:
         self.region_set = region_set(self.regions, job.model, job.h, job.lower, job.upper)
+        check_clearances(self.region_set, job.model, job.lower, job.upper, job.h)  # before any meshing
 
     def fixed_nodes(self, job, fixed: np.ndarray) -> np.ndarray:
         found = job.detected_features() if job.options.features else None  # the part's features, laid on the interfaces too
@@ -74,6 +76,13 @@ class RegionConstraint(MeshConstraint):
 
     def push(self, job):
         return self.guard.push
+
+    def failure_note(self, job) -> str | None:
+        if self.region_set is None:
+            return None
+        from .thickness import thin_regions_note
+
+        return thin_regions_note(self.region_set, job.model, job.lower, job.upper, job.h, job.frame_offset)
 
     def final_mesh(self, job) -> bool:
         o, h = job.options, job.h

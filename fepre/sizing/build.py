@@ -34,11 +34,12 @@ import numpy as np
 
 from ..arguments import domain_bounds, finite_float, positive_float
 from ..sdf.core import SDF
-from ..placement import in_user_frame, local_offset, user_frame
+from ..placement import local_offset, user_frame
 from .curvature import max_curvature
 from .field import MAX_NODES, SizeField
 from .gradation import graded_sizes
 from .rays import ray_lengths
+from .under_hmin import under_hmin, warn_under_hmin
 
 __all__ = ["size_field"]
 
@@ -49,8 +50,6 @@ SIDE_STEP = 0.01
 JUNCTION = 0.5
 #: the two faces reach that edge to within this times the distance to it
 EDGE_TOLERANCE = 0.05
-#: features named in the warning about sizes below hmin, at most
-MAX_NAMED = 8
 #: features are named when they would need sizes below this times hmin
 NAMED_BELOW = 0.99
 #: the default chord tolerance is at most this times the radius of curvature: an edge of
@@ -253,51 +252,6 @@ def _across_junction(model: SDF, seeds: np.ndarray, normal: np.ndarray, gap: np.
     return junction
 
 
-def _under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.ndarray, reach: float) -> list[tuple]:
-    """Places where ``kind`` needs sizes below hmin: one ``(size, point, measure, kind)`` per
-    group of such points within ``reach`` of each other (the smallest size of the group)."""
-    if points.shape[0] == 0:
-        return []
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    pairs = cKDTree(points).query_pairs(reach, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
-    count, label = connected_components(graph, directed=False)
-    places = []
-    for group in range(count):
-        members = np.flatnonzero(label == group)
-        worst = members[np.argmin(wanted[members])]
-        places.append((float(wanted[worst]), points[worst], float(measure[worst]), kind))
-    return places
-
-
-def _warn_under_hmin(places: list[tuple], hmin: float) -> None:
-    """One ResolutionWarning naming every feature that would need sizes below hmin."""
-    if not places:
-        return
-    from ..errors import ResolutionWarning, warn_user
-
-    places = sorted(places, key=lambda place: place[0])
-    lines = []
-    for size, point, measure, kind in places[:MAX_NAMED]:
-        where = "(" + ", ".join(f"{c:.6g}" for c in in_user_frame(point)) + ")"
-        if kind == "wall":
-            lines.append(f"a wall {measure:.3g} thick at {where} would need {size:.3g}")
-        elif kind == "gap":
-            lines.append(f"a gap {measure:.3g} wide at {where} would need {size:.3g}")
-        else:
-            lines.append(f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}")
-    if len(places) > MAX_NAMED:
-        lines.append(f"and {len(places) - MAX_NAMED} more")
-    warn_user(
-        f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
-        + "; ".join(lines) + " (pass a smaller hmin to resolve them)",
-        ResolutionWarning,
-    )
-
-
 def _features(model: SDF, hmin: float, bounds):
     """The model's features at ``hmin / 4`` over ``bounds`` (:func:`fepre.sizing.feature_gaps.search`)."""
     from .feature_gaps import search
@@ -333,8 +287,8 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     # named when they need less than hmin by more than the rays' accuracy (hmin / 512)
     thin_wall = thickness < NAMED_BELOW * elements_across * hmin
     narrow = gap < NAMED_BELOW * hmin
-    places = _under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
-    places += _under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
+    places = under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
+    places += under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
     if found is not None:
         from .feature_gaps import feature_sizes
 
@@ -342,8 +296,8 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
         points.append(feature_seeds)
         sizes_at.append(np.clip(feature_wanted, hmin, hmax))
         close = feature_wanted < NAMED_BELOW * hmin
-        places += _under_hmin("edges", feature_seeds[close], feature_wanted[close], feature_wanted[close], reach)
-    _warn_under_hmin(places, hmin)
+        places += under_hmin("edges", feature_seeds[close], feature_wanted[close], feature_wanted[close], reach)
+    warn_under_hmin(places, hmin)
     return np.concatenate(points), np.concatenate(sizes_at)
 
 

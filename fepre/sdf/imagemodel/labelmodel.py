@@ -32,6 +32,9 @@ class LabelModel(MeshModel):
     #: its creases are the edges between its patches (voxel planes, the part's surface and the
     #: interfaces): read from the triangles, not searched for on a grid of h/4
     creases_from_triangles = True
+    #: it is cut from one surface shared with the other labels' regions: no gap stands between
+    #: them (:func:`fepre.regions.clearance.narrow_clearances` need not look for one)
+    from_shared_surface = True
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, name: str, source: Image, label: Any,
                  other: np.ndarray | None = None, plane: np.ndarray | None = None) -> None:

@@ -8,8 +8,9 @@ solid, whose surfaces coincide triangle for triangle where two solids touch, and
 make together. ``fepre.distmesh(solids.part, h, regions=solids)`` gives one conformal mesh with
 one element set per solid, which a solver can give each its own material or bond.
 
-Where two solids overlap (an interference of the assembly), the overlap goes to the first of
-them in the file, with a warning naming both and the overlap's volume.
+Where two solids overlap (an interference of the assembly, or an insert modelled whole inside
+its housing), the overlap goes to the smaller of them, which stays whole, with a warning naming
+both and the overlap's volume.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ def cad_solids(path: str | os.PathLike, names: dict | None = None, *, timeout: f
     Warns
     -----
     fepre.ResolutionWarning
-        Two solids overlap: the overlap's volume and which solid gets it.
+        Two solids overlap: the overlap's volume and which solid gets it (the smaller, which
+        stays whole: the housing round an insert modelled whole in it gets the cavity).
 
     Examples
     --------
@@ -127,7 +129,8 @@ def _region_names(path: Path, file_names: list[str], names: dict | None) -> list
 
 
 def _overlaps_message(path: Path, overlaps: np.ndarray, names: list[str]) -> str:
-    """One line per pair of solids that overlap: the volume, in how many pieces, who gets it."""
+    """One line per pair of solids that overlap: the volume, in how many pieces, who gets it
+    (the first named)."""
     pairs, inverse = np.unique(overlaps[:, :2].astype(np.int64), axis=0, return_inverse=True)
     volumes = np.bincount(inverse.ravel(), overlaps[:, 2], minlength=len(pairs))
     pieces = np.bincount(inverse.ravel(), minlength=len(pairs))
@@ -135,7 +138,8 @@ def _overlaps_message(path: Path, overlaps: np.ndarray, names: list[str]) -> str
         f"{names[a]} and {names[b]} by a volume of {v:.6g}" + (f" in {n} pieces" if n > 1 else "")
         for (a, b), v, n in zip(pairs, volumes, pieces))
     return (f"{path}: {len(pairs)} pair(s) of solids overlap (interference): {listed}; each overlap is meshed as part "
-            "of the first solid named")
+            "of the first solid named, the smaller of the two, which stays whole (an insert or a pin modelled whole "
+            "in its housing)")
 
 
 def _regions(path: Path, found: dict, names: dict | None) -> SolidRegions:
@@ -144,7 +148,7 @@ def _regions(path: Path, found: dict, names: dict | None) -> SolidRegions:
     import pyvista as pv
 
     from ...errors import ResolutionWarning
-    from .model import mesh
+    from .model import MeshInputError, mesh
     from .repair import _orient as orient
 
     points, triangles, surface = found["points"], found["triangles"], found["triangle_surface"]
@@ -167,6 +171,10 @@ def _regions(path: Path, found: dict, names: dict | None) -> SolidRegions:
     regions = SolidRegions()
     regions.path, regions.volumes = path, {}
     for number, name in enumerate(solid_names):
+        if not (owner == number).any():  # every piece of it went to another solid: a copy of it
+            twin = solid_names[int(owner[np.flatnonzero(found["piece_holders"][:, number])[0]])]
+            raise MeshInputError(f"{path}: solid {number + 1} ({name}) is the same body as {twin}: the file holds it twice; "
+                                 "remove the copy")
         mine = np.isin(piece, np.flatnonzero(owner == number))
         regions[name] = mesh(closed_surface(face[mine]))
         regions.volumes[name] = float(found["piece_volume"][owner == number].sum())
@@ -190,6 +198,7 @@ def _tessellate_solids(path: str) -> dict:
         if not inputs:
             raise ValueError("the file holds no solid")
         file_names = [gmsh.model.getEntityName(3, tag) for _, tag in inputs]
+        solid_volumes = [gmsh.model.occ.getMass(3, tag) for _, tag in inputs]
         mapping = [[entity] for entity in inputs]
         if len(inputs) > 1:
             try:
@@ -198,7 +207,10 @@ def _tessellate_solids(path: str) -> dict:
                 raise ValueError(f"OpenCASCADE could not fragment its solids ({str(exc).strip()[:200]})") from None
             gmsh.model.occ.synchronize()
         pieces = sorted({tag for found in mapping for dim, tag in found if dim == 3})
-        holders = {tag: [i for i, found in enumerate(mapping) if (3, tag) in found] for tag in pieces}
+        # a piece held by several solids (an overlap) goes to the smallest of them, which stays
+        # whole: an insert, pin or bushing modelled whole in its housing (first in the file on a tie)
+        holders = {tag: sorted((i for i, found in enumerate(mapping) if (3, tag) in found), key=lambda i: solid_volumes[i])
+                   for tag in pieces}
         volumes = np.array([gmsh.model.occ.getMass(3, tag) for tag in pieces])
         overlaps = [(holders[tag][0], other, volume) for tag, volume in zip(pieces, volumes) for other in holders[tag][1:]]
         mesh_faces()
@@ -218,6 +230,7 @@ def _tessellate_solids(path: str) -> dict:
         return {
             "points": points, "triangles": np.concatenate(triangles), "triangle_surface": np.concatenate(triangle_surface),
             "piece_owner": np.array([holders[tag][0] for tag in pieces]), "piece_volume": volumes,
+            "piece_holders": np.array([[i in holders[tag] for i in range(len(inputs))] for tag in pieces]).reshape(-1, len(inputs)),
             "boundary_piece": np.array([b[0] for b in boundary]), "boundary_surface": np.array([b[1] for b in boundary]),
             "names": np.array(file_names, dtype=str),
             "overlaps": np.array(overlaps, dtype=np.float64).reshape(-1, 3),

@@ -1,0 +1,115 @@
+"""The features a size field cannot resolve at ``hmin``: found, merged and named in one warning.
+
+:func:`~fepre.sizing.size_field` names the walls, gaps and close sharp edges that would need
+elements smaller than ``hmin``. A region mesh builds one field for the part and one for each
+region (:func:`fepre.distmesh` with ``regions=``); a wall of a region is often a wall of the
+part too. Inside :func:`one_warning` the fields' places are gathered and named once, each
+feature once.
+"""
+
+from __future__ import annotations
+
+import contextvars
+from contextlib import contextmanager
+from typing import Iterator
+
+import numpy as np
+
+from ..placement import in_user_frame
+
+__all__ = ["under_hmin", "warn_under_hmin", "one_warning", "MAX_NAMED"]
+
+#: features named in the warning about sizes below hmin, at most
+MAX_NAMED = 8
+
+_GATHERED: contextvars.ContextVar[list | None] = contextvars.ContextVar("fepre_under_hmin", default=None)
+
+
+def under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.ndarray, reach: float) -> list[tuple]:
+    """Places where ``kind`` needs sizes below hmin: one ``(size, point, measure, kind)`` per
+    group of such points within ``reach`` of each other (the smallest size of the group)."""
+    if points.shape[0] == 0:
+        return []
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(reach, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
+    count, label = connected_components(graph, directed=False)
+    places = []
+    for group in range(count):
+        members = np.flatnonzero(label == group)
+        worst = members[np.argmin(wanted[members])]
+        places.append((float(wanted[worst]), points[worst], float(measure[worst]), kind))
+    return places
+
+
+def warn_under_hmin(places: list[tuple], hmin: float) -> None:
+    """One ResolutionWarning naming every feature that would need sizes below hmin (inside
+    :func:`one_warning`: gathered for it instead). The places are taken to the user's frame now."""
+    placed = [(size, np.asarray(in_user_frame(point), dtype=np.float64), measure, kind) for size, point, measure, kind in places]
+    gathered = _GATHERED.get()
+    if gathered is not None:
+        gathered.append((placed, hmin))
+        return
+    _warn(placed, hmin)
+
+
+@contextmanager
+def one_warning() -> Iterator[None]:
+    """Size fields built inside name their features in one warning, at the end, each feature
+    once: a place of one field within ``2 hmin`` of a place of the same kind that another field
+    named before is left out.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from fepre import sdf, size_field
+    >>> plate = sdf.box((20.0, 20.0, 0.5))
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     with one_warning():
+    ...         fields = [size_field(plate, 0.4, 4.0, features=False) for _ in range(2)]
+    >>> len(caught)
+    1
+    """
+    token = _GATHERED.set([])
+    try:
+        yield
+        gathered = _GATHERED.get()
+    finally:
+        _GATHERED.reset(token)
+    if not gathered:
+        return
+    hmin = min(h for _, h in gathered)
+    kept: list[tuple] = []
+    for places, _ in gathered:
+        new = [place for place in places
+               if not any(other[3] == place[3] and np.linalg.norm(other[1] - place[1]) <= 2.0 * hmin for other in kept)]
+        kept.extend(new)
+    _warn(kept, hmin)
+
+
+def _warn(places: list[tuple], hmin: float) -> None:
+    if not places:
+        return
+    from ..errors import ResolutionWarning, warn_user
+
+    places = sorted(places, key=lambda place: place[0])
+    lines = []
+    for size, point, measure, kind in places[:MAX_NAMED]:
+        where = "(" + ", ".join(f"{c:.6g}" for c in point) + ")"
+        if kind == "wall":
+            lines.append(f"a wall {measure:.3g} thick at {where} would need {size:.3g}")
+        elif kind == "gap":
+            lines.append(f"a gap {measure:.3g} wide at {where} would need {size:.3g}")
+        else:
+            lines.append(f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}")
+    if len(places) > MAX_NAMED:
+        lines.append(f"and {len(places) - MAX_NAMED} more")
+    warn_user(
+        f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
+        + "; ".join(lines) + " (pass a smaller hmin to resolve them)",
+        ResolutionWarning,
+    )
