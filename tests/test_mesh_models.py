@@ -601,3 +601,27 @@ def test_a_cad_file_fepre_does_not_read_is_refused_with_what_to_export(tmp_path)
         assert result.returncode == 1
         assert words in result.stderr
         assert not (tmp_path / "b.inp").exists()
+
+def test_the_piecewise_winding_number_is_the_whole_surfaces():
+    # ten closed bodies, some overlapping and one turned inside out, and an open sheet: summed
+    # body by body (each asked only at the points in its box) as the whole surface gives it
+    from fepre.sdf.meshmodel.repair import PIECEWISE_WINDING, _piecewise_winding
+    from fepre.sdf.meshmodel.tables import winding_numbers
+
+    rng = np.random.default_rng(7)
+    vertices, faces = [], []
+    for k in range(10):
+        box = pv.Cube(center=tuple(rng.uniform(-3, 3, 3)), x_length=rng.uniform(0.5, 3), y_length=rng.uniform(0.5, 3),
+                      z_length=rng.uniform(0.5, 3)).triangulate().clean()
+        cells = np.asarray(box.faces).reshape(-1, 4)[:, 1:]
+        faces.append((cells[:, ::-1] if k == 3 else cells) + sum(len(v) for v in vertices))
+        vertices.append(np.asarray(box.points, dtype=np.float64))
+    sheet = np.array([[-5.0, -5.0, 4.0], [5.0, -5.0, 4.0], [0.0, 5.0, 4.0]])
+    faces.append(np.array([[0, 1, 2]]) + sum(len(v) for v in vertices))
+    vertices.append(sheet)
+    vertices, faces = np.concatenate(vertices), np.concatenate(faces)
+    assert 10 >= PIECEWISE_WINDING
+    points = rng.uniform(-6, 6, (20000, 3))
+    summed = _piecewise_winding(vertices, faces)(points)
+    assert summed == pytest.approx(winding_numbers(vertices, faces, points), abs=0.01)  # the fast approximation
+    assert (np.round(summed) < 0).any() and (np.round(summed) >= 2).any()  # the turned body, an overlap

@@ -415,9 +415,15 @@ def _piecewise_winding(vertices: np.ndarray, faces: np.ndarray):
 
     def winding(points: np.ndarray) -> np.ndarray:
         w = winding_numbers(vertices, loose, points) if len(loose) else np.zeros(len(points))
+        # the points in a piece's box: a slice of the points sorted along x, then y and z tested
+        # (testing every point against every box took a quarter of ogre.obj's 28 s read)
+        by_x = np.argsort(points[:, 0], kind="stable")
+        xs = points[by_x, 0]
         for piece in np.flatnonzero(closed):
             lower, upper = boxes[piece]
-            near = np.flatnonzero(((points >= lower) & (points <= upper)).all(axis=1))
+            slab = by_x[np.searchsorted(xs, lower[0], "left"):np.searchsorted(xs, upper[0], "right")]
+            inside = ((points[slab, 1:] >= lower[1:]) & (points[slab, 1:] <= upper[1:])).all(axis=1)
+            near = np.sort(slab[inside])  # ascending, as a mask's indices
             if len(near):
                 w[near] += winding_numbers(vertices, faces[order[starts[piece]:starts[piece + 1]]], points[near])
         return w
