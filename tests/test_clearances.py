@@ -64,6 +64,18 @@ def test_distmesh_refuses_a_narrow_gap_before_meshing(monkeypatch):
     assert "give h below 0.4 (the narrowest gap / 0.75)" in str(caught.value)
 
 
+def test_a_graded_mesh_refuses_a_narrow_gap_before_its_size_fields(monkeypatch):
+    import fepre.sizing
+
+    def never(*args, **kwargs):
+        raise AssertionError("a size field was built: the check came after it")
+
+    monkeypatch.setattr(fepre.sizing, "size_field", never)
+    regions = _boxes(0.3)
+    with pytest.raises(ValueError, match=r"'a' and 'b' 0\.3 apart"):
+        fepre.distmesh(regions["a"] | regions["b"], (0.5, 2.0), regions=regions, progress=False)
+
+
 def test_a_gap_the_mesh_keeps_open_meshes_as_two_pieces():
     regions = _boxes(0.8)
     mesh = fepre.distmesh(regions["a"] | regions["b"], 1.0, regions=regions, progress=False)

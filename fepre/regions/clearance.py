@@ -79,9 +79,8 @@ def narrow_clearances(regions: RegionSet, model, lower, upper, h: float) -> list
     A sample on one region's surface (and the part's) is in such a gap when the nearest other
     region is between ``TOUCHING h`` and ``CLEARANCE h`` away, its face there looks back
     (normals within ``FACING`` of opposite), and the middle of the gap lies in no region and
-    outside the part. Gaps spanning less than
-    ``CLEARANCE_AREA h^2`` are left out. Regions that split the part by construction (a label
-    image's) are not sampled.
+    outside the part. Gaps spanning less than ``CLEARANCE_AREA h^2`` are left out. Regions that
+    split the part by construction (a label image's) are not sampled.
 
     Examples
     --------

@@ -38,6 +38,7 @@ class RegionConstraint(MeshConstraint):
     def __init__(self, regions: Any) -> None:
         self.regions = regions
         self.region_set: RegionSet | None = None
+        self.clearances_checked = False
         self.on_interface = np.zeros((0, 3))
         self.guard: InterfaceProtection | None = None
         self.region_ids: np.ndarray | None = None
@@ -49,11 +50,31 @@ class RegionConstraint(MeshConstraint):
         """The constraint of ``distmesh(..., regions=regions)``, its regions' types checked (before
         the size field, which takes each region's with ``h=(hmin, hmax)``)."""
         check_regions(regions)
-        return cls(regions)
+        constraint = cls(regions)
+        constraint.clearances_checked = constraint._early_clearances(job)
+        return constraint
+
+    def _early_clearances(self, job) -> bool:
+        """The clearance check (:func:`~.clearance.check_clearances`) before the size fields,
+        whose work takes a while, at the ``h`` given (``hmin`` of a pair) over the model's box;
+        False (left to :meth:`check_domain`) while those are not valid yet: the argument
+        checks then say why."""
+        from ..arguments import domain_bounds
+
+        try:
+            h = float(np.asarray(job.h, dtype=object).reshape(-1)[0])
+            lower, upper = (np.asarray(v, dtype=np.float64) for v in domain_bounds(job.model, job.bounds))
+        except (TypeError, ValueError, IndexError):
+            return False
+        if not (np.isfinite(h) and h > 0.0):
+            return False
+        check_clearances(RegionSet(tuple(self.regions), tuple(self.regions.values())), job.model, lower, upper, h)
+        return True
 
     def check_domain(self, job) -> None:
         self.region_set = region_set(self.regions, job.model, job.h, job.lower, job.upper)
-        check_clearances(self.region_set, job.model, job.lower, job.upper, job.h)  # before any meshing
+        if not self.clearances_checked:  # before any meshing
+            check_clearances(self.region_set, job.model, job.lower, job.upper, job.h)
 
     def fixed_nodes(self, job, fixed: np.ndarray) -> np.ndarray:
         found = job.detected_features() if job.options.features else None  # the part's features, laid on the interfaces too
