@@ -21,15 +21,25 @@ PIN = np.pi * 16 * 10  # the pin in the bore, standing 5 above the plate
 BLOCK = 10 * 30 * 8  # a block on the plate's top, flush with its end
 
 
-def write_assembly(path, overlap: float = 0.0, shift: float = 0.0) -> None:
-    """The plate, its pin and the block as three solids of one file; with ``overlap`` the block
-    sinks that far into the plate (an interference); all moved by ``shift`` along each axis."""
+def _write_solids(path, build) -> None:
+    """The solids ``build(occ)`` adds, written to ``path`` by gmsh's OpenCASCADE kernel."""
     import gmsh
 
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
+        build(gmsh.model.occ)
+        gmsh.model.occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def write_assembly(path, overlap: float = 0.0, shift: float = 0.0) -> None:
+    """The plate, its pin and the block as three solids of one file; with ``overlap`` the block
+    sinks that far into the plate (an interference); all moved by ``shift`` along each axis."""
+
+    def build(occ):
         plate = occ.addBox(0, 0, 0, 40, 30, 5)
         bore = occ.addCylinder(20, 15, -1, 0, 0, 7, 4)
         occ.cut([(3, plate)], [(3, bore)])
@@ -37,10 +47,8 @@ def write_assembly(path, overlap: float = 0.0, shift: float = 0.0) -> None:
         occ.addBox(0, 0, 5 - overlap, 10, 30, 8)
         if shift:
             occ.translate(occ.getEntities(3), shift, shift, shift)
-        occ.synchronize()
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+
+    _write_solids(path, build)
 
 
 @pytest.fixture(scope="module")
@@ -98,19 +106,6 @@ def test_an_overlap_goes_to_the_smaller_solid_with_a_warning(tmp_path):
     assert solids.volumes["solid_3"] == pytest.approx(BLOCK, rel=1e-9)  # the block stays whole
 
 
-def _write_solids(path, build) -> None:
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        build(gmsh.model.occ)
-        gmsh.model.occ.synchronize()
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
-
-
 def test_an_insert_modelled_whole_inside_its_housing_is_its_own_region(tmp_path):
     # the housing is not cut: the insert overlaps it entirely, and it was emptied (a crash)
     def build(occ):
@@ -144,16 +139,7 @@ def test_a_solid_written_twice_is_named(tmp_path):
 
 
 def test_one_solid_is_its_own_part(tmp_path):
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.occ.addBox(0, 0, 0, 2, 3, 4)
-        gmsh.model.occ.synchronize()
-        gmsh.write(str(tmp_path / "box.brep"))
-    finally:
-        gmsh.finalize()
+    _write_solids(tmp_path / "box.brep", lambda occ: occ.addBox(0, 0, 0, 2, 3, 4))
     solids = sdf.cad_solids(tmp_path / "box.brep")
     assert list(solids) == ["solid_1"] and solids.part is solids["solid_1"]
     assert solids.part.volume == pytest.approx(24.0, rel=1e-12)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .partition import CHECK_SAMPLES, RegionSet
+from .partition import CHECK_SAMPLES, RegionSet, surface_model
 
 __all__ = ["Clearance", "narrow_clearances", "check_clearances", "CLEARANCE", "CLEARANCE_AREA", "FACING"]
 
@@ -44,14 +44,8 @@ def _splits_by_construction(regions: RegionSet, model) -> bool:
     """Whether the regions split the part without gaps by construction: each lies ``within`` it
     and is cut from one surface shared with its neighbours (a label image's,
     ``from_shared_surface``)."""
-    for region in regions.models:
-        if getattr(region, "within", None) is not model:
-            return False
-        while not hasattr(region, "volume") and len(getattr(region, "children", ())) == 1:
-            region = region.children[0]  # moved into the local frame of a part far from the origin
-        if not getattr(region, "from_shared_surface", False):
-            return False
-    return True
+    return all(getattr(region, "within", None) is model and getattr(surface_model(region), "from_shared_surface", False)
+               for region in regions.models)
 
 
 def _surface_samples(regions: RegionSet, lower: np.ndarray, upper: np.ndarray, h: float):

@@ -78,12 +78,18 @@ def check_regions(regions: Any) -> None:
             raise TypeError(f"regions[{name!r}] must be a 3D fepre.sdf.SDF; got {type(region).__name__}")
 
 
-def _own_volume(region) -> float:
-    """The volume of a region ``within`` its part: its mesh model's, through the translation
-    that moves it into the local frame of a part far from the origin."""
-    while not hasattr(region, "volume") and len(region.children) == 1:
+def surface_model(region):
+    """The mesh model under a region ``within`` its part (a label image's, an assembly's solid),
+    through the translation that moves it into the local frame of a part far from the origin;
+    the region itself when it has none."""
+    while not hasattr(region, "volume") and len(getattr(region, "children", ())) == 1:
         region = region.children[0]
-    return float(region.volume)
+    return region
+
+
+def _own_volume(region) -> float:
+    """The volume of a region ``within`` its part: its mesh model's."""
+    return float(surface_model(region).volume)
 
 
 def region_set(regions: Any, model, h: float, lower: np.ndarray, upper: np.ndarray) -> RegionSet:
