@@ -103,7 +103,7 @@ def _warn(places: list[tuple], hmin: float) -> None:
     sized = [kind for _, _, _, kind in places if kind not in _NO_SIZE]
     advice = []
     if sized:
-        advice.append("pass a smaller hmin to resolve the walls, gaps and edges")
+        advice.append("pass a smaller hmin to resolve " + ("them" if len(sized) == len(places) else "those with a size"))
     if len(sized) < len(places):
         advice.append("no element size resolves a knife edge or faces that touch at an angle: thicken, trim or "
                       "join them in the model, or accept flat cells there")
