@@ -294,7 +294,9 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     narrow = gap < NAMED_BELOW * hmin
     knife, touching = thickness < NOTHING_BELOW * hmin, gap < NOTHING_BELOW * hmin
     thin_wall, narrow = thin_wall & ~knife, narrow & ~touching
-    places = under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
+    # a wall is named at its mid-surface, which the seeds of both its faces reach: once, not twice
+    middle = seeds[thin_wall] - 0.5 * thickness[thin_wall, None] * normal[thin_wall]
+    places = under_hmin("wall", middle, thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
     places += under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
     places += under_hmin("knife", seeds[knife], thickness[knife], np.zeros(int(knife.sum())), reach)
     places += under_hmin("touching", seeds[touching], gap[touching], np.zeros(int(touching.sum())), reach)
