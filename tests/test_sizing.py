@@ -314,6 +314,34 @@ def test_a_zero_width_gap_is_named_not_chased_below_hmin():
     assert "a wall 4 thick" in message and "would need 1.33" in message and "sharp edges" in message
 
 
+def test_a_knife_edge_is_named_without_a_size():
+    """A wedge 5 degrees across tapers to nothing. The rays measured it hmin/1024 thick and the
+    warning said it "would need 0.000163"; no size resolves a knife edge, so it is named as one."""
+    knife = sdf.extrude(sdf.polygon([(0, 0), (20, 0.9), (20, -0.9)]), 6.0)
+    with pytest.warns(fepre.ResolutionWarning) as record:
+        size_field(knife, 0.5, 2.0)
+    message = " ".join(str(w.message) for w in record)
+    edge = re.search(r"a knife edge at \(([-\d.e]+), ([-\d.e]+), [-\d.e]+\)", message)
+    assert edge and abs(float(edge[1])) < 0.1 and abs(float(edge[2])) < 0.01  # at the wedge's tip
+    assert "thicken, trim or join" in message
+    named = [float(size) for size in re.findall(r"would need ([\d.e-]+)", message)]
+    assert named and min(named) > 0.5 / 256  # the walls beside the tip keep their sizes
+
+
+def test_a_thin_wall_is_named_once_not_once_per_face():
+    """An open box with a floor and four walls 5 thick (3 elements need 1.67 < hmin 2): the
+    warning named the floor twice, from the seeds of its two faces; it names the wall at its
+    mid-surface, which both faces' seeds reach."""
+    tray = sdf.box((60, 40, 30), center=(0, 0, 15)) - sdf.box((50, 30, 30), center=(0, 0, 20))
+    with pytest.warns(fepre.ResolutionWarning) as record:
+        size_field(tray, 2.0, 10.0)
+    message = " ".join(str(w.message) for w in record)
+    places = re.findall(r"a wall 5 thick at \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", message)
+    assert len(places) == 5
+    floor = [p for p in places if float(p[2]) < 5.0]
+    assert len(floor) == 1 and float(floor[0][2]) == pytest.approx(2.5, abs=0.01)  # its mid-plane
+
+
 def test_the_inside_of_a_concave_junction_is_not_a_gap():
     """A V-groove 30 degrees open: rays from one face hit the other near the root, as far as
     the root is away; its faces meet there, so the field does not refine along it (it went to

@@ -52,6 +52,9 @@ JUNCTION = 0.5
 EDGE_TOLERANCE = 0.05
 #: features are named when they would need sizes below this times hmin
 NAMED_BELOW = 0.99
+#: a wall or gap the rays measure under this times hmin is one they cannot tell from nothing (their
+#: first step is hmin / 8, bisected to hmin / 512): a knife edge, or faces that touch at an angle
+NOTHING_BELOW = 1.0 / 256.0
 #: the default chord tolerance is at most this times the radius of curvature: an edge of
 #: sqrt(8 * CHORD_RATIO) = 0.155 times the radius, whose chords cut 4/3 CHORD_RATIO = 0.4% of a
 #: circle's area off (hmin / 10 alone gave edges 2 hmin on a radius 5 hmin: a stepped shaft lost
@@ -95,7 +98,9 @@ def size_field(
         clamped to ``[hmin, hmax]``: no need goes below ``hmin``. Walls thinner than
         ``elements_across * hmin``, gaps narrower than ``hmin`` and sharp edges closer than
         ``hmin`` get ``hmin``, and a :class:`fepre.ResolutionWarning` names each (where, how
-        thick or wide, the size it would need); pass a smaller ``hmin`` to resolve them.
+        thick or wide, the size it would need); pass a smaller ``hmin`` to resolve them. A
+        wall or gap thinner than the rays can measure (``hmin / 256``: a knife edge, faces that
+        touch at an angle) is named without a size: none resolves it.
     elements_across : float
         Elements through the thickness of every wall (default 3): a wall ``t`` thick gets
         ``t / elements_across``, but never below ``hmin``: a wall thinner than
@@ -287,8 +292,14 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
     # named when they need less than hmin by more than the rays' accuracy (hmin / 512)
     thin_wall = thickness < NAMED_BELOW * elements_across * hmin
     narrow = gap < NAMED_BELOW * hmin
-    places = under_hmin("wall", seeds[thin_wall], thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
+    knife, touching = thickness < NOTHING_BELOW * hmin, gap < NOTHING_BELOW * hmin
+    thin_wall, narrow = thin_wall & ~knife, narrow & ~touching
+    # a wall is named at its mid-surface, which the seeds of both its faces reach: once, not twice
+    middle = seeds[thin_wall] - 0.5 * thickness[thin_wall, None] * normal[thin_wall]
+    places = under_hmin("wall", middle, thickness[thin_wall], thickness[thin_wall] / elements_across, reach)
     places += under_hmin("gap", seeds[narrow], gap[narrow], gap[narrow] / 2.0, reach)
+    places += under_hmin("knife", seeds[knife], thickness[knife], np.zeros(int(knife.sum())), reach)
+    places += under_hmin("touching", seeds[touching], gap[touching], np.zeros(int(touching.sum())), reach)
     if found is not None:
         from .feature_gaps import feature_sizes
 

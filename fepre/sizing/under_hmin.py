@@ -97,19 +97,35 @@ def _warn(places: list[tuple], hmin: float) -> None:
     from ..errors import ResolutionWarning, warn_user
 
     places = sorted(places, key=lambda place: place[0])
-    lines = []
-    for size, point, measure, kind in places[:MAX_NAMED]:
-        where = "(" + ", ".join(f"{c:.6g}" for c in point) + ")"
-        if kind == "wall":
-            lines.append(f"a wall {measure:.3g} thick at {where} would need {size:.3g}")
-        elif kind == "gap":
-            lines.append(f"a gap {measure:.3g} wide at {where} would need {size:.3g}")
-        else:
-            lines.append(f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}")
+    lines = [_named(size, point, measure, kind, hmin) for size, point, measure, kind in places[:MAX_NAMED]]
     if len(places) > MAX_NAMED:
         lines.append(f"and {len(places) - MAX_NAMED} more")
+    sized = [kind for _, _, _, kind in places if kind not in _NO_SIZE]
+    advice = []
+    if sized:
+        advice.append("pass a smaller hmin to resolve " + ("them" if len(sized) == len(places) else "those with a size"))
+    if len(sized) < len(places):
+        advice.append("no element size resolves a knife edge or faces that touch at an angle: thicken, trim or "
+                      "join them in the model, or accept flat cells there")
     warn_user(
         f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
-        + "; ".join(lines) + " (pass a smaller hmin to resolve them)",
+        + "; ".join(lines) + " (" + "; ".join(advice) + ")",
         ResolutionWarning,
     )
+
+
+#: kinds measured as thinner than the rays can tell from nothing: no size is named for them
+_NO_SIZE = ("knife", "touching")
+
+
+def _named(size: float, point: np.ndarray, measure: float, kind: str, hmin: float) -> str:
+    where = "(" + ", ".join(f"{c:.6g}" for c in point) + ")"
+    if kind == "wall":
+        return f"a wall {measure:.3g} thick at {where} would need {size:.3g}"
+    if kind == "gap":
+        return f"a gap {measure:.3g} wide at {where} would need {size:.3g}"
+    if kind == "knife":
+        return f"a knife edge at {where} (a wall tapering to under {hmin / 256:.2g}, too thin to measure)"
+    if kind == "touching":
+        return f"faces touching at an angle at {where} (a gap closing to under {hmin / 256:.2g})"
+    return f"sharp edges {measure:.3g} apart at {where} would need {size:.3g}"
