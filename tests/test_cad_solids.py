@@ -170,6 +170,9 @@ def test_the_cli_writes_an_element_set_per_solid(tmp_path, assembly):
                   "-o", tmp_path / "assembly.inp", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "3 solid(s), one region each: plate (volume" in done.stderr
+    # the interface sets it writes are printed with their areas: the block stands on 10 x 30
+    line = next(line for line in done.stdout.splitlines() if "boundary set interface_plate_block" in line)
+    assert float(line.split("area")[1]) == pytest.approx(300.0, rel=1e-9)
     text = (tmp_path / "assembly.inp").read_text()
     for name in ("plate", "solid_2", "block"):
         assert f"*ELSET, ELSET={name}" in text

@@ -144,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
                            materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
-    if part.boundaries:
+    if part.boundaries or regions:  # named sets, or the interfaces between regions
         print(set_areas_text(written, part.boundary_areas))
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")
