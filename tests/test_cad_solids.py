@@ -79,10 +79,12 @@ def test_each_solid_is_a_region_of_the_part(assembly):
 
 def test_the_solids_mesh_conformally(assembly):
     solids = sdf.cad_solids(assembly)
-    mesh = fepre.distmesh(solids.part, 1.5, regions=solids, progress=False)
+    # the bore's chords at h = 1.5 (2.7 h across): the pin loses about 2%, the plate takes most of
+    # it, and a warning says so with the h that keeps it (the part's volume is right; h = 0.8: -0.6%)
+    with pytest.warns(ResolutionWarning, match=r"region 'solid_2' 1\.\d% short of its model \(.*; h <= 0\.8 comes within about 0\.5%\)"):
+        mesh = fepre.distmesh(solids.part, 1.5, regions=solids, progress=False)
     ids = np.asarray(mesh["region_id"])
     volumes = np.bincount(ids, mesh["volume"])
-    # the bore's chords at h = 1.5 (2.7 h across): the pin loses about 2%, the plate takes most of it
     assert volumes == pytest.approx([PLATE, PIN, BLOCK], rel=0.025)
     assert volumes.sum() == pytest.approx(PLATE + PIN + BLOCK, rel=0.002)
     assert volumes[2] == pytest.approx(BLOCK, rel=1e-9)  # all flat
@@ -222,7 +224,8 @@ def test_far_from_the_origin_each_solid_is_its_own_part(tmp_path, monkeypatch):
     given = fepre.sizing.size_field
     monkeypatch.setattr(fepre.sizing, "size_field", lambda model, *a, **k: fields.append(model) or given(model, *a, **k))
     with warnings.catch_warnings():
-        warnings.simplefilter("error", ResolutionWarning)  # no wall thinner than hmin: there is none
+        warnings.filterwarnings("error", "the size field", ResolutionWarning)  # no wall thinner than hmin: there is none
+        warnings.filterwarnings("ignore", ".*region 'solid_2' .* short of its model", ResolutionWarning)  # the pin's chords
         mesh = fepre.distmesh(solids.part, (1.5, 4.0), regions=solids, progress=False)
     assert len(fields) == 4 and not any(type(model).__name__ == "Intersection" for model in fields)
     volumes = np.bincount(np.asarray(mesh["region_id"]), mesh["volume"])
