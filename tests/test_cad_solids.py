@@ -79,10 +79,12 @@ def test_each_solid_is_a_region_of_the_part(assembly):
 
 def test_the_solids_mesh_conformally(assembly):
     solids = sdf.cad_solids(assembly)
-    mesh = fepre.distmesh(solids.part, 1.5, regions=solids, progress=False)
+    # the bore's chords at h = 1.5 (2.7 h across): the pin loses about 2%, the plate takes most of
+    # it, and a warning says so with the h that keeps it (the part's volume is right; h = 0.8: -0.6%)
+    with pytest.warns(ResolutionWarning, match=r"region 'solid_2' 1\.\d% short of its model \(.*; h <= 0\.8 comes within about 0\.5%\)"):
+        mesh = fepre.distmesh(solids.part, 1.5, regions=solids, progress=False)
     ids = np.asarray(mesh["region_id"])
     volumes = np.bincount(ids, mesh["volume"])
-    # the bore's chords at h = 1.5 (2.7 h across): the pin loses about 2%, the plate takes most of it
     assert volumes == pytest.approx([PLATE, PIN, BLOCK], rel=0.025)
     assert volumes.sum() == pytest.approx(PLATE + PIN + BLOCK, rel=0.002)
     assert volumes[2] == pytest.approx(BLOCK, rel=1e-9)  # all flat
@@ -170,6 +172,9 @@ def test_the_cli_writes_an_element_set_per_solid(tmp_path, assembly):
                   "-o", tmp_path / "assembly.inp", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "3 solid(s), one region each: plate (volume" in done.stderr
+    # the interface sets it writes are printed with their areas: the block stands on 10 x 30
+    line = next(line for line in done.stdout.splitlines() if "boundary set interface_plate_block" in line)
+    assert float(line.split("area")[1]) == pytest.approx(300.0, rel=1e-9)
     text = (tmp_path / "assembly.inp").read_text()
     for name in ("plate", "solid_2", "block"):
         assert f"*ELSET, ELSET={name}" in text
@@ -219,7 +224,8 @@ def test_far_from_the_origin_each_solid_is_its_own_part(tmp_path, monkeypatch):
     given = fepre.sizing.size_field
     monkeypatch.setattr(fepre.sizing, "size_field", lambda model, *a, **k: fields.append(model) or given(model, *a, **k))
     with warnings.catch_warnings():
-        warnings.simplefilter("error", ResolutionWarning)  # no wall thinner than hmin: there is none
+        warnings.filterwarnings("error", "the size field", ResolutionWarning)  # no wall thinner than hmin: there is none
+        warnings.filterwarnings("ignore", ".*region 'solid_2' .* short of its model", ResolutionWarning)  # the pin's chords
         mesh = fepre.distmesh(solids.part, (1.5, 4.0), regions=solids, progress=False)
     assert len(fields) == 4 and not any(type(model).__name__ == "Intersection" for model in fields)
     volumes = np.bincount(np.asarray(mesh["region_id"]), mesh["volume"])

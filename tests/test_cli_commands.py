@@ -150,6 +150,35 @@ def test_bad_model_files_give_a_clear_error_and_exit_1(tmp_path, capsys, content
     assert not (tmp_path / "x.stl").exists()
 
 
+@pytest.mark.parametrize(
+    "flags, words",
+    [
+        (["--h", "inf"], "--h must be a finite number > 0; got inf"),
+        (["--h", "nan"], "--h must be a finite number > 0; got nan"),
+        (["--h", "0.5", "--hmax", "inf"], "--hmax must be a finite number larger than --h; got inf"),
+        (["--h", "5"], "--h 5 must be smaller than the part's largest extent 2"),
+    ],
+)
+def test_edge_lengths_are_checked_and_the_flag_named_before_meshing(tmp_path, capsys, flags, words):
+    path = tmp_path / "ball.py"
+    path.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    out = tmp_path / "x.inp"
+    assert main(["mesh", str(path), *flags, "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert words in err and "DistMesh" not in err and not out.exists()
+
+
+def test_a_file_without_an_edge_length_is_refused_before_it_is_read(tmp_path, capsys):
+    # a STEP file carries no edge length: the error comes before its (slow) tessellation; this
+    # one is not even a STEP file, and reading it would fail otherwise
+    junk = tmp_path / "part.step"
+    junk.write_text("not a STEP file")
+    for command in (["mesh", str(junk), "--hmax", "5", "-o", str(tmp_path / "x.inp")], ["size", str(junk), "--hmax", "5", "-o", str(tmp_path / "x.vti")]):
+        assert main(command) == 1
+        err = capsys.readouterr().err
+        assert "no edge length: pass --h" in err and "part.step" in err
+
+
 def test_missing_files_and_bad_usage(tmp_path, capsys):
     assert main(["mesh", str(tmp_path / "nope.py"), "-o", str(tmp_path / "x.inp")]) == 1
     assert "does not exist" in capsys.readouterr().err

@@ -4,6 +4,7 @@ writes, the model-file argument and the edge-length, period, bounds and chunk op
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Callable
 
@@ -291,6 +292,14 @@ def periods(values: list[float] | None):
     return values[0] if len(values) == 1 else tuple(values)
 
 
+def require_edge_length(args: argparse.Namespace) -> None:
+    """A mesh, CAD or image file carries no edge length: without ``--h`` (or ``--size``) say so
+    before the file is read (a STEP file's tessellation takes seconds)."""
+    if args.h is None and getattr(args, "size", None) is None and not str(args.model).endswith(".py"):
+        raise ValueError(f"no edge length: pass --h, an edge length in the units of {args.model} (--h D/20 puts "
+                         "about 20 elements across a part D across)")
+
+
 def edge_length(args: argparse.Namespace, part) -> float:
     h = args.h if args.h is not None else part.h
     if h is None:
@@ -299,9 +308,21 @@ def edge_length(args: argparse.Namespace, part) -> float:
         lower, upper = part.domain_bounds()
         extent = max(b - a for a, b in zip(lower, upper))
         raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} puts about 20 elements across it)")
-    if not h > 0:
-        raise ValueError(f"--h must be > 0; got {h}")
+    flag = "--h" if args.h is not None else f"h in {part.path}"
+    if not (math.isfinite(h) and h > 0):
+        raise ValueError(f"{flag} must be a finite number > 0; got {h}")
+    if getattr(args, "hmax", None) is not None and not math.isfinite(args.hmax):
+        raise ValueError(f"--hmax must be a finite number larger than --h; got {args.hmax}")
     return float(h)
+
+
+def check_edge_length(h: float, part, flag: str = "--h") -> None:
+    """``h`` below the part's largest extent, or a ValueError naming ``flag`` (before meshing)."""
+    lower, upper = part.domain_bounds()
+    extent = max(b - a for a, b in zip(lower, upper))
+    if h >= extent:
+        raise ValueError(f"{flag} {h:g} must be smaller than the part's largest extent {extent:.4g} ({part.path}); "
+                         f"--h {extent / 20:.2g} puts about 20 elements across it")
 
 
 def seed_argument(parser: argparse.ArgumentParser) -> None:

@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     output = common.output_path(args.output, "--output", common.mesh_suffixes())
     size = _size_file(args.size) if args.size is not None else None
     period = common.periods(args.period)
+    common.require_edge_length(args)
     part = common.load_part(args)
     common.check_period_bounds(period, part)
     if period is None:
@@ -84,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.hmax is not None or size is not None:
         raise ValueError("--period meshes with one --h (no --hmax or --size)")
     h = common.edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
+    if h is not None and period is None:
+        common.check_edge_length(h, part, "--h" if args.h is not None else f"h in {part.path}")
     if args.hmax is not None:
         if h is None or not args.hmax > h:
             raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h}")
@@ -141,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
                            materials=materials)
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
-    if part.boundaries:
+    if part.boundaries or regions:  # named sets, or the interfaces between regions
         print(set_areas_text(written, part.boundary_areas))
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")

@@ -29,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
     from ..sizing.estimate import estimated_cells
 
     output = common.output_path(args.output, "--output", (".vti",))
+    common.require_edge_length(args)
     part = common.load_part(args)
     lower, upper = (np.asarray(v, dtype=np.float64) for v in part.domain_bounds())
     h = common.edge_length(args, part)

@@ -95,6 +95,7 @@ class MeshingJob:
     history: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     split_edges: int = 0  # long boundary edges the quality stage split
+    crease_flips: int = 0  # boundary edges across a concave crease flipped onto it
     inserted_nodes: int = 0  # nodes inserted at the cells the quality stage left below its targets
     frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)

@@ -114,6 +114,7 @@ def quality_stage(job: MeshingJob) -> None:
     started = time.perf_counter()
     job.unimproved = (job.points, job.tets, job.fixed_mask)  # what validate_mesh falls back on
     if _default_quality_stage(job) and not any(c.locked_nodes(job) is not None for c in job.constraints):
+        recover_crease_segments(job)
         fill_surface_gaps(job)
     pinned = stage_pins(job.points, job.tets, job.fixed_mask, job.user_fixed, job.model, h)
     pinned = _either(pinned, *(constraint.pinned_nodes(job) for constraint in job.constraints))
@@ -128,6 +129,8 @@ def quality_stage(job: MeshingJob) -> None:
                 job.points, job.tets, _ = improve_arrays(
                     job.points, job.tets, job.model, h, fixed_mask=pinned, size=job.size, seed=o.seed, locked=locked,
                     collapse=removable_nodes(job), local_size=local_size(job))
+            if locked is None:
+                recover_crease_segments(job, flips=False)  # cells the stage left in a crease's corner
             _drop_unused_nodes(job)
     except MeshingError as exc:
         # the stage checks its own result and refuses it; the loop's mesh is valid
@@ -178,6 +181,15 @@ def fill_surface_gaps(job: MeshingJob, locked: np.ndarray | None = None) -> None
     if split:
         job.fixed_mask = np.concatenate([job.fixed_mask, np.zeros(split, dtype=bool)])
     job.split_edges = split
+
+
+def recover_crease_segments(job: MeshingJob, flips: bool = True) -> None:
+    """Boundary edges that cut across a concave crease flipped onto the crease segment they hide,
+    or their lone cells removed (:mod:`fepre.distmesh.crease_recovery`)."""
+    from .crease_recovery import recover_creases
+
+    job.tets, changed = recover_creases(job.points, job.tets, job.model, job.features, job.h, flips=flips)
+    job.crease_flips += changed
 
 
 def removable_nodes(job: MeshingJob) -> np.ndarray:

@@ -58,6 +58,11 @@ NEAR = 0.25
 DEFAULT_ANGLE = 60.0
 #: faces next to a set turned off it by less than this (degrees) mean its edge is no crease
 TANGENT_ANGLE = 20.0
+#: a set whose faces have their nodes on its surface to this times h was meshed for that surface
+#: (fepre puts them there to ~1e-12): parallel faces near it with no node on it are another
+#: surface's (a journal's crown under an unbounded plane through a keyway's floor), not faces of a
+#: mesh made elsewhere (gmsh's and pytetwild's bore nodes: 0.003-0.004 h off)
+EXACT_NODES = 1e-6
 
 # Faces in Abaqus/CalculiX order S1..S4 (1-2-3, 1-4-2, 2-4-3, 3-4-1), each written here with its
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
@@ -340,6 +345,15 @@ def _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_
                 BoundaryWarning)
 
 
+def _exact_set(boundary, name: str, corners: np.ndarray, h: np.ndarray) -> bool:
+    """Whether a set's faces (``corners`` (K, 3, 3)) have their nodes on its surface to
+    ``EXACT_NODES`` h (the median face's farthest node): a mesh made for that surface."""
+    if not corners.size:
+        return False
+    nodes = np.abs(_evaluate(boundary, corners.reshape(-1, 3), "boundaries", name)).reshape(-1, 3).max(axis=1)
+    return bool(np.median(nodes / h) <= EXACT_NODES)
+
+
 def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
                  min_cosine, set_ids) -> set:
     """Warn about sets that match no face, and about sets most of whose nearby, parallel faces have
@@ -357,7 +371,7 @@ def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_f
             parallel = np.abs(np.einsum("ij,ij->i", gradient, normals[near])) >= min_cosine
             off = parallel & (nodes.min(axis=1) > tolerance)  # no node of the face on the surface
             missed = float(areas[near[off]].sum())
-            if off.any() and missed > taken:
+            if off.any() and missed > taken and not _exact_set(boundaries[name], name, corners[set_ids == j], h[set_ids == j]):
                 offset = nodes[off].max(axis=1)
         if offset.size:
             reported.add(name)

@@ -20,7 +20,7 @@ from ..errors import MeshingError
 from .clearance import check_clearances
 from .conform import check_interfaces, exposed_interface_faces, final_region_mesh, node_regions, region_quality_stage
 from .interface import ON_INTERFACE, interface_node_mask, interface_nodes
-from .partition import RegionSet, check_regions, region_set
+from .partition import RegionSet, check_regions, region_set, surface_model
 from .protection import InterfaceProtection, drop_protected
 
 __all__ = ["RegionConstraint"]
@@ -163,6 +163,7 @@ class RegionConstraint(MeshConstraint):
     def check(self, job) -> None:
         faces, _ = check_interfaces(job.points, job.tets, self.region_ids, self.region_set, job.model, job.h)  # MeshingError
         self._warn_thin_pieces(job)
+        self._warn_region_volumes(job)
         job.history.update(interface_faces=np.array([len(faces)]), interface_nodes_dropped=np.array([self.dropped]))
 
     def _warn_thin_pieces(self, job) -> None:
@@ -181,6 +182,38 @@ class RegionConstraint(MeshConstraint):
                 f"distmesh: {len(exposed)} face(s) on an interface lie on the mesh's surface: a piece of a region "
                 f"beyond them, up to {depth[worst]:.3g} thick (at {where}), is thinner than h={job.h:g} and is not "
                 f"meshed; h={depth[worst]:.2g} or smaller would mesh it", ResolutionWarning, stacklevel=2)
+
+    def _warn_region_volumes(self, job) -> None:
+        """A ResolutionWarning for each region whose cells' volume is more than
+        ``VOLUME_TOLERANCE`` off its model's exact volume (a CAD solid's, a label's: their
+        triangles'), with the h that would bring it to about ``VOLUME_AIM``. The part's volume
+        can be right while a region's is not: a pin's chords give its section to the lugs around
+        it (a clevis's pin -1.3% at h = (2, 10), the whole part -0.08%)."""
+        if not job.options.check_resolution:
+            return
+        import warnings
+
+        from ..distmesh.lost_material import VOLUME_AIM, VOLUME_TOLERANCE
+        from ..errors import ResolutionWarning
+        from ..quality import signed_volumes
+
+        volumes = np.bincount(self.region_ids, weights=signed_volumes(job.points, job.tets), minlength=len(self.region_set.names))
+        size = "hmin" if job.size is not None else "h"
+        lines = []
+        for name, region, meshed in zip(self.region_set.names, self.region_set.models, volumes):
+            exact = getattr(surface_model(region), "volume", None) if getattr(region, "within", None) is job.model else None
+            if not exact:
+                continue
+            error = meshed / abs(float(exact)) - 1.0
+            if abs(error) > VOLUME_TOLERANCE:
+                finer = job.h * np.sqrt(VOLUME_AIM / abs(error))
+                lines.append(f"region {name!r} {100 * abs(error):.1f}% {'short of' if error < 0 else 'over'} its model "
+                             f"({meshed:.4g} against {abs(float(exact)):.4g}; {size} <= {finer:.2g} comes within about "
+                             f"{100 * VOLUME_AIM:g}%)")
+        if lines:
+            warnings.warn(
+                f"distmesh: {'; '.join(lines)}: curved interfaces and surfaces lose their chords' sag, which a "
+                f"neighbouring region may gain (the error falls about as {size} squared)", ResolutionWarning, stacklevel=2)
 
     def annotate(self, job, grid) -> None:
         grid.cell_data["region_id"] = self.region_ids
