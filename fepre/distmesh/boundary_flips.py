@@ -33,7 +33,7 @@ from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets
 from .tet_topology import EDGE_OF_TET, edge_keys, face_keys, in_sorted
 
-__all__ = ["boundary_edge_round", "MAX_OPEN_RING"]
+__all__ = ["boundary_edge_round", "best_ring_flips", "MAX_OPEN_RING"]
 
 #: Largest open ring (cells around a boundary edge) that boundary edge removal tries.
 MAX_OPEN_RING = 5
@@ -190,24 +190,12 @@ def boundary_edge_round(
         if not allowed.any():
             continue
         cells, ring, a, b = cells[allowed], ring[allowed], a[allowed], b[allowed]
-        triangles, table = _ring_tables(n + 1)
-        tri = ring[:, triangles]
-        shape = tri.shape[:2] + (1,)
-        up = np.concatenate([tri, np.broadcast_to(b[:, None, None], shape)], 2)
-        down = np.concatenate([tri[..., [0, 2, 1]], np.broadcast_to(a[:, None, None], shape)], 2)
-        new_cells = np.concatenate([up, down], 1)
-        q_cells = targets.score(points[new_cells])
-        worst = q_cells[:, table].min(axis=2)
-        choice = np.argmax(worst, axis=1)
-        rows = np.arange(cells.shape[0])
-        worst = worst[rows, choice]
+        new_cells, scores, worst = best_ring_flips(points, ring, a, b, targets)
         good = worst > quality[cells].min(axis=1) + MIN_GAIN
         if not good.any():
             continue
-        best = table[choice[good]]
-        rows = rows[good, None]
-        values = (q_cells[rows, best],) + (() if labels is None else (np.broadcast_to(labels[cells[good][:, :1]], best.shape),))
-        candidates.append((cells[good], new_cells[rows, best], worst[good], values))
+        values = (scores[good],) + (() if labels is None else (np.broadcast_to(labels[cells[good][:, :1]], scores[good].shape),))
+        candidates.append((cells[good], new_cells[good], worst[good], values))
         surface_changes.append((cells[good], a[good], b[good], ring[good][:, 0], ring[good][:, -1]))
     if not candidates:
         return unchanged
@@ -218,6 +206,24 @@ def boundary_edge_round(
         boundary_face_keys, boundary_edges, n_points)
     touched[new_vertices] = True
     return (tets, values[0], applied, boundary_face_keys, boundary_edges, touched) + tuple(values[1:])
+
+
+def best_ring_flips(points: np.ndarray, ring: np.ndarray, a: np.ndarray, b: np.ndarray, targets: ShapeTargets):
+    """For each boundary edge ``a b`` (E,) with its open ring ``ring`` (E, n + 1), the cells that
+    replace its ring when it is flipped (the ring's triangulation, joined to ``a`` and to ``b``,
+    whose worst cell scores best): cells (E, 2 n - 2, 4), their scores and that worst score (E,)."""
+    triangles, table = _ring_tables(ring.shape[1])
+    tri = ring[:, triangles]
+    shape = tri.shape[:2] + (1,)
+    up = np.concatenate([tri, np.broadcast_to(b[:, None, None], shape)], 2)
+    down = np.concatenate([tri[..., [0, 2, 1]], np.broadcast_to(a[:, None, None], shape)], 2)
+    new_cells = np.concatenate([up, down], 1)
+    scores = targets.score(points[new_cells])
+    worst = scores[:, table].min(axis=2)
+    choice = np.argmax(worst, axis=1)
+    rows = np.arange(ring.shape[0])
+    best = table[choice]
+    return new_cells[rows[:, None], best], scores[rows[:, None], best], worst[rows, choice]
 
 
 def _flip_allowed(points, cells, ring, a, b, existing, boundary_face_keys, guard, locked, n_points,

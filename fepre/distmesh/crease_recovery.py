@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boundary_flips import _open_rings
-from .flips import _apply, _ring_tables
+from .boundary_flips import _open_rings, best_ring_flips
+from .flips import _apply
 from .tet_shape import ShapeTargets
 from .tet_topology import EDGE_OF_TET, edge_keys, face_neighbours, faces_on_boundary, in_sorted
 
@@ -121,27 +121,15 @@ def recover_creases(points: np.ndarray, tets: np.ndarray, model, features, h: fl
     quality = targets.score(points[tets])
     existing = np.unique(edge_keys(tets[:, EDGE_OF_TET].reshape(-1, 2), n))
     candidates = []
-    for size, cells, ring, a, b in _open_rings(tets, bridges, n):
+    for _, cells, ring, a, b in _open_rings(tets, bridges, n):
         new_edge = ~in_sorted(edge_keys(ring[:, [0, -1]], n), existing)  # wx is no edge yet
         cells, ring, a, b = cells[new_edge], ring[new_edge], a[new_edge], b[new_edge]
         if cells.size == 0:
             continue
-        triangles, table = _ring_tables(size + 1)
-        tri = ring[:, triangles]
-        shape = tri.shape[:2] + (1,)
-        up = np.concatenate([tri, np.broadcast_to(b[:, None, None], shape)], 2)
-        down = np.concatenate([tri[..., [0, 2, 1]], np.broadcast_to(a[:, None, None], shape)], 2)
-        new_cells = np.concatenate([up, down], 1)
-        scores = targets.score(points[new_cells])
-        worst = scores[:, table].min(axis=2)
-        choice = np.argmax(worst, axis=1)
-        rows = np.arange(cells.shape[0])
-        worst = worst[rows, choice]
+        new_cells, scores, worst = best_ring_flips(points, ring, a, b, targets)
         valid = worst > MIN_SCORE
         if valid.any():
-            best = table[choice[valid]]
-            picked = rows[valid, None]
-            candidates.append((cells[valid], new_cells[picked, best], worst[valid], (scores[picked, best],)))
+            candidates.append((cells[valid], new_cells[valid], worst[valid], (scores[valid],)))
     if not candidates:
         return tets, removed
     tets, _, applied, _ = _apply(tets, candidates, [quality])
