@@ -95,6 +95,27 @@ def test_a_size_field_does_not_depend_on_placement():
 
 
 @pytest.mark.slow
+def test_a_triangle_mesh_models_curvature_sizes_do_not_depend_on_placement():
+    """A faceted surface shows its curvature in the angles between facets, which the size field
+    asks the model for (``facet_curvature``). Meshed at 1e4 the model is seen through the local
+    frame's translation, which did not pass it on: a tessellated bar of radius 3 got the wall's
+    size on its side instead of the chords' (a new user's bracket fillet: 4.08 for 2.5, a clevis
+    9% fewer cells)."""
+    import pyvista as pv
+
+    bar = pv.Cylinder(radius=3.0, height=20.0, resolution=96).triangulate()
+    far = bar.copy()
+    offset = np.array([1e4, -1e4, 5e3])
+    far.points = np.asarray(far.points, dtype=np.float64) + offset
+    side = np.array([[0.0, 3.0 * np.cos(a), 3.0 * np.sin(a)] for a in np.linspace(0.0, 6.0, 7)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        near = fepre.size_field(sdf.mesh(bar), 0.2, 4.0)(side)
+        moved = fepre.size_field(sdf.mesh(far), 0.2, 4.0)(side + offset)
+    assert near.max() < 1.0  # the chords of a radius of 3 (the wall alone asks for 6 / 3 = 2)
+    np.testing.assert_allclose(moved, near, rtol=1e-6)
+
+
 def test_a_graded_mesh_of_a_part_at_1e4_is_the_one_at_the_origin():
     """Before: MeshingError (5 boundary nodes off the zero set)."""
     part = sdf.box((4, 2, 1)) - sdf.cylinder(radius=0.15, height=3)
