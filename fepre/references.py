@@ -43,7 +43,7 @@ REFERENCE_SETTINGS = {
 }
 
 
-def reference_surface(model: Any, spacing: float, bounds: Any = None):
+def reference_surface(model: Any, spacing: float, bounds: Any = None, sharp: bool = True):
     """The model's zero level set on a grid of ``spacing``: sharp where the model has edges.
 
     :func:`fepre.isosurface`: ``method="dual_contouring"`` for a model with sharp features
@@ -58,6 +58,10 @@ def reference_surface(model: Any, spacing: float, bounds: Any = None):
     spacing : float
         Grid spacing; the surface's chords deviate from a curved boundary by O(spacing^2).
     bounds : ((min...), (max...)), optional
+    sharp : bool
+        Try dual contouring for a model with sharp features (default); False takes flying edges,
+        whose triangles never cross each other (a mesher that refuses a dual-contoured surface
+        whose facets cross at a corner takes that one).
 
     Returns
     -------
@@ -83,7 +87,7 @@ def reference_surface(model: Any, spacing: float, bounds: Any = None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # an empty surface is reported below as a MeshingError
         surface = None
-        if model.patch_count > 1 or len(model.singular_points()):
+        if sharp and (model.patch_count > 1 or len(model.singular_points())):
             sharp = isosurface(model, method="dual_contouring", spacing=spacing, bounds=bounds)
             if _closed_manifold(sharp):
                 surface = sharp

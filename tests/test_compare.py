@@ -180,6 +180,17 @@ def test_gmsh_reference_meshes_a_sharp_part_remeshed_or_with_its_surface_kept():
     assert mesh.field_data["reference_seconds"][0] > 0
 
 
+def test_a_reference_surface_without_sharp_edges_on_request():
+    # the CAD sizing bench gives gmsh flying edges where it refuses a dual-contoured surface
+    from fepre.references import reference_surface
+
+    cube = sdf.box(2.0)
+    sharp, smooth = reference_surface(cube, 0.25), reference_surface(cube, 0.25, sharp=False)
+    assert str(sharp.field_data["surface_method"][0]) == "dual_contouring"
+    assert str(smooth.field_data["surface_method"][0]) == "flying_edges"
+    assert sharp.volume == pytest.approx(8.0, rel=1e-6) and smooth.volume < 8.0  # the edges chamfered
+
+
 def test_gmsh_reference_that_does_not_finish_is_stopped_and_reported():
     from fepre.references import gmsh_mesh, reference_surface
 
