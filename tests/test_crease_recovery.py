@@ -64,3 +64,29 @@ def test_graded_pocket_edges_are_kept_and_the_floor_set_is_exact():
     tri = np.asarray(sets.points)[np.asarray(sets.faces).reshape(-1, 4)[chosen, 1:]]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
     assert area == pytest.approx(4 * 30 * 15, rel=1e-9)
+
+
+def test_a_cell_is_removed_only_where_the_boundary_stays_a_manifold():
+    # a lattice's Delaunay cells: a cell touching the boundary along an edge only (no face on
+    # it) would leave that edge in four boundary faces; one with a face on it may go
+    from scipy.spatial import Delaunay
+
+    from fepre.distmesh.crease_recovery import _remove_soundly
+    from fepre.distmesh.tet_topology import EDGE_OF_TET, edge_keys
+
+    grid = np.stack(np.meshgrid(*[np.arange(3.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    points = grid + np.random.default_rng(1).uniform(-0.05, 0.05, grid.shape) * (grid % 2 == 1)
+    tets = _positive(points, Delaunay(points).simplices)
+    n = len(points)
+    faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    surface_edges = np.unique(edge_keys(faces[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), n))
+    on_surface = np.isin(tets, np.unique(faces))
+    face_count = np.array([sum(set(f) <= set(t) for f in faces.tolist()) for t in tets.tolist()])
+    edge_only = [k for k, t in enumerate(tets) if face_count[k] == 0
+                 and np.isin(edge_keys(t[EDGE_OF_TET], n), surface_edges).any()]
+    with_face = [k for k in range(len(tets)) if face_count[k] == 1 and on_surface[k].sum() == 3]
+    assert edge_only and with_face
+    kept, removed = _remove_soundly(tets, np.array(edge_only[:1]), n)
+    assert removed == 0 and len(kept) == len(tets)
+    kept, removed = _remove_soundly(tets, np.array([with_face[0], edge_only[0]]), n)
+    assert removed == 1 and len(kept) == len(tets) - 1

@@ -32,6 +32,8 @@ BRIDGE = 0.05
 ON_CURVE = 1e-6
 #: the new cells' worst score (degrees) must be above this: valid, not merely less flat
 MIN_SCORE = 1e-3
+#: lone cells tried one at a time when removing them all at once would leave the boundary unsound
+MAX_SINGLE = 20
 
 
 def _crease_bridges(points: np.ndarray, tets: np.ndarray, model, features, h: float):
@@ -112,9 +114,8 @@ def recover_creases(points: np.ndarray, tets: np.ndarray, model, features, h: fl
         return tets, 0
     lone, cells = _lone_cells(tets, bridges, n)
     outside = np.asarray(model(points[tets[cells]].mean(axis=1)), dtype=float) > 0
-    removed = int(np.count_nonzero(outside))
+    tets, removed = _remove_soundly(tets, cells[outside], n)
     if removed:
-        tets = np.delete(tets, cells[outside], axis=0)
         bridges = np.setdiff1d(bridges, lone[outside])
     if not flips or bridges.size == 0:
         return tets, removed
@@ -132,5 +133,34 @@ def recover_creases(points: np.ndarray, tets: np.ndarray, model, features, h: fl
             candidates.append((cells[valid], new_cells[valid], worst[valid], (scores[valid],)))
     if not candidates:
         return tets, removed
-    tets, _, applied, _ = _apply(tets, candidates, [quality])
-    return tets, removed + int(applied)
+    flipped, _, applied, _ = _apply(tets, candidates, [quality])
+    if not _sound(flipped, n):  # a flip that glued the surface wrongly: none is made
+        return tets, removed
+    return flipped, removed + int(applied)
+
+
+def _sound(tets: np.ndarray, n: int) -> bool:
+    """No face in three cells, and a boundary that is an edge-manifold without pinched vertices."""
+    from .topology import check_topology
+
+    report = check_topology(tets, n)
+    return report.overused_faces == 0 and report.nonmanifold_edges == 0 and report.pinched_vertices == 0
+
+
+def _remove_soundly(tets: np.ndarray, cells: np.ndarray, n: int) -> tuple[np.ndarray, int]:
+    """``tets`` without ``cells``, or without those of them whose removal keeps the boundary an
+    edge-manifold (one by one, up to ``MAX_SINGLE`` of them, when all at once does not): a lone
+    cell whose other faces are on the boundary too, or whose crease segment is a boundary edge
+    already, would leave it open or pinched (a Thingiverse model's thin fin at D/50)."""
+    if cells.size == 0:
+        return tets, 0
+    together = np.delete(tets, cells, axis=0)
+    if _sound(together, n):
+        return together, int(cells.size)
+    kept, removed = tets, 0
+    for cell in cells[:MAX_SINGLE]:
+        row = np.flatnonzero((kept == tets[cell]).all(axis=1))
+        trial = np.delete(kept, row, axis=0)
+        if row.size == 1 and _sound(trial, n):
+            kept, removed = trial, removed + 1
+    return kept, removed
