@@ -4,7 +4,9 @@ A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` 
 length), ``bounds`` (meshing box), ``boundaries`` (name -> SDF for named boundary sets),
 ``regions`` (name -> SDF: material regions that split the part, meshed conformally) and
 ``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files) and ``boundary_areas``
-(boundary name -> the exact area the user knows, printed beside the set's by ``fepre mesh``).
+(boundary name -> the exact area the user knows, printed beside the set's by ``fepre mesh``)
+and ``boundary_tolerance`` (how far a set's nodes may lie from its surface, in local edge
+lengths: :func:`fepre.export`'s, for a model whose surface only comes near a set's).
 Loading one runs it with ``runpy`` (``__name__`` is not ``"__main__"``, so a file can also be a
 script) and turns every failure into a :class:`ModelFileError` naming the file and the reason.
 
@@ -79,6 +81,9 @@ class ModelFile:
     boundary_areas : dict
         The exact area of named boundary sets (name -> float > 0), as the user knows it from the
         drawing; ``fepre mesh`` prints each set's area beside it. Possibly empty.
+    boundary_tolerance : float or None
+        :func:`fepre.export`'s ``boundary_tolerance`` for the sets, if the file sets it (a
+        triangle-mesh model's facets lie only near an exact cylinder named as a set).
     namespace : dict
         Every global the file defined.
     """
@@ -91,6 +96,7 @@ class ModelFile:
     regions: dict[str, Any] = field(default_factory=dict)
     materials: dict[str, Any] = field(default_factory=dict)
     boundary_areas: dict[str, float] = field(default_factory=dict)
+    boundary_tolerance: float | None = None
     namespace: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
@@ -290,8 +296,18 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if unknown and regions:
         raise ModelFileError(f"{path}: `materials` names {unknown}, which are not in `regions` {list(regions)}")
     areas = _boundary_areas(path, namespace.get("boundary_areas") or {}, boundaries)
+    tolerance = namespace.get("boundary_tolerance")
+    if tolerance is not None:
+        from .export.boundaries import MAX_TOLERANCE
+
+        try:
+            tolerance = positive_float(tolerance, "boundary_tolerance")
+        except (TypeError, ValueError) as exc:
+            raise ModelFileError(f"{path}: {exc}") from None
+        if tolerance > MAX_TOLERANCE:
+            raise ModelFileError(f"{path}: `boundary_tolerance` must be in (0, {MAX_TOLERANCE:g}] (local edge lengths); got {tolerance:g}")
     return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), regions=dict(regions),
-                     materials=dict(materials), boundary_areas=areas, namespace=namespace)
+                     materials=dict(materials), boundary_areas=areas, boundary_tolerance=tolerance, namespace=namespace)
 
 
 def _boundary_areas(path: Path, areas: Any, boundaries: dict) -> dict[str, float]:

@@ -468,3 +468,23 @@ def test_mesh_prints_the_exact_area_a_model_file_gives_beside_the_sets(tmp_path,
     model.write_text(BALL + "boundary_areas = {'base': -1.0}\n")
     assert main(["mesh", str(model), "-o", str(tmp_path / "bad.inp"), "--quiet"]) == 1
     assert "boundary_areas['base']" in capsys.readouterr().err
+
+
+def test_a_model_file_sets_the_boundary_tolerance(tmp_path, capsys):
+    # a triangle-mesh model's facets lie only near an exact cylinder named as a set: the file
+    # says how far its nodes may be (the warning names the value); out of (0, 0.25] is refused
+    import pyvista as pv
+
+    from fepre.modelfile import load_model
+
+    pv.Cylinder(radius=2.0, height=4.0, resolution=48).triangulate().save(tmp_path / "bar.stl")
+    text = (f"from fepre import sdf\nmodel = sdf.mesh({str(tmp_path / 'bar.stl')!r})\n"
+            "boundaries = {'side': sdf.cylinder(radius=2.0, height=10.0, axis='x')}\n")
+    (tmp_path / "bar.py").write_text(text + "boundary_tolerance = 0.03\n")
+    assert load_model(tmp_path / "bar.py").boundary_tolerance == 0.03
+    assert main(["mesh", str(tmp_path / "bar.py"), "--h", "0.4", "-o", str(tmp_path / "bar.inp"), "--quiet"]) == 0
+    line = next(line for line in capsys.readouterr().out.splitlines() if "boundary set side" in line)
+    assert float(line.split("area")[1]) == pytest.approx(2 * np.pi * 2 * 4, rel=0.02)  # the facets' chords
+    (tmp_path / "bad.py").write_text(text + "boundary_tolerance = 0.5\n")
+    assert main(["mesh", str(tmp_path / "bad.py"), "--h", "0.4", "-o", str(tmp_path / "bad.inp")]) == 1
+    assert "`boundary_tolerance` must be in (0, 0.25]" in capsys.readouterr().err

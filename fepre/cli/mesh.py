@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", fepre.export.BoundaryWarning)
-            faces = fepre.export.tag_boundaries(mesh, part.boundaries)
+            faces = fepre.export.tag_boundaries(mesh, part.boundaries, **_set_tolerance(part))
         counts = np.bincount(np.asarray(faces["boundary_id"]), minlength=len(part.boundaries) + 1)
         empty = [name for index, name in enumerate(part.boundaries) if counts[index] == 0]
         if empty:
@@ -142,13 +142,18 @@ def run(args: argparse.Namespace) -> int:
             )
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
-                           materials=materials)
+                           materials=materials, **_set_tolerance(part))
     print(f"wrote {args.output} ({written.n_cells} elements of order {args.order}, {written.n_points} nodes)")
     if part.boundaries or regions:  # named sets, or the interfaces between regions
         print(set_areas_text(written, part.boundary_areas))
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")
     return 0
+
+
+def _set_tolerance(part) -> dict:
+    """The model file's ``boundary_tolerance`` as a keyword for the sets (none when unset)."""
+    return {} if part.boundary_tolerance is None else {"boundary_tolerance": part.boundary_tolerance}
 
 
 def set_areas_text(grid, exact: dict | None = None) -> str:

@@ -379,8 +379,10 @@ def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_f
                 f"boundaries {name!r}: {int(np.count_nonzero(set_ids == j))} faces have their nodes on its "
                 f"surface (within boundary_tolerance={tolerance:g} h), but {offset.size} parallel faces near it "
                 f"have none: their nodes lie a median {float(np.median(offset)):.3g} h from it (h the local edge "
-                f"length). A mesh made elsewhere puts nodes only near the model; pass boundary_tolerance="
-                f"{min(MAX_TOLERANCE, float(np.quantile(offset, 0.9)) * 1.5):.3g} to take them, or mesh with fepre",
+                f"length). A mesh made elsewhere, or one of a model whose surface only comes near the set's (a "
+                f"triangle mesh's facets under an exact cylinder), has its nodes only near it; pass boundary_tolerance="
+                f"{min(MAX_TOLERANCE, float(np.quantile(offset, 0.9)) * 1.5):.3g} to take them (in a model file: "
+                f"`boundary_tolerance = ...`)",
                 BoundaryWarning)
         elif not np.any(set_ids == j):
             empty.append(name)
