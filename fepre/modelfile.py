@@ -296,18 +296,24 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if unknown and regions:
         raise ModelFileError(f"{path}: `materials` names {unknown}, which are not in `regions` {list(regions)}")
     areas = _boundary_areas(path, namespace.get("boundary_areas") or {}, boundaries)
-    tolerance = namespace.get("boundary_tolerance")
-    if tolerance is not None:
-        from .export.boundaries import MAX_TOLERANCE
-
-        try:
-            tolerance = positive_float(tolerance, "boundary_tolerance")
-        except (TypeError, ValueError) as exc:
-            raise ModelFileError(f"{path}: {exc}") from None
-        if tolerance > MAX_TOLERANCE:
-            raise ModelFileError(f"{path}: `boundary_tolerance` must be in (0, {MAX_TOLERANCE:g}] (local edge lengths); got {tolerance:g}")
+    tolerance = _boundary_tolerance(path, namespace.get("boundary_tolerance"))
     return ModelFile(path=path, model=model, h=h, bounds=bounds, boundaries=dict(boundaries), regions=dict(regions),
                      materials=dict(materials), boundary_areas=areas, boundary_tolerance=tolerance, namespace=namespace)
+
+
+def _boundary_tolerance(path: Path, value: Any) -> float | None:
+    """A model file's ``boundary_tolerance`` (None when unset), in (0, ``MAX_TOLERANCE``]."""
+    if value is None:
+        return None
+    from .export.boundaries import MAX_TOLERANCE
+
+    try:
+        tolerance = positive_float(value, "boundary_tolerance")
+    except (TypeError, ValueError) as exc:
+        raise ModelFileError(f"{path}: {exc}") from None
+    if tolerance > MAX_TOLERANCE:
+        raise ModelFileError(f"{path}: `boundary_tolerance` must be in (0, {MAX_TOLERANCE:g}] (local edge lengths); got {tolerance:g}")
+    return tolerance
 
 
 def _boundary_areas(path: Path, areas: Any, boundaries: dict) -> dict[str, float]:
