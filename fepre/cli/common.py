@@ -308,7 +308,7 @@ def edge_length(args: argparse.Namespace, part) -> float:
         lower, upper = part.domain_bounds()
         extent = max(b - a for a, b in zip(lower, upper))
         raise ValueError(f"no edge length: pass --h (the part in {part.path} is {extent:.4g} across; --h {extent / 20:.2g} puts about 20 elements across it)")
-    flag = "--h" if args.h is not None else f"h in {part.path}"
+    flag = edge_length_flag(args, part)
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"{flag} must be a finite number > 0; got {h}")
     if getattr(args, "hmax", None) is not None and not math.isfinite(args.hmax):
@@ -316,8 +316,14 @@ def edge_length(args: argparse.Namespace, part) -> float:
     return float(h)
 
 
-def check_edge_length(h: float, part, flag: str = "--h") -> None:
-    """``h`` below the part's largest extent, or a ValueError naming ``flag`` (before meshing)."""
+def edge_length_flag(args: argparse.Namespace, part) -> str:
+    """Where the edge length came from, for messages: ``--h``, or the model file's ``h``."""
+    return "--h" if args.h is not None else f"h in {part.path}"
+
+
+def check_edge_length(args: argparse.Namespace, h: float, part) -> None:
+    """``h`` below the part's largest extent, or a ValueError naming where it came from (before meshing)."""
+    flag = edge_length_flag(args, part)
     lower, upper = part.domain_bounds()
     extent = max(b - a for a, b in zip(lower, upper))
     if h >= extent:

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--period meshes with one --h (no --hmax or --size)")
     h = common.edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
     if h is not None and period is None:
-        common.check_edge_length(h, part, "--h" if args.h is not None else f"h in {part.path}")
+        common.check_edge_length(args, h, part)
     if args.hmax is not None:
         if h is None or not args.hmax > h:
             raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h}")

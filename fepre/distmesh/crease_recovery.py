@@ -41,9 +41,11 @@ def _crease_bridges(points: np.ndarray, tets: np.ndarray, model, features, h: fl
     from .output import feature_flags
 
     n = points.shape[0]
-    on_curve = feature_flags(points, features) > 0
     faces = faces_on_boundary(tets, face_neighbours(tets, n))
-    if not on_curve.any() or faces.size == 0:
+    on_curve = np.zeros(n, dtype=bool)
+    surface = np.unique(faces)  # only boundary nodes can be feature nodes
+    on_curve[surface] = feature_flags(points[surface], features) > 0
+    if not on_curve.any():
         return np.zeros(0, np.int64)
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     opposite = np.concatenate([faces[:, 2], faces[:, 0], faces[:, 1]])

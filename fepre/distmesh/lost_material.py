@@ -324,6 +324,12 @@ VOLUME_TOLERANCE = 0.01
 VOLUME_AIM = 0.005
 
 
+def finer_for_volume(h: float, error: float) -> float:
+    """The edge length that brings a volume ``error`` (a fraction) made at ``h`` to about
+    ``VOLUME_AIM``: chords' sag falls as h squared."""
+    return h * float(np.sqrt(VOLUME_AIM / abs(error)))
+
+
 def _mesh_model_volume(model) -> float | None:
     """The exact volume of a triangle-mesh model, or of one seen through affine maps (a part
     placed far from the origin is meshed as its translation), else None."""
@@ -371,7 +377,7 @@ def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, up
     error = meshed / exact - 1.0
     if abs(error) <= VOLUME_TOLERANCE:
         return None
-    finer = h * np.sqrt(VOLUME_AIM / abs(error))
+    finer = finer_for_volume(h, error)
     size = "hmin" if graded else "h"
     return (
         f"the mesh's volume is {100 * abs(error):.1f}% {'short of' if error < 0 else 'over'} the model's "

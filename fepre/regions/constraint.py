@@ -193,7 +193,7 @@ class RegionConstraint(MeshConstraint):
             return
         import warnings
 
-        from ..distmesh.lost_material import VOLUME_AIM, VOLUME_TOLERANCE
+        from ..distmesh.lost_material import VOLUME_AIM, VOLUME_TOLERANCE, finer_for_volume
         from ..errors import ResolutionWarning
         from ..quality import signed_volumes
 
@@ -206,7 +206,7 @@ class RegionConstraint(MeshConstraint):
                 continue
             error = meshed / abs(float(exact)) - 1.0
             if abs(error) > VOLUME_TOLERANCE:
-                finer = job.h * np.sqrt(VOLUME_AIM / abs(error))
+                finer = finer_for_volume(job.h, error)
                 lines.append(f"region {name!r} {100 * abs(error):.1f}% {'short of' if error < 0 else 'over'} its model "
                              f"({meshed:.4g} against {abs(float(exact)):.4g}; {size} <= {finer:.2g} comes within about "
                              f"{100 * VOLUME_AIM:g}%)")
