@@ -164,6 +164,31 @@ def _drop_degenerate_and_duplicates(faces: np.ndarray) -> tuple[np.ndarray, int,
     return faces[first], int(repeated.sum()), int(len(faces) - len(first))
 
 
+def _drop_cancelling_pairs(faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """``faces`` without the pairs of triangles on the same three vertices and turned opposite
+    ways, and how many triangles went. A contoured field's surface has such pairs where a pocket
+    thinner than float32's rounding closed when its vertices merged: the two sheets bound no
+    volume, and keeping one of them would leave its edges used three times and once."""
+    if len(faces) < 2:
+        return faces, 0
+    start = np.argmin(faces, axis=1)
+    turned = faces[np.arange(len(faces))[:, None], (start[:, None] + np.arange(3)) % 3]
+    key = np.sort(faces, axis=1)
+    order = np.lexsort(key.T[::-1])
+    same = np.flatnonzero((key[order[1:]] == key[order[:-1]]).all(axis=1))
+    if same.size == 0:
+        return faces, 0
+    lone = np.ones(len(same), dtype=bool)  # a vertex set used exactly twice
+    lone[1:] &= same[1:] != same[:-1] + 1
+    lone[:-1] &= same[:-1] + 1 != same[1:]
+    first, second = order[same[lone]], order[same[lone] + 1]
+    opposite = (turned[first, 1] == turned[second, 2]) & (turned[first, 2] == turned[second, 1])
+    proper = (turned[first, 0] != turned[first, 1]) & (turned[first, 1] != turned[first, 2])  # degenerate ones go as such
+    drop = np.zeros(len(faces), dtype=bool)
+    drop[first[opposite & proper]] = drop[second[opposite & proper]] = True
+    return faces[~drop], int(drop.sum())
+
+
 def _material_sides(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray, face_edge: np.ndarray,
                     forward: np.ndarray) -> np.ndarray:
     """(F, 2) bool: whether the cell of space in front of (column 0) and behind (1) each face is
@@ -553,7 +578,8 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
     """Repair a triangle surface (see the module's description).
 
     ``level_set=True`` (a contoured scalar field: its triangles cannot overlap and are oriented
-    alike) stops after step 1 when the surface is then closed: the steps after it would leave
+    alike) stops after step 1 when the surface is then closed (pairs of opposite triangles on
+    the same three vertices dropped: a pocket the merge closed): the steps after it would leave
     such a surface as it is, and on millions of triangles they cost gigabytes. With
     ``coincident=False`` as well (no grid node exactly on the level: no two crossings meet, so
     no vertex repeats and no triangle collapses) step 1 is skipped too, unless a triangle has two
@@ -576,7 +602,11 @@ def repair(vertices: np.ndarray, faces: np.ndarray, *, level_set: bool = False, 
         return Repair(vertices=vertices, faces=faces, merged=0, degenerate=0, duplicates=0, flipped=0, holes=0,
                       hole_area=0.0, internal=0, open_edges=0, closed=True, filled=np.zeros(len(faces), dtype=bool))
     vertices, faces, merged = _merge_vertices(vertices, faces, weld=not level_set)
+    cancelled = 0
+    if level_set:
+        faces, cancelled = _drop_cancelling_pairs(faces)
     faces, degenerate, duplicates = _drop_degenerate_and_duplicates(faces)
+    duplicates += cancelled
     if level_set and _closed_oriented(faces):
         return Repair(vertices=vertices, faces=faces, merged=merged, degenerate=degenerate, duplicates=duplicates,
                       flipped=0, holes=0, hole_area=0.0, internal=0, open_edges=0, closed=True,
