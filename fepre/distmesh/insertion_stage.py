@@ -183,8 +183,8 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
 def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: ShapeTargets) -> tuple:
     """Up to ``TRIM_ROUNDS`` rounds of giving up thin zones
     (:func:`~fepre.distmesh.thin_trim.trim_thin_zones`) and the stage on the cells left bad; a
-    round is kept when its worst cell scores better and its mesh passes the final checks. Sets
-    ``job.trimmed``."""
+    round is kept when its worst cell scores better and its mesh passes the final checks (a
+    knife edge of the model keeps its angle however much of it goes). Sets ``job.trimmed``."""
     from ..quality import signed_volumes
     from .thin_trim import TOTAL_SHARE, trim_thin_zones
 
@@ -201,11 +201,9 @@ def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: Sha
             points, tets, info, caught = _run(job, pinned, removable, local_size, True)
         except MeshingError:
             break
-        scores = targets.score(points[tets])
-        score = float(scores.min())
-        fewer = np.count_nonzero(scores < targets.min_dihedral) < np.count_nonzero(targets.score(best[1][best[2]]) < targets.min_dihedral)
-        if not (score > worst or (score >= worst and fewer)) or not _valid(job, points, tets):
-            break
+        score = float(targets.score(points[tets]).min())
+        if score <= worst or not _valid(job, points, tets):
+            break  # only a better worst cell is worth the material (a 14 deg prism's tip: the same angle)
         best = (score, points, tets, fixed, caught, info)
         job.trimmed = job.trimmed + cut
         if score >= targets.min_dihedral:
