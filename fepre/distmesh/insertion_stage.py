@@ -38,6 +38,8 @@ __all__ = ["stage_with_insertions", "LabelledCells", "INSERTION_ROUNDS"]
 
 #: Rounds of vertex insertion at most.
 INSERTION_ROUNDS = 6
+#: Rounds of thin zones given up at most (:mod:`~fepre.distmesh.thin_trim`).
+TRIM_ROUNDS = 3
 #: No round starts when more cells than this (or this share of the cells) are below the targets.
 MAX_BAD_CELLS = 64
 MAX_BAD_SHARE = 1e-3
@@ -132,6 +134,8 @@ def stage_with_insertions(job, pinned: np.ndarray, removable: Callable, local_si
         best = _insertion_rounds(job, first, best, removable, local_size, targets, reshaping, labelled)
         if best[0] >= targets.min_dihedral:
             break
+    if labelled is None and best[0] < targets.min_dihedral and job.options.thin_parts == "trim":
+        best = _trim_rounds(job, best, removable, local_size, targets)
     _, job.points, job.tets, job.fixed_mask, caught, info = best
     job.inserted_nodes = len(job.fixed_mask) - len(first[3])
     for item in caught:
@@ -173,6 +177,37 @@ def _insertion_rounds(job, first: tuple, best: tuple, removable: Callable, local
         worst = float(targets.score(points[tets]).min())
         if worst > best[0] and _valid(job, points, tets, labelled, info.get("labels")):
             best = (worst, points, tets, job.fixed_mask, caught, info)
+    return best
+
+
+def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: ShapeTargets) -> tuple:
+    """Up to ``TRIM_ROUNDS`` rounds of giving up thin zones
+    (:func:`~fepre.distmesh.thin_trim.trim_thin_zones`) and the stage on the cells left bad; a
+    round is kept when its worst cell scores better and its mesh passes the final checks (a
+    knife edge of the model keeps its angle however much of it goes). Sets ``job.trimmed``."""
+    from ..quality import signed_volumes
+    from .thin_trim import TOTAL_SHARE, trim_thin_zones
+
+    budget = TOTAL_SHARE * float(signed_volumes(best[1], best[2]).sum())
+    for _ in range(TRIM_ROUNDS):
+        worst, points, tets, fixed, _, _ = best
+        moved, kept, cut = trim_thin_zones(points, tets, job.model, job.h, local_size, targets,
+                                           budget - job.trimmed.volume, fixed)
+        if cut.cells == 0:
+            break
+        job.points, job.tets, job.fixed_mask = moved, kept, fixed
+        pinned = stage_pins(moved, kept, fixed, job.user_fixed, job.model, job.h)
+        try:
+            points, tets, info, caught = _run(job, pinned, removable, local_size, True)
+        except MeshingError:
+            break
+        score = float(targets.score(points[tets]).min())
+        if score <= worst or not _valid(job, points, tets):
+            break  # only a better worst cell is worth the material (a 14 deg prism's tip: the same angle)
+        best = (score, points, tets, fixed, caught, info)
+        job.trimmed = job.trimmed + cut
+        if score >= targets.min_dihedral:
+            break
     return best
 
 

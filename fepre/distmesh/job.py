@@ -16,6 +16,12 @@ from .options import DistMeshOptions
 __all__ = ["MeshingJob"]
 
 
+def _no_trim():
+    from .thin_trim import Trimmed
+
+    return Trimmed.none()
+
+
 @dataclass
 class MeshingJob:
     """The state the stages pass on: the run's arguments, the constraints, the mesh so far.
@@ -64,6 +70,8 @@ class MeshingJob:
         Long boundary edges split before the quality stage (new nodes on the surface).
     inserted_nodes : int
         Nodes inserted at the cells the quality stage left below its targets, before running again.
+    trimmed : fepre.distmesh.thin_trim.Trimmed
+        The cells in parts thinner than an element that the quality stage gave up.
     """
 
     model: SDF
@@ -97,6 +105,7 @@ class MeshingJob:
     split_edges: int = 0  # long boundary edges the quality stage split
     crease_flips: int = 0  # boundary edges across a concave crease flipped onto it
     inserted_nodes: int = 0  # nodes inserted at the cells the quality stage left below its targets
+    trimmed: Any = field(default_factory=lambda: _no_trim())
     frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)
 

@@ -16,6 +16,7 @@ TERMINATIONS = ("displacement", "quality")
 RETRIANGULATIONS = ("movement", "move_average")
 DELAUNAY_BACKENDS = ("auto", "scipy", "gmsh")
 SORTS = (None, "hilbert")
+THIN_PARTS = ("trim", "keep")
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,13 @@ class DistMeshOptions:
     slivers : bool, default True
         Run fepre's quality stage (:func:`fepre.distmesh.improve`: sliver removal and
         smoothing) on the result of the loop.
+    thin_parts : {"trim", "keep"}, default "trim"
+        What the quality stage does where cells stay below the targets in a part thinner than an
+        element (a knife edge, a fin's tip, the sliver a box leaves of a lattice's wall), where
+        no cell of size ``h`` fits: ``"trim"`` leaves such places out, a little at a time and at
+        most 1% of the volume, so that every cell meets the targets (a ResolutionWarning names
+        them, their volume and the ``hmin`` that keeps them); ``"keep"`` keeps them with flat
+        cells.
     features : bool, default True
         Keep the model's sharp edges and corners (:func:`fepre.features`): corners and nodes
         about ``h`` apart along every feature curve become fixed points, other points are kept
@@ -137,6 +145,7 @@ class DistMeshOptions:
     parallel: bool = True
     seed: int = 0
     slivers: bool = True
+    thin_parts: str = "trim"
     features: bool = True
     feature_angle: float = 30.0
     check_resolution: bool = True
@@ -173,6 +182,7 @@ class DistMeshOptions:
         choice(self.retriangulation, "retriangulation", RETRIANGULATIONS)
         choice(self.delaunay, "delaunay", DELAUNAY_BACKENDS)
         choice(self.sort, "sort", SORTS)
+        choice(self.thin_parts, "thin_parts", THIN_PARTS)
         if isinstance(self.seed, bool) or not isinstance(self.seed, numbers.Integral) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer; got {shown(self.seed)}")
         put("seed", int(self.seed))

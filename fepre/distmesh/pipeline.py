@@ -302,6 +302,14 @@ def check_mesh(job: MeshingJob) -> None:
             warn_user(f"distmesh: {message}", ResolutionWarning)
         if o.slivers:
             from .thin_cells import combined, thin_bad_cells, thin_cells_message
+            from .thin_trim import trimmed_message
+
+            if job.trimmed.cells:
+                from ..quality import signed_volumes
+
+                volume = float(signed_volumes(job.points, job.tets).sum()) + job.trimmed.volume
+                warn_user(f"distmesh: {trimmed_message(job.trimmed, volume, None if job.absolute else h, job.frame_offset)}",
+                          ResolutionWarning)
 
             groups = next((found for c in job.constraints if (found := c.cell_models(job)) is not None), None)
             groups = [(job.model, slice(None))] if groups is None else groups

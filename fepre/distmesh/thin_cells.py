@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "combined", "THIN_SHARE"]
+__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "combined", "cell_thickness", "sizes_at", "THIN_SHARE"]
 
 #: a cell is in a thin part where the part there is thinner than this times the local element
 #: size (fewer than two elements across)
@@ -98,6 +98,25 @@ def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, o
     return np.minimum(through, np.median(wall[corner.reshape(-1, 4)], axis=1))
 
 
+def sizes_at(points: np.ndarray, h: float, local_size=None) -> np.ndarray:
+    """The element size wanted at ``points``: ``h``, or the graded mesh's ``local_size``."""
+    return np.full(len(points), float(h)) if local_size is None else np.asarray(local_size(points), dtype=float).ravel()
+
+
+def cell_thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, size: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The part's thickness at ``cells`` (rows of ``tets``) where ``size`` is the element size
+    wanted there (``inf`` past twice it), and a point inside each cell it is measured from (the
+    deepest of its centroid, face centres and edge midpoints). A cell with all of those outside
+    the model (flat on its surface) has thickness 0."""
+    cells = np.asarray(cells, dtype=np.int64)
+    origins, depth = _deepest_samples(model, points[tets[cells]])
+    thickness = np.zeros(len(cells))
+    inside = depth > 0
+    if inside.any():
+        thickness[inside] = _thickness(model, points, tets, cells[inside], origins[inside], depth[inside], size[inside])
+    return thickness, origins
+
+
 def thin_bad_cells(model, points: np.ndarray, tets: np.ndarray, h: float, local_size=None, targets=None) -> ThinCells:
     """The cells below the quality targets and those of them in parts thinner than ``THIN_SHARE``
     times the local size.
@@ -137,7 +156,7 @@ def thin_bad_cells(model, points: np.ndarray, tets: np.ndarray, h: float, local_
     if not inside.any():
         return empty
     bad, centres, depth = bad[inside], origins[inside], depth[inside]
-    size = np.full(len(centres), float(h)) if local_size is None else np.asarray(local_size(centres), dtype=float).ravel()
+    size = sizes_at(centres, h, local_size)
     thickness = _thickness(model, points, tets, bad, centres, depth, size)
     thin = thickness < THIN_SHARE * size
     return ThinCells(count, centres[thin], thickness[thin], size[thin])

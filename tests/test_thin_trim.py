@@ -1,0 +1,99 @@
+"""Parts thinner than an element that leave cells below the quality targets are left out, a
+little at a time and within a volume budget, and named (fepre.distmesh.thin_trim)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.distmesh.thin_trim import TOTAL_SHARE, Trimmed, trim_thin_zones, trimmed_message
+from fepre.distmesh.topology import check_topology
+
+#: a gyroid lattice cut by a box: where a wall meets a face of the box at a grazing angle it
+#: leaves slivers 0.005-0.007 thick, which hold three cells of 19.3 deg at h = 0.05
+LATTICE = sdf.box(1.0) & sdf.gyroid(period=1.0, thickness=0.2)
+
+
+def _mesh(model, h, **options):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(model, h, **options)
+    return mesh, [str(w.message) for w in caught if issubclass(w.category, fepre.ResolutionWarning)]
+
+
+def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_targets():
+    kept, _ = _mesh(LATTICE, 0.05, thin_parts="keep")
+    trimmed, said = _mesh(LATTICE, 0.05)
+    assert kept["min_dihedral_angle"].min() < 21.0  # the slivers' cells (19.3 deg)
+    assert trimmed["min_dihedral_angle"].min() >= 25.0
+    assert trimmed["max_dihedral_angle"].max() <= 150.0 and trimmed["radius_ratio"].min() >= 0.25
+    # a few cells of the slivers, not the walls: the volume moves by less than 0.01%
+    assert 0 < kept.n_cells - trimmed.n_cells <= 12
+    assert trimmed["volume"].sum() == pytest.approx(kept["volume"].sum(), rel=1e-4)
+    named = [text for text in said if "left out so that" in text]
+    assert len(named) == 1
+    count, places = (int(v) for v in re.search(r"(\d+) cell\(s\) in (\d+) place", named[0]).groups())
+    assert 1 <= places <= count <= 12
+    for match in re.finditer(r"near \(([^)]*)\), ([\d.e-]+) thick", named[0]):
+        centre = np.array([float(v) for v in match.group(1).split(",")])
+        assert np.abs(centre).max() > 0.45  # on a face of the box
+        assert float(match.group(2)) < 0.05
+    assert "thin_parts='keep'" in named[0] and "--keep-thin" in named[0]
+    assert not any("short of the quality targets" in text for text in said)
+    # one pass on the mesh with the slivers: a sound solid without them, within the budget
+    points, tets = np.asarray(kept.points, float), np.asarray(kept.cells_dict[10]).astype(np.int64)
+    moved, left, cut = trim_thin_zones(points, tets, LATTICE, 0.05)
+    assert 1 <= cut.cells <= 12 and len(left) == len(tets) - cut.cells
+    assert 0 < cut.volume < 1e-4 * kept["volume"].sum()
+    report = check_topology(left, len(points))
+    assert report.overused_faces == report.nonmanifold_edges == report.pinched_vertices == 0
+
+
+def test_a_part_that_is_thin_all_over_is_kept_with_its_flat_cells():
+    """A plate thinner than h everywhere: every cell is flat and the plate is one zone, far over
+    the volume a zone may hold, so nothing goes."""
+    plate = sdf.box((3.0, 3.0, 0.15))
+    kept, _ = _mesh(plate, 0.5, thin_parts="keep")
+    trimmed, said = _mesh(plate, 0.5)
+    assert trimmed["min_dihedral_angle"].min() < 25.0
+    assert trimmed.n_cells == kept.n_cells
+    assert np.array_equal(trimmed.cells, kept.cells)
+    assert not any("left out so that" in text for text in said)
+
+
+def test_a_mesh_that_meets_the_targets_is_returned_as_it_is():
+    mesh = fepre.distmesh(sdf.box((2.0, 2.0, 0.5)), 0.25, thin_parts="keep")
+    points, tets = np.asarray(mesh.points, float), np.asarray(mesh.cells_dict[10]).astype(np.int64)
+    moved, kept, cut = trim_thin_zones(points, tets, sdf.box((2.0, 2.0, 0.5)), 0.25)
+    assert cut.cells == 0 and kept is tets and moved is points
+
+
+def test_the_message_names_flat_places_and_the_thinnest_measured_one():
+    found = Trimmed(5, 0.002, np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]),
+                    np.array([0.0, 0.3, 0.1]), np.array([1.0, 1.0, 1.0]))
+    text = trimmed_message(found, 1.0, 1.0)
+    assert "5 cell(s) in 3 place(s)" in text and "(0.2% of the mesh)" in text
+    assert text.index("0.1 thick") < text.index("0.3 thick")  # thinnest first
+    assert "h=(0.05, 1)" in text  # two elements across the thinnest measured place
+    flat = trimmed_message(Trimmed(1, 1e-4, np.zeros((1, 3)), np.zeros(1), np.ones(1)), 1.0, 1.0)
+    assert "flat on the surface" in flat and "h=(" not in flat
+    assert trimmed_message(Trimmed.none(), 1.0, 1.0) is None
+    assert TOTAL_SHARE == pytest.approx(0.01)
+
+
+def test_thin_parts_is_checked_and_the_cli_flag_keeps_them(tmp_path):
+    with pytest.raises(ValueError, match="thin_parts"):
+        fepre.distmesh(sdf.sphere(1.0), 0.5, thin_parts="drop")
+    model = tmp_path / "part.py"
+    model.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    run = subprocess.run([sys.executable, "-m", "fepre", "mesh", str(model), "--h", "0.5", "--keep-thin", "-o",
+                          str(tmp_path / "out.vtu"), "--quiet"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert (tmp_path / "out.vtu").exists()
