@@ -61,6 +61,8 @@ def test_mesh_of_an_image(scan, capsys):
         (["--h", "0.1", "--level", "5000"], "level 5000.0 is outside the image's values (0.0 to 1000.0)"),
         (["--h", "0.1", "--level", "500", "--smoothing", "-1"], "smoothing must be"),
         (["--level", "500"], "no edge length: pass --h"),
+        (["--h", "0.1", "--level", "500", "--voxel-size", "0.1"], "scan.vti carries its own"),
+        (["--h", "0.1", "--level", "500", "--voxel-size", "0.1", "0"], "--voxel-size must be one positive number or three"),
     ],
 )
 def test_image_errors(scan, capsys, arguments, message):
@@ -120,3 +122,17 @@ def test_inside_is_checked_against_the_kind_of_model(scan, capsys, tmp_path):
     assert main(["surface", str(stl), "--inside", "below", "-o", str(tmp_path / "b.stl")]) != 0
     assert "--inside below applies to images only" in capsys.readouterr().err
     assert not (tmp_path / "a.stl").exists() and not (tmp_path / "b.stl").exists()
+
+
+def test_a_tiff_stack_without_a_voxel_size_says_so_and_takes_one(tmp_path, capsys):
+    tifffile = pytest.importorskip("tifffile")
+    grid = partial_volume(TORUS, (-1, -1, -0.4), (1, 1, 0.4), 0.1, scale=1000.0)
+    values = np.asarray(grid.point_data[grid.point_data.keys()[0]]).reshape(grid.dimensions, order="F")
+    tifffile.imwrite(tmp_path / "scan.tif", np.transpose(values, (2, 1, 0)).astype(np.uint16))
+    out = tmp_path / "scan.stl"
+    assert main(["surface", str(tmp_path / "scan.tif"), "--level", "500", "-o", str(out)]) == 0
+    assert "voxels of 1 x 1 x 1 (the file gives no voxel size: --voxel-size sets it)" in capsys.readouterr().err
+    assert main(["surface", str(tmp_path / "scan.tif"), "--level", "500", "--voxel-size", "0.1",
+                 "--origin", "-1", "-1", "-0.4", "-o", str(out)]) == 0
+    assert "voxels of 0.1 x 0.1 x 0.1," in capsys.readouterr().err
+    assert pv.read(out).volume == pytest.approx(TORUS_VOLUME, rel=0.03)

@@ -223,3 +223,37 @@ def test_a_pocket_closed_by_the_merge_leaves_a_closed_surface():
     record = model.repaired
     assert record.closed and record.internal == 0 and record.duplicates >= 2
     assert model.volume == pytest.approx(sampled_volume(part, -0.45, 0.45, 180), rel=0.005)
+
+
+def test_a_tiff_stack_carries_its_voxel_size_and_spacing_overrides_it(tmp_path):
+    """ImageJ and OME-TIFF stacks record the voxel size; fepre read every stack at 1 x 1 x 1 (a
+    part ten times too big) and refused ``spacing=`` for files."""
+    tifffile = pytest.importorskip("tifffile")
+    x, y, z = np.mgrid[0:40, 0:40, 0:30]
+    ball = (((x - 20) * 0.1) ** 2 + ((y - 20) * 0.1) ** 2 + ((z - 15) * 0.25) ** 2 <= 1.2**2).astype(np.uint16) * 1000
+    stack = np.transpose(ball, (2, 1, 0))  # slices along z
+    tifffile.imwrite(tmp_path / "imagej.tif", stack, imagej=True, resolution=(10.0, 10.0),
+                     metadata={"spacing": 0.25, "unit": "mm", "axes": "ZYX"})
+    tifffile.imwrite(tmp_path / "ome.ome.tif", stack, ome=True,
+                     metadata={"axes": "ZYX", "PhysicalSizeX": 0.1, "PhysicalSizeY": 0.1, "PhysicalSizeZ": 0.25})
+    tifffile.imwrite(tmp_path / "plain.tif", stack)
+    for name in ("imagej.tif", "ome.ome.tif"):
+        model = sdf.image(tmp_path / name, level=500)
+        assert np.allclose(model.image.spacing, (0.1, 0.1, 0.25))
+        size = np.subtract(*model.bounds[::-1])
+        assert np.allclose(size, 2.4, atol=0.2)  # the ball's diameter, not 10-25 voxels
+    plain = sdf.image(tmp_path / "plain.tif", level=500)
+    assert np.allclose(plain.image.spacing, 1.0) and plain.image.spacing_from == "default"
+    given = sdf.image(tmp_path / "plain.tif", level=500, spacing=(0.1, 0.1, 0.25), origin=(5.0, 0.0, 0.0))
+    assert given.image.spacing_from == "given"
+    assert np.allclose(given.volume, sdf.image(tmp_path / "imagej.tif", level=500).volume, rtol=1e-9)
+    assert given.bounds[0][0] == pytest.approx(5.0 + 0.8, abs=0.15)
+    with pytest.raises(ValueError, match="carries its own"):
+        sdf.image(ball_image_file(tmp_path), level=0.5, spacing=0.1)
+
+
+def ball_image_file(tmp_path):
+    grid = pv.ImageData(dimensions=(8, 8, 8), spacing=(0.5, 0.5, 0.5))
+    grid.point_data["v"] = np.linalg.norm(grid.points - 1.75, axis=1)
+    grid.save(tmp_path / "ball.vti")
+    return tmp_path / "ball.vti"

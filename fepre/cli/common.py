@@ -93,6 +93,11 @@ def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None
     parser.add_argument("--smoothing", type=float,
                         help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans; "
                              "default 0, for --labels 0.5)")
+    parser.add_argument("--voxel-size", type=float, nargs="+", metavar="D",
+                        help="for a TIFF stack MODEL: the voxel size, one number or three (x y z); default the size its "
+                             "OME or ImageJ metadata gives, else 1")
+    parser.add_argument("--origin", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="for a TIFF stack MODEL: the position of its first voxel (default 0 0 0)")
 
 
 def label_arguments(parser: argparse.ArgumentParser) -> None:
@@ -140,9 +145,18 @@ def mesh_inside(args: argparse.Namespace) -> str:
 def image_options(args: argparse.Namespace) -> dict:
     """The options of ``sdf.image`` from the command line (the flags the command has)."""
     options = {"level": getattr(args, "level", None)}
-    for name in ("inside", "smoothing"):
+    for name in ("inside", "smoothing", "origin"):
         if getattr(args, name, None) is not None:
             options[name] = getattr(args, name)
+    if getattr(args, "voxel_size", None) is not None:
+        spacing = args.voxel_size
+        if len(spacing) not in (1, 3) or not all(np.isfinite(v) and v > 0 for v in spacing):
+            raise ValueError(f"--voxel-size must be one positive number or three (x y z); got {' '.join(f'{v:g}' for v in spacing)}")
+        options["spacing"] = spacing[0] if len(spacing) == 1 else tuple(spacing)
+    if options.get("origin") is not None:
+        if not all(np.isfinite(v) for v in options["origin"]):
+            raise ValueError(f"--origin must be three finite numbers; got {' '.join(f'{v:g}' for v in options['origin'])}")
+        options["origin"] = tuple(options["origin"])
     if getattr(args, "label", None) and not getattr(args, "labels", False):
         raise ValueError("--label names a region of a label image: add --labels")
     if getattr(args, "fill_cracks", False) and not getattr(args, "labels", False):
@@ -190,15 +204,14 @@ def load_part(args: argparse.Namespace):
     if image is not None:
         if not getattr(args, "quiet", False):
             voxels = " x ".join(map(str, image.image.values.shape))
-            spacing = " ".join(f"{v:g}" for v in image.spacing)
-            say(f"{part.path}: {voxels} voxels of {spacing}, level {image.level:g} ({image.inside}): "
+            say(f"{part.path}: {voxels} voxels of {voxel_size(image.image)}, level {image.level:g} ({image.inside}): "
                 f"{len(image.faces)} triangles" + ("; cut by the image's box" if image is not part.model else ""))
     elif part.regions and isinstance(next(iter(part.regions.values())), LabelModel):
         if not getattr(args, "quiet", False):
             first = next(iter(part.regions.values()))
             voxels = " x ".join(map(str, first.image.values.shape))
             listed = ", ".join(f"{name} ({model.label})" for name, model in part.regions.items() if hasattr(model, "label"))
-            say(f"{part.path}: label image of {voxels} voxels; regions {listed}")
+            say(f"{part.path}: label image of {voxels} voxels of {voxel_size(first.image)}; regions {listed}")
     elif getattr(args, "solids", False):
         if not getattr(args, "quiet", False):
             listed = ", ".join(f"{name} (volume {model.volume:.6g})" for name, model in part.regions.items())
@@ -208,6 +221,15 @@ def load_part(args: argparse.Namespace):
         say(f"{part.path}: {len(part.model.faces)} triangles, {part.model.patch_count} smooth pieces"
              + (f"; repaired: {repaired}" if repaired else "; closed and consistently oriented"))
     return part
+
+
+def voxel_size(image) -> str:
+    """An image's spacing for the header line, saying when it is the default 1 (a TIFF stack
+    that gives none)."""
+    spacing = " x ".join(f"{v:g}" for v in image.spacing)
+    if getattr(image, "spacing_from", "image") == "default":
+        spacing += " (the file gives no voxel size: --voxel-size sets it)"
+    return spacing
 
 
 def image_of(model):

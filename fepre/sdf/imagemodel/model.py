@@ -153,7 +153,9 @@ def image(
         Crease angle in degrees for :func:`fepre.features` (see :func:`fepre.sdf.mesh`); 0
         (default): the surface of an image is smooth at the voxel scale.
     spacing, origin : float or (3,) floats, optional
-        For an array: the voxel spacing (default 1) and the position of voxel (0, 0, 0).
+        For an array or a TIFF stack: the voxel spacing and the position of voxel (0, 0, 0)
+        (default 0). A TIFF stack's own voxel size (OME or ImageJ metadata) is used when
+        ``spacing`` is not given; without one, and for an array, it is 1.
     array : str, optional
         The grid's array to read (default its active scalars or its only array); for a zarr
         group, the name of its array.

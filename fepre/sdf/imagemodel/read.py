@@ -42,12 +42,16 @@ class Image:
         (3,) distance between samples along each axis and position of sample (0, 0, 0).
     name : str
         The file or the kind of object, for messages.
+    spacing_from : str
+        Where the spacing came from: ``"image"`` (the file or grid), ``"given"`` (``spacing=``)
+        or ``"default"`` (a TIFF stack without a voxel size, or an array without ``spacing=``: 1).
     """
 
     values: np.ndarray
     spacing: np.ndarray
     origin: np.ndarray
     name: str
+    spacing_from: str = "image"
 
     @property
     def upper(self) -> np.ndarray:
@@ -107,16 +111,19 @@ def _from_grid(grid: Any, name: str, array: str | None) -> Image:
     return _checked(values, spacing, origin, name)
 
 
-def _read_file(path: Path, array: str | None) -> Image:
+def _read_file(path: Path, array: str | None, spacing: Any = None, origin: Any = None) -> Image:
     if not path.exists():
         raise ImageInputError(f"image file {path} does not exist")
     if path.is_dir():
         raise ImageInputError(f"image file {path} is a directory; give a .vti, .nii(.gz) or .tif file")
     suffix = _suffix(path)
+    if suffix in (".tif", ".tiff"):
+        return _read_tiff(path, spacing, origin)
+    if spacing is not None or origin is not None:
+        raise ValueError(f"spacing and origin (fepre's --voxel-size and --origin) are for numpy arrays and TIFF stacks; "
+                         f"{path} carries its own")
     if suffix in (".nii", ".nii.gz"):
         return _read_nifti(path)
-    if suffix in (".tif", ".tiff"):
-        return _read_tiff(path)
     import warnings
 
     import pyvista as pv
@@ -158,21 +165,36 @@ def _read_nifti(path: Path) -> Image:
     return _checked(values, spacing, origin, str(path))
 
 
-def _read_tiff(path: Path) -> Image:
+def _read_tiff(path: Path, spacing: Any, origin: Any) -> Image:
+    """A TIFF stack with the voxel size of its OME or ImageJ metadata, or ``spacing`` (which
+    overrides it), else 1; the first voxel at ``origin`` (default 0)."""
     try:
-        import tifffile
+        import tifffile  # noqa: F401
     except ImportError:
         raise ImageInputError(f"reading {path} needs tifffile: pip install tifffile (or fepre[images])") from None
+    from .tiff import read_tiff_stack
+
     try:
-        values = np.asarray(tifffile.imread(str(path)))
+        values, found = read_tiff_stack(path)
     except Exception as exc:
         raise ImageInputError(f"image file {path} could not be read ({type(exc).__name__}: {exc})") from None
-    if values.ndim == 3:  # a stack is (slices, rows, columns): z, y, x
-        values = np.transpose(values, (2, 1, 0))
-    return _checked(values, np.ones(3), np.zeros(3), str(path))
+    given, first = _spacing_and_origin(spacing, origin)
+    source = "given" if spacing is not None else ("image" if found is not None else "default")
+    chosen = given if spacing is not None else (found if found is not None else np.ones(3))
+    return _checked(values, chosen, first, str(path), source)
 
 
-def _checked(values: np.ndarray, spacing: np.ndarray, origin: np.ndarray, name: str) -> Image:
+def _spacing_and_origin(spacing: Any, origin: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``spacing`` (default 1) and ``origin`` (default 0) as (3,) floats, each a number or three."""
+    try:
+        spacing = np.broadcast_to(np.asarray(1.0 if spacing is None else spacing, float), (3,)) if np.ndim(spacing) == 0 else np.asarray(spacing, float)
+        origin = np.zeros(3) if origin is None else (np.full(3, float(origin)) if np.ndim(origin) == 0 else np.asarray(origin, float))
+    except (TypeError, ValueError):
+        raise ImageInputError(f"spacing and origin must be numbers or three numbers each; got {shown(spacing)} and {shown(origin)}") from None
+    return spacing, origin
+
+
+def _checked(values: np.ndarray, spacing: np.ndarray, origin: np.ndarray, name: str, spacing_from: str = "image") -> Image:
     if values.ndim != 3 or min(values.shape) < 2:
         raise ImageInputError(
             f"{name} is not a 3D image (shape {tuple(values.shape)}); give a volume of at least 2 samples along "
@@ -193,7 +215,7 @@ def _checked(values: np.ndarray, spacing: np.ndarray, origin: np.ndarray, name: 
     origin = np.asarray(origin, float)
     if origin.shape != (3,) or not np.isfinite(origin).all():
         raise ImageInputError(f"{name}: origin must be three finite numbers; got {shown(origin)}")
-    return Image(values, spacing, origin, name)
+    return Image(values, spacing, origin, name, spacing_from)
 
 
 def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: str | None = None) -> Image:
@@ -204,8 +226,9 @@ def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: s
     source : pyvista.ImageData, str, path-like or array_like
         A grid, an image file (``IMAGE_SUFFIXES``) or a 3D array (index ``i`` along x).
     spacing, origin : float or (3,) floats, optional
-        For an array only: distance between samples (default 1) and position of sample (0, 0, 0)
-        (default 0).
+        For an array or a TIFF stack: distance between samples and position of sample (0, 0, 0)
+        (default 0). A stack's own voxel size (OME or ImageJ metadata) is used when ``spacing``
+        is not given, else 1; other files and grids carry their own and refuse these.
     array : str, optional
         Which point or cell array of a grid; default its active scalars or its only array.
 
@@ -224,9 +247,7 @@ def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: s
     import pyvista as pv
 
     if isinstance(source, (str, os.PathLike)):
-        if spacing is not None or origin is not None:
-            raise ValueError("spacing and origin are for numpy arrays; an image file carries its own")
-        return _read_file(Path(source), array)
+        return _read_file(Path(source), array, spacing, origin)
     if isinstance(source, pv.DataSet):
         if spacing is not None or origin is not None:
             raise ValueError("spacing and origin are for numpy arrays; a pyvista.ImageData carries its own")
@@ -240,9 +261,6 @@ def read_image(source: Any, *, spacing: Any = None, origin: Any = None, array: s
             f"image must be a pyvista.ImageData, an image file (.vti, .nii, .nii.gz, .tif), a 3D numpy array, or a zarr store, zarr or dask array; "
             f"got {type(source).__name__}"
         )
-    try:
-        spacing = np.broadcast_to(np.asarray(1.0 if spacing is None else spacing, float), (3,)) if np.ndim(spacing) == 0 else np.asarray(spacing, float)
-        origin = np.zeros(3) if origin is None else (np.full(3, float(origin)) if np.ndim(origin) == 0 else np.asarray(origin, float))
-    except (TypeError, ValueError):
-        raise ImageInputError(f"spacing and origin must be numbers or three numbers each; got {shown(spacing)} and {shown(origin)}") from None
-    return _checked(values, spacing, origin, "image array")
+    source_of_spacing = "default" if spacing is None else "given"
+    spacing, origin = _spacing_and_origin(spacing, origin)
+    return _checked(values, spacing, origin, "image array", source_of_spacing)
