@@ -23,6 +23,10 @@ from .interface import ON_INTERFACE, interface_node_mask, interface_nodes
 from .partition import RegionSet, check_regions, region_set, surface_model
 from .protection import InterfaceProtection, drop_protected
 
+#: a face between two regions whose centroid lies farther than this (local sizes) from either
+#: region's surface, inside a third region, crosses that region
+CROSSED = 0.25
+
 __all__ = ["RegionConstraint"]
 
 
@@ -161,10 +165,58 @@ class RegionConstraint(MeshConstraint):
         return [(model, self.region_ids == k) for k, model in enumerate(self.region_set.models)]
 
     def check(self, job) -> None:
-        faces, _ = check_interfaces(job.points, job.tets, self.region_ids, self.region_set, job.model, job.h)  # MeshingError
+        faces, pairs = check_interfaces(job.points, job.tets, self.region_ids, self.region_set, job.model, job.h)  # MeshingError
+        self._warn_crossed_regions(job, faces, pairs)
         self._warn_thin_pieces(job)
         self._warn_region_volumes(job)
         job.history.update(interface_faces=np.array([len(faces)]), interface_nodes_dropped=np.array([self.dropped]))
+
+    def _warn_crossed_regions(self, job, faces: np.ndarray, pairs: np.ndarray) -> None:
+        """A ResolutionWarning for faces between two regions that lie off both regions' surfaces
+        (farther than ``CROSSED`` local sizes) where a third region holds them or where no face of
+        that pair lies on both surfaces (the regions do not touch): a layer thinner than the mesh
+        resolves (a label image's coating around an implant) is punctured there, and the mesh
+        joins regions that do not touch. A pair whose faces are merely far from a poorly resolved
+        interface is left to the region volume check."""
+        if not job.options.check_resolution or len(faces) == 0:
+            return
+        import warnings
+
+        from ..distmesh.pipeline import local_size
+        from ..errors import ResolutionWarning
+
+        centroids = job.points[faces].mean(axis=1)
+        values = self.region_set.values(centroids)
+        rows = np.arange(len(faces))
+        sizes = local_size(job)
+        size = job.h if sizes is None else np.asarray(sizes(centroids), dtype=float)
+        off = np.maximum(np.abs(values[rows, pairs[:, 0]]), np.abs(values[rows, pairs[:, 1]])) > CROSSED * size
+        between = values.copy()
+        between[rows, pairs[:, 0]] = between[rows, pairs[:, 1]] = np.inf
+        inside_third = between.min(axis=1) < 0
+        key = pairs[:, 0] * len(self.region_set.names) + pairs[:, 1]
+        apart = np.zeros(len(faces), dtype=bool)
+        for pair in np.unique(key):
+            chosen = key == pair
+            apart[chosen] = off[chosen].all()
+        crossed = off & (inside_third | apart)
+        if not crossed.any():
+            return
+        names, lines = self.region_set.names, []
+        for pair in np.unique(key[crossed]):
+            chosen = np.flatnonzero(crossed & (key == pair))
+            a, b = pairs[chosen[0]]
+            corners = job.points[faces[chosen]]
+            area = 0.5 * float(np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum())
+            held = np.bincount(np.argmin(between[chosen], axis=1)[inside_third[chosen]], minlength=len(names))
+            through = f" through {names[int(np.argmax(held))]!r}" if held.any() else ""
+            where = ", ".join(f"{v:.4g}" for v in centroids[chosen].mean(axis=0) + job.frame_offset)
+            lines.append(f"{len(chosen)} face(s) (area {area:.3g}) join {names[a]!r} and {names[b]!r}{through} near ({where}), "
+                         f"{'where they do not touch in the model' if apart[chosen[0]] else 'off both their surfaces'}")
+        size_name = "hmin" if job.size is not None else "h"
+        warnings.warn(
+            f"distmesh: {'; '.join(lines)}: a layer between regions thinner than the mesh resolves is punctured; mesh "
+            f"with a smaller {size_name} (about half the layer's thickness) to keep it whole", ResolutionWarning, stacklevel=2)
 
     def _warn_thin_pieces(self, job) -> None:
         """A ResolutionWarning for pieces of regions thinner than :data:`~fepre.regions.conform.THIN_PIECE`
