@@ -141,7 +141,8 @@ def _load_image(path: Path, image: dict | None) -> ModelFile:
     level = options.pop("level", None)
     if level is None:
         raise ModelFileError(
-            f"{path} is an image: pass --level, the grey value of the part's boundary (or --labels for a label image)"
+            f"{path} is an image: pass --level, the grey value of the part's boundary (or, to fepre mesh, --labels for a "
+            "label image)"
         )
     try:
         return ModelFile(path=path, model=image_model(path, level, **options))

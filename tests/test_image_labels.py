@@ -276,6 +276,11 @@ def test_surface_nets_on_one_voxel():
         (np.arange(64).reshape(4, 4, 4) % 3, {"names": {5: "x"}}, "names gives labels [5] that the image does not hold"),
         (np.arange(64).reshape(4, 4, 4) % 3, {"names": {1: "a b"}}, "names"),
         (np.arange(16).reshape(4, 4) % 3, {}, "not a 3D image"),
+        (np.ones((4, 4, 4), np.int16), {}, "(fepre mesh: --level 0.5 instead of --labels)"),
+        # a grey CT scan given as labels: a name for label -148 failed, or thousands of regions
+        (np.arange(-148, 1852).reshape(10, 10, 20).astype(np.int16), {},
+         "holds 2000 distinct values from -148 to 1851: it looks like a grey image, not a segmentation"),
+        (np.array([0, 1, -2, 1] * 16).reshape(4, 4, 4), {}, "(fepre mesh: --level instead of --labels)"),
     ],
 )
 def test_bad_label_images(values, kwargs, message):

@@ -270,16 +270,27 @@ class LabelPlan:
         return np.argsort(self.order)[indices].astype(np.int16)  # sorted position -> index in order
 
 
+#: most labels a segmentation may hold (more, or a negative one, is a grey image given as labels)
+MAX_LABELS = 1000
+
+
 def label_plan(data: Image, present: np.ndarray, names: Any, background: int, keep_background: bool) -> LabelPlan:
     """The regions of an image holding the label values ``present``: at least two, named
     (``names``: label value -> region name)."""
     present = np.asarray(present).astype(np.int64)
     kept = present if keep_background else present[present != background]
+    if len(kept) > MAX_LABELS or (kept < 0).any():
+        raise ImageInputError(
+            f"{data.name} holds {len(present)} distinct values from {int(present.min())} to {int(present.max())}: it "
+            f"looks like a grey image, not a segmentation (labels are a few non-negative integers, at most {MAX_LABELS}); "
+            f"mesh it with fepre.sdf.image(..., level=...) (fepre mesh: --level instead of --labels)"
+        )
     if len(kept) < 2:
         raise ImageInputError(
             f"{data.name} holds {len(kept)} label{'s' if len(kept) != 1 else ''} besides the background {background} "
             f"(values {shown(present.tolist())}); regions need at least two: give a segmentation of two or more "
-            f"materials, or mesh a single one with fepre.sdf.image(..., level=0.5)"
+            f"materials, or mesh a single one with fepre.sdf.image(..., level=0.5) (fepre mesh: --level 0.5 instead of "
+            f"--labels)"
         )
     named = _names(kept, names, data, background)
     check_names(list(named.values()), "names")
