@@ -158,7 +158,9 @@ def export(
         of each boundary face; :func:`boundary_faces` gives them as triangles) and
         ``"boundary_face_counts"``/``"boundary_areas"`` (faces and area of each set, quadratic
         faces over their curved shape; :mod:`fepre.export.areas`). A VTU file holds
-        exactly this grid (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
+        this grid, except that the set names travel as integer field data ``name -> [index,
+        dimension]`` (meshio cannot read string arrays): :func:`fepre.export.grid.set_names`
+        reads them back from either form (:mod:`fepre.export.grid`). For order 2 also ``"curved_midside_nodes"`` (on the model surface) and
         ``"straightened_midside_nodes"`` (put back at midpoints to keep Jacobians valid). A periodic
         mesh (``fepre.distmesh(..., periodic=)``) keeps ``"periodic_lower"``/``"periodic_period"``
         and gains ``"periodic_anchor"``; its ``.inp`` holds the periodic ``*EQUATION`` constraints
