@@ -192,15 +192,11 @@ def test_a_knife_edge_is_named_as_the_reason_and_not_chased(h):
     # have a larger angle, so no vertex is inserted (six futile rounds took 380 s at h = 0.1)
     # and the warning names the edge and its angle. At h = 0.15 an edge collapse on the knife
     # pinched a boundary vertex, and the whole stage was dropped for DistMesh's 0.5 deg mesh.
-    import pyvista as pv
-
-    vertices = np.array([[2.75032, 6, 5], [1.91591, 8, 4.5], [1.91591, 8, 5], [-9.439858, 6, 5],
-                         [-10.274268, 8, 4.5], [-10.274268, 8, 5]])
-    faces = np.array([[0, 1, 2], [3, 5, 4], [3, 0, 2], [3, 2, 5], [4, 5, 1], [1, 5, 2], [1, 0, 3], [1, 3, 4]])
-    model = sdf.mesh(pv.PolyData(vertices, np.hstack([np.full((8, 1), 3), faces]).ravel()))
+    # With thin_parts="keep": by default the edge's tip, thinner than h, may be left out (below).
+    model = _prism()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        grid = fepre.distmesh(model, h=h)
+        grid = fepre.distmesh(model, h=h, thin_parts="keep")
     messages = [str(w.message) for w in caught if issubclass(w.category, fepre.ConvergenceWarning)]
     assert len(messages) == 1 and "knife edge" in messages[0]
     angle = float(messages[0].split("meet at ")[1].split(" deg")[0])
@@ -208,6 +204,33 @@ def test_a_knife_edge_is_named_as_the_reason_and_not_chased(h):
     assert grid.field_data["distmesh_inserted_nodes"][0] == 0
     assert grid.cell_data["min_dihedral_angle"].min() == pytest.approx(angle, abs=0.5)
     assert abs(grid.volume / model.volume - 1) < 0.005
+
+
+@pytest.mark.slow
+def test_a_knife_edge_thinner_than_h_is_cut_back_until_the_cells_meet_the_targets():
+    # the same prism at h = 0.15 with the default thin_parts="trim": the edge's tip, where the
+    # prism is under 0.15 thick, goes (under 1% of the volume, named), and the blunt end left
+    # meets the targets (keep: 14.0 deg, 194 cells below them)
+    model = _prism()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        grid = fepre.distmesh(model, h=0.15)
+    assert grid.cell_data["min_dihedral_angle"].min() >= 25.0
+    assert grid.cell_data["max_dihedral_angle"].max() <= 150.0
+    assert -0.01 < grid.volume / model.volume - 1 < -0.001
+    named = [str(w.message) for w in caught if "left out so that" in str(w.message)]
+    assert len(named) == 1 and issubclass(next(w.category for w in caught if "left out so that" in str(w.message)),
+                                          fepre.ResolutionWarning)
+    assert not any(issubclass(w.category, fepre.ConvergenceWarning) for w in caught)
+
+
+def _prism():
+    import pyvista as pv
+
+    vertices = np.array([[2.75032, 6, 5], [1.91591, 8, 4.5], [1.91591, 8, 5], [-9.439858, 6, 5],
+                         [-10.274268, 8, 4.5], [-10.274268, 8, 5]])
+    faces = np.array([[0, 1, 2], [3, 5, 4], [3, 0, 2], [3, 2, 5], [4, 5, 1], [1, 5, 2], [1, 0, 3], [1, 3, 4]])
+    return sdf.mesh(pv.PolyData(vertices, np.hstack([np.full((8, 1), 3), faces]).ravel()))
 
 
 class _ProjectsUp:
