@@ -40,6 +40,8 @@ __all__ = ["stage_with_insertions", "LabelledCells", "INSERTION_ROUNDS"]
 INSERTION_ROUNDS = 6
 #: Rounds of thin zones given up at most (:mod:`~fepre.distmesh.thin_trim`).
 TRIM_ROUNDS = 3
+#: The stage's rounds after each: the cells it leaves bad are mostly flat ones no move mends
+TRIM_STAGE_ROUNDS = 12
 #: No round starts when more cells than this (or this share of the cells) are below the targets.
 MAX_BAD_CELLS = 64
 MAX_BAD_SHARE = 1e-3
@@ -75,7 +77,7 @@ class LabelledCells:
 
 
 def _run(job, pinned, removable: Callable, local_size, bad_cells_only: bool, reshaping: bool = False,
-         labelled: LabelledCells | None = None, labels: np.ndarray | None = None):
+         labelled: LabelledCells | None = None, labels: np.ndarray | None = None, maxiter: int | None = None):
     """One run of the stage on ``job``'s mesh: points, cells, info and the warnings it gave
     (with ``labelled``, the cells' ``labels`` go in and ``info["labels"]`` comes out)."""
     from .slivers import improve_arrays
@@ -90,7 +92,7 @@ def _run(job, pinned, removable: Callable, local_size, bad_cells_only: bool, res
         points, tets, info = improve_arrays(
             job.points, job.tets, job.model, job.h, fixed_mask=pinned, size=job.size, seed=job.options.seed,
             collapse=collapse, local_size=local_size, bad_cells_only=bad_cells_only,
-            inner_collapses=reshaping, **extra)
+            inner_collapses=reshaping, maxiter=maxiter, **extra)
     return points, tets, info, list(caught)
 
 
@@ -198,7 +200,7 @@ def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: Sha
         job.points, job.tets, job.fixed_mask = moved, kept, fixed
         pinned = stage_pins(moved, kept, fixed, job.user_fixed, job.model, job.h)
         try:
-            points, tets, info, caught = _run(job, pinned, removable, local_size, True)
+            points, tets, info, caught = _run(job, pinned, removable, local_size, True, maxiter=TRIM_STAGE_ROUNDS)
         except MeshingError:
             break
         score = float(targets.score(points[tets]).min())
