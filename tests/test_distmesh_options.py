@@ -258,3 +258,17 @@ def test_empty_domain_and_unbounded_model():
         fepre.distmesh(sdf.plane((0, 0, 1)), 0.3)
     with pytest.raises(TypeError, match="model must be a 3D"):
         fepre.distmesh(lambda p: p[:, 0], 0.3)
+
+
+def test_no_bars_push_nothing_and_warn_nothing():
+    """A triangulation with no cell inside the part (a new user's thin tray at D/25 met one in
+    the loop) gave numpy's 'Mean of empty slice' warnings to the user."""
+    import warnings
+
+    from fepre.distmesh.forces import bar_forces
+
+    points = np.random.default_rng(0).random((5, 3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        forces, lengths = bar_forces(points, np.zeros((0, 2), dtype=np.int64), 1.2, False)
+    assert forces.shape == (5, 3) and not forces.any() and lengths.size == 0

@@ -41,6 +41,8 @@ def bar_forces(
     from ._bar_kernels import assemble_forces, bar_vectors
 
     vectors, lengths = bar_vectors(points, ends)
+    if lengths.size == 0:  # no cell of this triangulation inside the part: nothing pushes
+        return np.zeros_like(points, dtype=np.float64), lengths
     if hbars is None:
         l0 = fscale * np.cbrt(np.mean(lengths**3))
     else:
