@@ -295,7 +295,13 @@ def check_mesh(job: MeshingJob) -> None:
     if added:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
     if o.check_resolution:
+        from .cavities import cavities_message, unmodelled_cavities
         from .pieces import mesh_pieces, small_pieces_message
+        from .topology import boundary_faces
+
+        message = cavities_message(unmodelled_cavities(job.points, boundary_faces(job.tets), job.model, h), job.frame_offset)
+        if message:
+            warn_user(f"distmesh: {message}", ResolutionWarning)
 
         message = small_pieces_message(job.points, job.tets, *mesh_pieces(job.tets, len(job.points)), job.frame_offset)
         if message:

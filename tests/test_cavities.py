@@ -1,0 +1,36 @@
+"""Closed cavities inside a mesh where its model is material are found and named; a hollow
+part's own void is not (fepre.distmesh.cavities)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import fepre
+from fepre import sdf
+from fepre.distmesh.cavities import cavities_message, unmodelled_cavities
+from fepre.distmesh.topology import boundary_faces
+
+
+def test_a_missing_inner_cell_is_a_cavity_and_a_hollow_part_has_none():
+    hollow = sdf.sphere(1.0) - sdf.sphere(0.5)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(hollow, 0.25)
+    assert not any("cavit" in str(w.message) for w in caught)
+    points, tets = np.asarray(mesh.points), mesh.cells_dict[10]
+    assert unmodelled_cavities(points, boundary_faces(tets), hollow, 0.25) == []
+    # two cells deep in the shell (no face on its surfaces), taken out: two cavities of 4 faces
+    depth = -hollow(points[tets].mean(axis=1))
+    inner = np.flatnonzero(depth > 0.2)
+    first = inner[0]
+    apart = inner[~np.isin(tets[inner], tets[first]).any(axis=1)][0]
+    found = unmodelled_cavities(points, boundary_faces(np.delete(tets, [first, apart], axis=0)), hollow, 0.25)
+    assert sorted(faces for _, faces, _ in found) == [4, 4]
+    volumes = np.abs(fepre.quality.signed_volumes(points, tets[[first, apart]]))
+    assert sorted(volume for _, _, volume in found) == pytest.approx(sorted(volumes), rel=1e-9)
+    text = cavities_message(found)
+    assert text.startswith("the mesh has 2 closed cavities where the model is material (4 faces, volume")
+
