@@ -36,6 +36,8 @@ def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_
     assert trimmed["max_dihedral_angle"].max() <= 150.0 and trimmed["radius_ratio"].min() >= 0.25
     # a few cells of the slivers, not the walls: the volume moves by less than 0.01%
     assert 0 < kept.n_cells - trimmed.n_cells <= 12
+    assert trimmed.field_data["distmesh_trimmed_cells"][0] >= 1 and kept.field_data["distmesh_trimmed_cells"][0] == 0
+    assert 0 < trimmed.field_data["distmesh_trimmed_volume"][0] < 1e-4
     assert trimmed["volume"].sum() == pytest.approx(kept["volume"].sum(), rel=1e-4)
     named = [text for text in said if "left out so that" in text]
     assert len(named) == 1

@@ -156,7 +156,9 @@ def distmesh(
         ``volume``; field data ``distmesh_*`` (history per iteration: ``max_move``, ``max_dp``,
         ``min_quality``, ``mean_quality``, ``retriangulated``; totals: ``iterations``,
         ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``features_seconds``,
-        ``feature_nodes``, ``converged``).
+        ``feature_nodes``, ``converged``, ``split_edges``, ``inserted_nodes``, and
+        ``trimmed_cells``/``trimmed_volume``: the cells in places thinner than an element left
+        out so that the cells there meet the quality targets, see ``thin_parts``).
 
     Warns
     -----

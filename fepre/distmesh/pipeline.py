@@ -299,7 +299,8 @@ def check_mesh(job: MeshingJob) -> None:
         from .pieces import mesh_pieces, small_pieces_message
         from .topology import boundary_faces
 
-        message = cavities_message(unmodelled_cavities(job.points, boundary_faces(job.tets), job.model, h), job.frame_offset)
+        faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
+        message = cavities_message(unmodelled_cavities(job.points, faces, job.model, h), job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
 
@@ -339,6 +340,8 @@ def check_mesh(job: MeshingJob) -> None:
         feature_nodes=np.array([job.feature_nodes]),
         split_edges=np.array([job.split_edges]),
         inserted_nodes=np.array([job.inserted_nodes]),
+        trimmed_cells=np.array([job.trimmed.cells]),
+        trimmed_volume=np.array([job.trimmed.volume]),
         lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
         added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - job.started]),
