@@ -151,6 +151,27 @@ def test_repair_selection_fills_or_carves_the_cheaper_side():
         assert report.nonmanifold_edges == 0 and report.pinched_vertices == 0
 
 
+def test_repair_selection_fills_voids_inside_the_part_only():
+    # a cell the repair leaves out with every face on a kept cell is a closed void: filled when
+    # it lies inside (its cost of leaving out is higher), left when it is a hole the part has
+    from scipy.spatial import Delaunay
+
+    grid = np.stack(np.meshgrid(*[np.arange(5.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    points = grid + np.random.default_rng(3).uniform(-0.2, 0.2, grid.shape)
+    triangulation = Delaunay(points)
+    tets = triangulation.simplices
+    deep = np.flatnonzero(np.abs(points[tets].mean(axis=1) - 2.0).max(axis=1) < 0.8)[0]
+    hull = np.flatnonzero((triangulation.neighbors < 0).any(axis=1))[0]
+    selected = np.ones(len(tets), bool)
+    selected[[deep, hull]] = False
+    locked = np.zeros(len(tets), bool)
+    inside = repair_selection(tets, selected, locked, np.full(len(tets), 0.1), np.ones(len(tets)), len(points))
+    assert inside[deep] and not inside[hull] and inside.sum() == len(tets) - 1
+    hole = repair_selection(tets, selected, locked, np.ones(len(tets)), np.full(len(tets), 0.1), len(points))
+    assert np.array_equal(hole, selected)
+    assert check_topology(tets[inside], len(points)).ok
+
+
 def test_creases_are_found_on_the_box_and_not_on_the_sphere():
     from fepre.distmesh.finalize import crease_nodes
 
