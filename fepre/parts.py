@@ -116,9 +116,10 @@ def gyroid_block() -> Any:
     return sdf.infill(block, sdf.gyroid(period=1.0, thickness=0.15), wall=0.2)
 
 
-def occ_surface(build: Callable, size: float) -> tuple[np.ndarray, np.ndarray]:
+def occ_surface(build: Callable, size: float, curvature: int = 24) -> tuple[np.ndarray, np.ndarray]:
     """Surface triangles ``(vertices, faces)`` of an OpenCASCADE solid built by ``build(occ)``
-    (``occ`` is ``gmsh.model.occ``), meshed by gmsh with elements of about ``size``."""
+    (``occ`` is ``gmsh.model.occ``), meshed by gmsh with elements of about ``size`` and
+    ``curvature`` elements per 2 pi of a curved face (gmsh's ``Mesh.MeshSizeFromCurvature``)."""
     import gmsh
 
     from .distmesh.delaunay import initialize_gmsh
@@ -130,7 +131,7 @@ def occ_surface(build: Callable, size: float) -> tuple[np.ndarray, np.ndarray]:
         build(gmsh.model.occ)
         gmsh.model.occ.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", curvature)
         gmsh.model.mesh.generate(2)
         tags, coords, _ = gmsh.model.mesh.getNodes()
         _, nodes = gmsh.model.mesh.getElementsByType(2)

@@ -58,6 +58,64 @@ def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_
     assert report.overused_faces == report.nonmanifold_edges == report.pinched_vertices == 0
 
 
+def test_a_zone_whose_removal_cuts_the_mesh_in_two_is_put_back():
+    # a bar's cells across the plane x = 3.5 are a zone that would leave the bar in two pieces
+    # (a rib's root thinner than an element: the rib floated free); a zone at the end does not
+    from scipy.spatial import Delaunay
+
+    from fepre.distmesh.pieces import mesh_pieces
+    from fepre.distmesh.thin_trim import _keep_joined
+
+    grid = np.stack(np.meshgrid(np.arange(8.0), np.arange(2.0), np.arange(2.0), indexing="ij"), -1).reshape(-1, 3)
+    points = grid + np.random.default_rng(1).uniform(-0.1, 0.1, grid.shape)
+    tets = Delaunay(points).simplices
+    x = points[tets][:, :, 0]
+    across = np.flatnonzero((x.min(axis=1) < 3.5) & (x.max(axis=1) > 3.5))
+    end = np.flatnonzero(x.min(axis=1) > 6.5)[:1]
+    removed = np.zeros(len(tets), bool)
+    removed[across] = removed[end] = True
+    assert len(mesh_pieces(tets[~removed], len(points))[1]) == 2
+    exposed = np.unique(tets[across])[:1]
+    moved = points.copy()
+    moved[exposed] += 0.05
+    zones = [(across, exposed), (end, np.zeros(0, np.int64))]
+    kept_points, kept_removed, found = _keep_joined(points, moved, tets, removed.copy(), zones, ["across", "end"])
+    assert found == ["end"]
+    assert np.flatnonzero(kept_removed).tolist() == end.tolist()
+    assert np.array_equal(kept_points, points)  # the exposed node is back where it was
+    assert len(mesh_pieces(tets[~kept_removed], len(points))[1]) == 1
+
+
+@pytest.mark.slow
+def test_a_thin_rib_on_a_plate_stays_joined_to_it(tmp_path):
+    """A 0.8 rib 20 high on a plate cut by a 10 deg chamfer, tessellated by gmsh (a new user's
+    part), at D/25: the trim gave up the rib's root and the rib floated free (316 of 5095 cells)."""
+    import math
+
+    from fepre.distmesh.pieces import mesh_pieces
+    from fepre.parts import occ_surface
+    import pyvista as pv
+
+    def build(occ):
+        plate, rib = occ.addBox(0, 0, 0, 50, 30, 6), occ.addBox(5, 14.6, 6, 35, 0.8, 20)
+        part, _ = occ.fuse([(3, plate)], [(3, rib)])
+        wedge = occ.addBox(0, -1, 0, 30, 32, 30)
+        occ.rotate([(3, wedge)], 0, 0, 0, 0, 1, 0, math.radians(10))
+        occ.translate([(3, wedge)], 40, 0, 6)
+        occ.cut(part, [(3, wedge)])
+
+    path = tmp_path / "rib.stl"  # single precision, as a CAD system writes it
+    pv.PolyData.from_regular_faces(*occ_surface(build, 6.0, curvature=6)).save(path)
+    model = sdf.mesh(path)
+    h = float(np.linalg.norm([50.0, 30.0, 26.0])) / 25
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mesh = fepre.distmesh(model, h)
+    tets = mesh.cells.reshape(-1, 5)[:, 1:]
+    assert len(mesh_pieces(tets, mesh.n_points)[1]) == 1
+    assert mesh.bounds[5] == pytest.approx(26.0, abs=1e-6)  # the rib's top is there
+
+
 def test_a_part_that_is_thin_all_over_is_kept_with_its_flat_cells():
     """A plate thinner than h everywhere: every cell is flat and the plate is one zone, far over
     the volume a zone may hold, so nothing goes."""

@@ -185,6 +185,42 @@ def _surfaced(points: np.ndarray, tets: np.ndarray, incidence: _Incidence, remov
     return moved if (after > 0.05 * before).all() else None
 
 
+def _keep_joined(original: np.ndarray, points: np.ndarray, tets: np.ndarray, removed: np.ndarray,
+                 zones: list, found: list) -> tuple[np.ndarray, np.ndarray, list]:
+    """``(points, removed, found)`` without the zones whose removal cut the mesh into more pieces
+    (a rib's root thinner than an element: the rib would float free, and a solver needs every
+    piece held), their exposed nodes put back where no other zone kept exposes them."""
+    from .pieces import mesh_pieces
+    from .tet_topology import face_neighbours
+
+    pieces = len(mesh_pieces(tets, len(points))[1])
+    neighbours = face_neighbours(tets, len(points))
+    accepted = np.ones(len(zones), dtype=bool)
+    while True:
+        labels, counts = mesh_pieces(tets[~removed], len(points))
+        if len(counts) <= pieces:
+            break
+        piece = np.full(len(tets), -1)
+        piece[~removed] = labels
+        cutting = np.zeros(len(zones), dtype=bool)
+        for index in np.flatnonzero(accepted):
+            across = neighbours[zones[index][0]].ravel()
+            touched = np.unique(piece[across[across >= 0]])
+            cutting[index] = (touched >= 0).sum() > 1
+        if not cutting.any():
+            break
+        accepted &= ~cutting
+        for index in np.flatnonzero(cutting):
+            removed[zones[index][0]] = False
+    if accepted.all():
+        return points, removed, found
+    kept_exposed = np.concatenate([zones[i][1] for i in np.flatnonzero(accepted)] + [np.zeros(0, np.int64)])
+    back = np.setdiff1d(np.concatenate([zones[i][1] for i in np.flatnonzero(~accepted)]), kept_exposed)
+    points = points.copy()
+    points[back] = original[back]
+    return points, removed, [entry for entry, keep in zip(found, accepted) if keep]
+
+
 def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local_size=None,
                     targets: ShapeTargets | None = None, budget: float | None = None,
                     fixed_mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, Trimmed]:
@@ -253,7 +289,8 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
     fixed = np.zeros(len(points), dtype=bool) if fixed_mask is None else fixed_mask
     incidence = _Incidence(tets, len(points))
     removed = np.zeros(len(tets), dtype=bool)
-    found = []
+    original = points
+    found, zones = [], []
     by_cell = dict(zip(bad[seeds].tolist(), zip(thickness[seeds].tolist(), size[seeds].tolist())))
     for seed in sorted(_face_components(tets, bad[seeds]), key=lambda cells: float(volumes[cells].sum())):
         if removed[seed].any():
@@ -273,8 +310,11 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
         on_boundary[exposed] = True
         measured = np.array([by_cell[c] for c in seed.tolist()])
         found.append((centroids[zone].mean(axis=0), float(np.median(measured[:, 0])), float(measured[:, 1].max())))
+        zones.append((zone, exposed[~fixed[exposed]]))
+    if found:
+        points, removed, found = _keep_joined(original, points, tets, removed, zones, found)
     if not found:
-        return points, tets, Trimmed.none()
+        return original, tets, Trimmed.none()
     centres, thick, sizes = (np.array(column) for column in zip(*found))
     return points, tets[~removed], Trimmed(int(removed.sum()), float(volumes[removed].sum()), centres.reshape(-1, 3), thick, sizes)
 
