@@ -39,3 +39,30 @@ def test_one_piece_is_not_named():
         warnings.simplefilter("always")
         fepre.distmesh(sdf.box((1, 1, 1)) - sdf.cylinder(0.2, 2.0), h=0.15)
     assert not [w for w in caught if "pieces" in str(w.message)]
+
+
+def _blocks(*joints):
+    """Two unit blocks 0.12 apart, with ``joints`` between them."""
+    return sdf.union(sdf.box((1, 1, 1), center=(-0.56, 0, 0)), sdf.box((1, 1, 1), center=(0.56, 0, 0)), *joints)
+
+
+def test_a_large_piece_cut_off_where_the_model_joins_it_is_named():
+    # two blocks 0.12 apart joined by a plate 0.03 thick, at h = 0.15: the plate is lost and the
+    # mesh is two pieces of about half the cells each, which the small-piece rule did not name
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(_blocks(sdf.box((0.6, 0.3, 0.03))), h=0.15)
+    labels, counts = mesh_pieces(mesh.cells_dict[10], mesh.n_points)
+    assert len(counts) == 2 and counts[1] > 0.4 * counts.sum()
+    messages = [str(w.message) for w in caught if "pieces" in str(w.message)]
+    assert len(messages) == 1 and "(the model joins it to the rest)" in messages[0]
+    x = float(re.search(r"cell\(s\) at \(([^,]*),", messages[0]).group(1))
+    assert abs(abs(x) - 0.56) < 0.05  # one of the blocks' centres
+
+
+def test_separate_parts_of_comparable_size_are_not_named():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(_blocks(), h=0.15)
+    assert len(mesh_pieces(mesh.cells_dict[10], mesh.n_points)[1]) == 2
+    assert not [w for w in caught if "pieces" in str(w.message)]

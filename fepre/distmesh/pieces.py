@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["mesh_pieces", "small_pieces_message", "SMALL_PIECE"]
+__all__ = ["mesh_pieces", "cut_off_pieces", "pieces_message", "SMALL_PIECE"]
 
 #: Pieces with fewer than this fraction of the cells (beside a larger one) are named.
 SMALL_PIECE = 0.01
@@ -45,20 +45,73 @@ def mesh_pieces(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray
     return rank[labels], sizes[order]
 
 
-def small_pieces_message(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, counts: np.ndarray,
-                         offset: np.ndarray | None = None) -> str | None:
-    """A line naming the pieces with fewer than ``SMALL_PIECE`` of the cells, or None."""
+def cut_off_pieces(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, counts: np.ndarray, model,
+                   size: np.ndarray) -> np.ndarray:
+    """The pieces (other than the largest) that the model joins to another piece: a boundary
+    node of one within the local element size ``size`` (per point) of a boundary node of another,
+    with the midpoint between them inside the model (material the mesh lost between them: a
+    rib's root thinner than an element). Pieces the model keeps apart (separate parts, a gap)
+    are not. ``size`` is an (N,) array over ``points``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> tets = np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
+    >>> cell = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> points = np.vstack([cell, cell + [0, 0, 1.5]])       # 0.5 apart, through the box
+    >>> labels, counts = mesh_pieces(tets, 8)
+    >>> cut_off_pieces(points, tets, labels, counts, sdf.box(5.0), np.full(8, 1.0)).tolist()
+    [1]
+    >>> cut_off_pieces(points, tets, labels, counts, sdf.box(5.0) - sdf.box((9, 9, 0.4), center=(0, 0, 1.25)),
+    ...                np.full(8, 1.0)).tolist()                # a gap between them in the model
+    []
+    """
+    from scipy.spatial import cKDTree
+
+    from .topology import boundary_faces
+
+    if len(counts) < 2:
+        return np.zeros(0, np.int64)
+    nodes = np.unique(boundary_faces(tets))
+    piece = np.zeros(len(points), np.int64)
+    piece[tets.ravel()] = np.repeat(labels, 4)
+    piece = piece[nodes]
+    tree = cKDTree(points[nodes])
+    others = np.flatnonzero(piece > 0)
+    near = tree.query_ball_point(points[nodes[others]], r=size[nodes[others]])
+    first = np.repeat(others, [len(found) for found in near])
+    second = np.fromiter((j for found in near for j in found), np.int64, len(first))
+    across = piece[first] != piece[second]
+    first, second = nodes[first[across]], nodes[second[across]]
+    if len(first) == 0:
+        return np.zeros(0, np.int64)
+    middle = 0.5 * (points[first] + points[second])
+    inside = np.asarray(model(middle), float) < -1e-3 * size[first]
+    found = piece[np.searchsorted(nodes, first[inside])]
+    return np.unique(found)
+
+
+def pieces_message(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, counts: np.ndarray,
+                   offset: np.ndarray | None = None, cut_off: np.ndarray | None = None) -> str | None:
+    """A line naming the pieces with fewer than ``SMALL_PIECE`` of the cells and the pieces
+    ``cut_off`` (:func:`cut_off_pieces`) whatever their size, or None."""
     if len(counts) < 2:
         return None
-    small = np.flatnonzero(counts < SMALL_PIECE * counts.sum())
-    if len(small) == 0:
+    cut = np.zeros(len(counts), bool)
+    if cut_off is not None:
+        cut[np.asarray(cut_off, np.int64)] = True
+    cut[0] = False
+    named = np.flatnonzero((counts < SMALL_PIECE * counts.sum()) | cut)
+    if len(named) == 0:
         return None
     shift = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
+    named = np.concatenate([named[cut[named]], named[~cut[named]]])  # the cut-off ones first
     places = []
-    for piece in small[:3]:
+    for piece in named[:3]:
         centre = points[tets[labels == piece]].reshape(-1, 3).mean(axis=0) + shift
-        places.append(f"{counts[piece]} cell(s) at ({', '.join(f'{v:.6g}' for v in centre)})")
-    more = f" and {len(small) - 3} more" if len(small) > 3 else ""
+        where = " (the model joins it to the rest)" if cut[piece] else ""
+        places.append(f"{counts[piece]:,} cell(s) at ({', '.join(f'{v:.6g}' for v in centre)}){where}")
+    more = f" and {len(named) - 3} more" if len(named) > 3 else ""
     return (f"the mesh is in {len(counts)} pieces not joined through faces: beside the largest ({counts[0]:,} cells), "
-            f"{len(small)} small one(s): {'; '.join(places)}{more}; where a part of the model thinner than the mesh's "
+            f"{len(named)} piece(s): {'; '.join(places)}{more}; where a part of the model thinner than the mesh's "
             "sizes cut them off, a smaller h (or hmin) keeps them joined; a solver needs every piece held")

@@ -296,7 +296,7 @@ def check_mesh(job: MeshingJob) -> None:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
     if o.check_resolution:
         from .cavities import cavities_message, unmodelled_cavities
-        from .pieces import mesh_pieces, small_pieces_message
+        from .pieces import cut_off_pieces, mesh_pieces, pieces_message
         from .topology import boundary_faces
 
         faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
@@ -304,7 +304,14 @@ def check_mesh(job: MeshingJob) -> None:
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
 
-        message = small_pieces_message(job.points, job.tets, *mesh_pieces(job.tets, len(job.points)), job.frame_offset)
+        labels, counts = mesh_pieces(job.tets, len(job.points))
+        cut_off = None
+        if len(counts) > 1:
+            from .thin_cells import sizes_at
+
+            cut_off = cut_off_pieces(job.points, job.tets, labels, counts, job.model,
+                                     sizes_at(job.points, h, local_size(job)))
+        message = pieces_message(job.points, job.tets, labels, counts, job.frame_offset, cut_off)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
         if o.slivers:
