@@ -35,6 +35,17 @@ def test_a_fin_thinner_than_h_is_named_with_its_thickness_place_and_the_h_that_k
     assert [str(w.message) for w in caught if "leaves out" in str(w.message)]
 
 
+def test_a_fin_thinner_than_the_sampling_grid_has_its_own_thickness():
+    """At h = 2.4 the grid (h / 4 = 0.6) misses the middle of a 0.5 fin: twice the deepest
+    sample's depth said 0.1 (a trial's 0.8 rib was "0.162 thick" and h <= 0.081 was advised).
+    The mesh is the plate alone, cut into six cells."""
+    corners = np.array([[x, y, z] for z in (-2, 2) for y in (-10, 10) for x in (-10, 10)], float)
+    tets = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
+    regions = lost_material(finned_plate(0.5), corners, tets, 2.4)
+    assert len(regions) == 1 and regions[0].thickness == pytest.approx(0.5, abs=0.01)
+    assert regions[0].volume == pytest.approx(0.5 * 20 * 8, rel=0.15)
+
+
 def test_a_fin_meshed_at_the_suggested_h_keeps_its_volume_without_a_warning():
     """Half the fin's thickness: two elements across (at one, its base corners were cut)."""
     part = sdf.box((4, 4, 1)) | sdf.box((0.5, 4, 2)).translate((0.5, 0, 1.5))
@@ -67,11 +78,11 @@ def test_a_mesh_that_covers_the_model_has_no_lost_region():
     corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
     tets = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
     assert lost_material(sdf.box((2, 2, 2)), corners, tets, 1.0) == []
-    # half the box missing: one region, about 4 in volume; its deepest node off the covered
-    # diagonal through the centre is 0.75 deep (grid h/4), the box 2 thick
+    # half the box missing: one region, about 4 in volume; the chord through its deepest node
+    # (0.75 deep on the grid of h/4, off the covered diagonal) is the box's 2
     half = lost_material(sdf.box((2, 2, 2)), corners, tets[:3], 1.0)
     assert len(half) == 1
-    assert 1.5 <= half[0].thickness <= 2.0
+    assert half[0].thickness == pytest.approx(2.0, abs=0.01)
     assert half[0].volume == pytest.approx(4.0, rel=0.35)
 
 

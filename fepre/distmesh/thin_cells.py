@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "combined", "cell_thickness", "sizes_at", "THIN_SHARE"]
+__all__ = ["ThinCells", "thin_bad_cells", "thin_cells_message", "combined", "cell_thickness", "chord_thickness", "sizes_at",
+           "THIN_SHARE"]
 
 #: a cell is in a thin part where the part there is thinner than this times the local element
 #: size (fewer than two elements across)
@@ -74,6 +75,32 @@ def _deepest_samples(model, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return samples[np.arange(len(corners)), deepest], depth[np.arange(len(corners)), deepest]
 
 
+def chord_thickness(model, origins: np.ndarray, depth: np.ndarray, limit: float, step: float) -> np.ndarray:
+    """The part's thickness through ``origins`` inside it (``depth`` deep): the shortest chord
+    through each along the model's gradient and 13 fixed directions (within 27.6 degrees of any
+    direction: at most 13% over a slab's thickness), or twice the depth if larger (off a rod's
+    axis the shortest chord is shorter than the rod); ``inf`` past ``limit``, rays stepped at
+    least ``step``.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> slab = sdf.box((10.0, 10.0, 0.8))
+    >>> near_face = np.array([[0.3, 0.2, 0.32]])              # 0.08 deep in a 0.8 slab
+    >>> round(float(chord_thickness(slab, near_face, np.array([0.08]), 4.0, 0.01)[0]), 3)
+    0.8
+    """
+    from ..sizing.rays import ray_lengths
+
+    gradient, usable = _unit_gradient(model, origins)
+    directions = np.concatenate([np.where(usable[:, None], gradient, _AXES[0])[:, None],
+                                 np.broadcast_to(_AXES, (len(origins), 13, 3))], axis=1)
+    starts = np.repeat(origins, 14, axis=0)
+    directions = directions.reshape(-1, 3)
+    chords = ray_lengths(model, starts, directions, True, limit, step) + ray_lengths(model, starts, -directions, True, limit, step)
+    return np.maximum(chords.reshape(-1, 14).min(axis=1), 2.0 * depth)
+
+
 def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, origins: np.ndarray, depth: np.ndarray,
                size: np.ndarray) -> np.ndarray:
     """The part's thickness at ``cells``, from ``origins`` inside them (their deepest samples,
@@ -85,12 +112,7 @@ def _thickness(model, points: np.ndarray, tets: np.ndarray, cells: np.ndarray, o
     from ..sizing.rays import ray_lengths
 
     limit, step = 2.0 * float(size.max()), float(size.min()) / 64.0
-    gradient, usable = _unit_gradient(model, origins)
-    directions = np.concatenate([np.where(usable[:, None], gradient, _AXES[0])[:, None], np.broadcast_to(_AXES, (len(origins), 13, 3))], axis=1)
-    starts = np.repeat(origins, 14, axis=0)
-    directions = directions.reshape(-1, 3)
-    chords = ray_lengths(model, starts, directions, True, limit, step) + ray_lengths(model, starts, -directions, True, limit, step)
-    through = np.maximum(chords.reshape(-1, 14).min(axis=1), 2.0 * depth)
+    through = chord_thickness(model, origins, depth, limit, step)
     nodes, corner = np.unique(tets[cells], return_inverse=True)
     direction, usable = _unit_gradient(model, points[nodes])
     wall = np.where(usable, ray_lengths(model, points[nodes], -direction, True, limit, step), np.inf)
