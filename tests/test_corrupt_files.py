@@ -68,3 +68,10 @@ def test_vtk_messages_are_restored_after_the_read(corrupt, caplog):
     with caplog.at_level(logging.DEBUG):
         pv.read(corrupt)
     assert "Premature EOF" in caplog.text
+
+
+def test_an_empty_file_is_named_as_empty(tmp_path):
+    path = tmp_path / "part.stl"
+    path.write_bytes(b"")
+    with pytest.raises(sdf.MeshInputError, match=r"part\.stl is empty \(0 bytes\); give an STL, OBJ, PLY"):
+        sdf.mesh(path)

@@ -111,6 +111,21 @@ def test_flat_sheet_has_no_inside():
         sdf.mesh(pv.Plane(i_resolution=8, j_resolution=8), inside="winding")
 
 
+def test_a_wavy_open_sheet_with_the_winding_option_says_why_it_has_no_inside():
+    sheet = pv.Plane(i_resolution=30, j_resolution=30).triangulate()
+    sheet.points[:, 2] = 0.2 * np.sin(3 * sheet.points[:, 0]) * np.sin(3 * sheet.points[:, 1])
+    with pytest.raises(MeshInputError, match=r"no inside with inside='winding': its generalised winding number "
+                                             r"exceeds 1/2 nowhere .*an open sheet bounds no solid"):
+        sdf.mesh(sheet, inside="winding")
+
+
+def test_the_hole_share_is_of_the_input_s_own_area(hemisphere):
+    # the equator's disc (pi) on the hemisphere (2 pi): 50% of the input's area, which the
+    # message used to give as 33% of the closed surface's
+    with pytest.raises(MeshInputError, match=r"would add 50% of its area \(fepre closes holes up to 33% of it\)"):
+        sdf.mesh(hemisphere)
+
+
 @pytest.mark.slow  # two subprocesses
 def test_cli_inside_flag(tmp_path, hemisphere):
     path = tmp_path / "bowl.stl"

@@ -273,7 +273,7 @@ def mesh(source: Any, *, sign: str = "winding", features: float = 30.0, inside: 
         if sign == "pseudonormal":
             raise MeshInputError(f"{name}: inside='winding' signs by the winding number; use sign='winding'")
         repaired = span_openings(vertices, faces)
-        _check_volume(repaired, name)
+        _check_volume(repaired, name, winding=True)
     else:
         repaired = repair(vertices, faces)
         _check_solid(repaired, name)
@@ -337,22 +337,27 @@ def _check_solid(repaired: Repair, name: str) -> None:
     if len(repaired.faces) == 0:
         raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
     _, areas = face_normals(repaired.vertices, repaired.faces)
-    total = float(areas.sum())
-    if repaired.holes and repaired.hole_area > MAX_HOLE_FRACTION * total:
+    given = float(areas.sum()) - repaired.hole_area  # the input's own area, without the patches
+    if repaired.holes and repaired.hole_area > MAX_HOLE_FRACTION * given:
         raise MeshInputError(
             f"{name} has no inside: it is an open surface, and closing its {repaired.holes} boundary loop(s) "
-            f"would add {100 * repaired.hole_area / total:.0f}% of its area (fepre closes holes up to "
-            f"{100 * MAX_HOLE_FRACTION:.0f}%); give a closed surface, or pass inside='winding' (CLI: --inside "
+            f"would add {100 * repaired.hole_area / given:.0f}% of its area (fepre closes holes up to "
+            f"{100 * MAX_HOLE_FRACTION:.0f}% of it); give a closed surface, or pass inside='winding' (CLI: --inside "
             "winding) to mesh the solid where its generalised winding number exceeds 1/2"
         )
     _check_volume(repaired, name)
 
 
-def _check_volume(repaired: Repair, name: str) -> None:
-    """The surface must enclose a positive volume."""
+def _check_volume(repaired: Repair, name: str, winding: bool = False) -> None:
+    """The surface must enclose a positive volume (``winding``: once spanned across its openings)."""
     if len(repaired.faces) == 0:
         raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
     volume = enclosed_volume(repaired.vertices, repaired.faces)
     extent = np.ptp(repaired.vertices[used_vertices(repaired.faces, len(repaired.vertices))], axis=0)
     if volume <= 1e-9 * float(np.prod(np.maximum(extent, 1e-300))) or not np.isfinite(volume):
+        if winding:
+            raise MeshInputError(
+                f"{name} has no inside with inside='winding': its generalised winding number exceeds 1/2 "
+                f"nowhere (spanned across its openings it encloses a volume of {volume:.3g}): an open sheet "
+                "bounds no solid; give the closed surface of a solid, or a surface that wraps one")
         raise MeshInputError(f"{name} has no inside: the surface encloses a volume of {volume:.3g}")

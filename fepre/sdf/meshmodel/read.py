@@ -29,6 +29,9 @@ def _as_polydata(source: Any, name: str):
             raise MeshInputError(f"mesh file {path} does not exist")
         if path.is_dir():
             raise MeshInputError(f"mesh file {path} is a directory; give an STL, OBJ, PLY or other surface file")
+        if path.stat().st_size == 0:
+            raise MeshInputError(f"mesh file {path} is empty (0 bytes); give an STL, OBJ, PLY or other surface file "
+                                 "that holds the part's triangles")
         import warnings
 
         from ...vtk_messages import vtk_messages_kept

@@ -42,9 +42,10 @@ from .tables import edge_table, enclosed_volume, face_normals, manifold_pairs, u
 
 __all__ = ["Repair", "repair"]
 
-#: Holes (boundary loops) are closed only while their fans' total area is below this fraction
-#: of the surface's area; more than that and the input is a sheet, not a solid with holes.
-MAX_HOLE_FRACTION = 0.25
+#: Holes (boundary loops) are closed only while their patches' total area is below this
+#: fraction of the input's own area; more than that and the input is a sheet, not a solid with
+#: holes (a box missing a face: 20%)
+MAX_HOLE_FRACTION = 1 / 3
 
 
 @dataclass(frozen=True)
