@@ -227,3 +227,14 @@ def test_a_graded_meshs_checks_sample_each_zone_at_its_octave_and_still_find_wha
     (_, added), (_, fine) = material_checks(slotted, points, tets, h, size), material_checks(slotted, points, tets, h, None)
     assert len(added) == len(fine) == 1 and added[0].center[0] == pytest.approx(7.0, abs=0.3)
     assert added[0].thickness == pytest.approx(2.4, abs=0.3) and added[0].volume == pytest.approx(fine[0].volume, rel=0.2)
+
+
+def test_gaps_narrower_than_the_sampling_grid_are_found_and_named_when_the_mesh_is_refused():
+    """Five plates 0.5 apart at h = 1.2: the mesh fills the gaps (+36%) and is refused. The grid
+    of h / 4 had no node deeper than 0.1 in any gap (below the 0.15 h test), so no gap was found
+    and the refusal spoke of parts thinner than h only."""
+    plates = sdf.union(*[sdf.box((6, 6, 1.0), center=(0, 0, 1.5 * i)) for i in range(5)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(fepre.MeshingError, match=r"\+3\d% off.*the mesh adds about .* a gap 0\.5 wide.*h <= 0\.25"):
+            fepre.distmesh(plates, 1.2)

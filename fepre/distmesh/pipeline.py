@@ -261,15 +261,20 @@ def validate_mesh(job: MeshingJob) -> None:
 
 def _smaller_h(job: MeshingJob, found: list) -> str:
     """What to try when the mesh is refused: where the volume is off, the parts thinner than
-    ``h`` that the mesh left out and the ``h`` (or ``h=(hmin, hmax)``) that keeps them."""
-    from .lost_material import lost_material_message
+    ``h`` that the mesh left out and the gaps narrower than ``h`` that it filled, the larger
+    first, each with the ``h`` (or ``h=(hmin, hmax)``) that resolves it."""
+    from .lost_material import added_material_message, lost_material_message
 
     if not job.options.check_resolution or not any(defect.check == "volume" for defect in found):
         return "try a smaller h"
-    lost, _ = _material_checks(job)
-    if not lost:
+    lost, added = _material_checks(job)
+    h = None if job.absolute else job.h
+    parts = [(sum(r.volume for r in lost), lost_material_message(lost, h))] if lost else []
+    if added:  # an assembly of bodies a little apart came out 22% over with advice about lost parts
+        parts.append((sum(r.volume for r in added), added_material_message(added, h)))
+    if not parts:
         return "try a smaller h"
-    return lost_material_message(lost, None if job.absolute else job.h)
+    return "; ".join(text for _, text in sorted(parts, key=lambda part: -part[0]))
 
 
 def _material_checks(job: MeshingJob) -> tuple[list, list]:
