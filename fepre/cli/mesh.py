@@ -143,7 +143,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(
                 f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
                 f"mesh (no face with its nodes on their surface, to 1e-3 of the local edge length, and "
-                f"facing the same way); check where their functions are zero; nothing written"
+                f"its normal along their gradient or against it); check where their functions are zero; "
+                "nothing written"
             )
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,
