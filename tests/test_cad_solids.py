@@ -190,6 +190,7 @@ def test_the_cli_writes_an_element_set_per_solid(tmp_path, assembly):
         (["--solid", "1=plate"], "--solid names a solid of a CAD assembly: add --solids"),
         (["--solids", "--solid", "one=plate"], "--solid must be NUMBER=NAME with an integer NUMBER"),
         (["--solids", "--labels"], "--solids is for a CAD file and --labels for a label image"),
+        (["--solids", "--solid", "1=a", "--solid", "1=b"], "--solid 1 is given twice ('a' and 'b')"),
     ],
 )
 def test_the_cli_refuses_bad_solid_flags(tmp_path, assembly, flags, message):

@@ -174,3 +174,26 @@ def test_mesh_made_elsewhere_warns_how_far_its_nodes_are():
         warnings.simplefilter("error", BoundaryWarning)
         faces = tag_boundaries(mesh, bottom_plane, boundary_tolerance=0.01)
     assert np.count_nonzero(faces["boundary_id"] == 0) == 64
+
+
+def test_coplanar_faces_facing_both_ways_go_to_the_gradient_s_way_only(tmp_path):
+    """A Z-bracket: the lower arm's top and the upper arm's underside both lie on z = 5. The set
+    "plane z = 5, normal +z" took both (160 instead of 80, a new user's trial): the normal was
+    compared with the gradient up to sign. A set all of whose faces face one way still takes
+    them whichever way its function's gradient points (a bottom named by ``p[:, 2]``)."""
+    lower = sdf.box((10, 8, 5)).translate((5, 4, 2.5))
+    web = sdf.box((5, 8, 10)).translate((12.5, 4, 5))
+    upper = sdf.box((10, 8, 5)).translate((20, 4, 7.5))
+    mesh = meshed(lower | web | upper, 1.0)
+    with pytest.warns(BoundaryWarning, match=r"'lower_top': \d+ face\(s\) on its surface \(area 80\) face against"):
+        grid = fepre.export(mesh, tmp_path / "z.vtu", boundaries={"lower_top": sdf.plane((0, 0, 1), (0, 0, 5))})
+    assert set_area(grid, "lower_top") == pytest.approx(80.0, rel=1e-9)
+    with pytest.warns(BoundaryWarning, match=r"'upper_bottom': \d+ face\(s\) on its surface \(area 80\)"):
+        grid = fepre.export(mesh, tmp_path / "z.vtu", boundaries={"upper_bottom": lambda p: 5.0 - p[:, 2]})
+    faces = fepre.export.boundary_faces(grid)
+    chosen = faces.extract_cells(faces["boundary_id"] == 0)
+    assert chosen.bounds[0] == pytest.approx(15.0) and chosen.area == pytest.approx(80.0, rel=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BoundaryWarning)
+        grid = fepre.export(mesh, tmp_path / "z.vtu", boundaries={"bottom": lambda p: p[:, 2]})
+    assert set_area(grid, "bottom") == pytest.approx(80.0 + 40.0, rel=1e-9)  # the lower arm's and the web's

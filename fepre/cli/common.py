@@ -184,9 +184,12 @@ def numbered_names(values: list[str], flag: str, example: str) -> dict:
     for value in values:
         number, _, name = value.partition("=")
         try:
-            names[int(number)] = name
+            number = int(number)
         except ValueError:
             raise ValueError(f"{flag} must be {key}=NAME with an integer {key} (e.g. {flag} 1={example}); got {value!r}") from None
+        if number in names and names[number] != name:
+            raise ValueError(f"{flag} {number} is given twice ({names[number]!r} and {name!r}); give each {key} one name")
+        names[number] = name
         if not name:
             raise ValueError(f"{flag} must be {key}=NAME (e.g. {flag} 1={example}); got {value!r}")
     return names

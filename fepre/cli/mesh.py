@@ -23,7 +23,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--h", type=float, help="target edge length (default: the model file's h); with --hmax, the smallest the size field gives "
                         "(thinner walls and narrower gaps get it too, and are named in a warning)")
     parser.add_argument("--hmax", type=float, help="largest edge length: grade the mesh with the automatic size field from --h (its floor) to this")
-    parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes")
+    parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes "
+                        "(the model file's h is not used with it; --h clamps the sizes from below)")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
     common.period_argument(parser, required=False)
     parser.add_argument("--no-regions", action="store_true",
@@ -88,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
         part.domain_bounds()  # an unbounded model without `bounds`: the model-file hint, before any work
     elif args.hmax is not None or size is not None:
         raise ValueError("--period meshes with one --h (no --hmax or --size)")
-    h = common.edge_length(args, part) if size is None or args.h is not None or part.h is not None else None
+    # --size gives the sizes: the model file's h would clamp them from below, unasked
+    h = common.edge_length(args, part) if size is None or args.h is not None or args.hmax is not None else None
     if h is not None and period is None:
         common.check_edge_length(args, h, part)
     if args.hmax is not None:
@@ -113,7 +115,9 @@ def run(args: argparse.Namespace) -> int:
     if isinstance(h, tuple):
         say(f"fepre mesh: DistMesh with the automatic size field, h from {h[0]:g} to {h[1]:g} ...")
     elif size is not None:
-        say(f"fepre mesh: DistMesh with the sizes of {args.size} ...")
+        unused = f" (not the model file's h = {part.h:g}: pass --h to clamp the sizes from below)" if (
+            h is None and part.h is not None) else ""
+        say(f"fepre mesh: DistMesh with the sizes of {args.size}{unused} ...")
     else:
         say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
@@ -143,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(
                 f"boundaries {', '.join(map(repr, empty))} in {part.path} match no boundary face of the "
                 f"mesh (no face with its nodes on their surface, to 1e-3 of the local edge length, and "
-                f"facing the same way); check where their functions are zero; nothing written"
+                f"its normal along their gradient or against it); check where their functions are zero; "
+                "nothing written"
             )
     say(f"fepre mesh: writing {output} ...")
     written = fepre.export(mesh, output, order=args.order, boundaries=part.boundaries or None, model=part.model,

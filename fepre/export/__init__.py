@@ -117,7 +117,8 @@ def export(
         A boundary face joins a set only if it lies on the set's zero set: its three nodes within
         ``boundary_tolerance`` x h of it (h the face's mean edge length), its centroid too (up to
         the sag of a face inscribed in a curved surface), its normal within ``boundary_angle`` of
-        the function's gradient (:mod:`fepre.export.boundaries`). A face on two sets' surfaces
+        the function's gradient or of its opposite, of the gradient only where faces on the
+        surface face both ways (:mod:`fepre.export.boundaries`). A face on two sets' surfaces
         goes to the nearer at its centroid, ties to the first name; the rest form
         ``"boundary"``. Each set becomes a face set (``*SURFACE``, physical surface, facet tag)
         and a node set; its face count and area are in the returned grid.

@@ -10,7 +10,10 @@ surface:
 * its centroid is within that limit plus the sag of a triangle inscribed in a surface as curved
   as the function's gradients at the nodes say (0 on a plane; a face of a bore is kept, a face
   bridging a groove whose lips are on the surface is not);
-* its normal is within ``boundary_angle`` of the function's gradient at the centroid.
+* its normal is within ``boundary_angle`` of the function's gradient at the centroid, or of its
+  opposite: the function's sign is not asked for (``lambda p: p[:, 2]`` names a part's bottom),
+  unless faces on the surface face both ways (coplanar faces of a step, a Z-bracket's arms, a
+  T-slot): then only those facing along the gradient are in the set, with a warning.
 
 A face on two sets' surfaces (two names for one surface) goes to the one whose value at the
 centroid is nearest zero, ties to the first name in the mapping, with a warning; faces on no
@@ -194,16 +197,18 @@ def _on_surface(function: Any, name: str, corners: np.ndarray, centroids: np.nda
                 normals: np.ndarray, limit: np.ndarray, min_cosine: float, candidates: np.ndarray) -> np.ndarray:
     """Which ``candidates`` (faces whose centroid is near the zero set) lie on it: every node within
     ``limit``, the centroid within ``limit`` plus the sag of a triangle inscribed in a surface of the
-    curvature seen between its nodes, and the normal within the angle of the gradient."""
+    curvature seen between its nodes, and the normal within the angle of the gradient, either way
+    when all such faces face one way, the gradient's way when some face each way; and the faces
+    left out for facing against it."""
     if not candidates.size:
-        return candidates
+        return candidates, candidates
     h = edges[candidates].mean(axis=1)
     nodes = corners[candidates].reshape(-1, 3)
     node_values = np.abs(_evaluate(function, nodes, "boundaries", name)).reshape(-1, 3)
     keep = np.all(node_values <= limit[candidates, None], axis=1)
     chosen = candidates[keep]
     if not chosen.size:
-        return chosen
+        return chosen, chosen
     h = h[keep]
     node_gradients = _unit_gradient(function, corners[chosen].reshape(-1, 3), np.repeat(1e-4 * h, 3),
                                     "boundaries", name).reshape(-1, 3, 3)
@@ -216,10 +221,15 @@ def _on_surface(function: Any, name: str, corners: np.ndarray, centroids: np.nda
     sag = 2.0 * curvature * np.sum(face_edges**2, axis=1) / 18.0
     centroid_values = np.abs(_evaluate(function, centroids[chosen], "boundaries", name))
     gradient = _unit_gradient(function, centroids[chosen], 1e-4 * h, "boundaries", name)
-    cosine = np.abs(np.einsum("ij,ij->i", gradient, normals[chosen]))
+    cosine = np.einsum("ij,ij->i", gradient, normals[chosen])
     flat = ~np.any(gradient, axis=1)  # no direction to compare with: keep the face
-    agrees = (cosine >= min_cosine) | flat
-    return chosen[(centroid_values <= limit[chosen] + sag) & agrees]
+    near = centroid_values <= limit[chosen] + sag
+    along, against = near & (cosine >= min_cosine), near & (cosine <= -min_cosine)
+    if along.any() and against.any():
+        # coplanar faces facing both ways (a Z-bracket's step, a T-slot): the gradient's way only
+        return chosen[along | (near & flat)], chosen[against]
+    # one way only: the function's sign is not asked for (``lambda p: p[:, 2]`` names a bottom)
+    return chosen[along | against | (near & flat)], chosen[:0]
 
 
 def _checked_tolerances(boundary_tolerance: Any, boundary_angle: Any) -> tuple[float, float]:
@@ -274,9 +284,16 @@ def assign_boundaries(
             candidates = np.flatnonzero(values <= NEAR * h)
             # faces reported as missed: not those of the far side of a part one element thick
             near_faces.append(candidates[values[candidates] <= 0.5 * height[candidates]])
-            on = _on_surface(boundaries[name], name, corners, centroids, edges, normals, limit, min_cosine,
-                             candidates)
+            on, against = _on_surface(boundaries[name], name, corners, centroids, edges, normals, limit, min_cosine,
+                                      candidates)
             distance[on, j] = values[on]
+            if against.size:
+                area = 0.5 * float(np.linalg.norm(np.cross(corners[against, 1] - corners[against, 0],
+                                                            corners[against, 2] - corners[against, 0]), axis=1).sum())
+                warn_user(
+                    f"boundaries {name!r}: {against.size} face(s) on its surface (area {area:.4g}) face against its "
+                    "function's gradient while others face along it; only those facing along it are in the set "
+                    "(negate the function to take the others instead)", BoundaryWarning)
         best = np.argmin(distance, axis=1)  # first minimum: ties go to the first name
         nearest = distance[np.arange(best.size), best]
         matched = np.isfinite(nearest)
