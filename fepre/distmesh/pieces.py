@@ -76,13 +76,12 @@ def cut_off_pieces(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
     piece = np.zeros(len(points), np.int64)
     piece[tets.ravel()] = np.repeat(labels, 4)
     piece = piece[nodes]
-    tree = cKDTree(points[nodes])
     others = np.flatnonzero(piece > 0)
-    near = tree.query_ball_point(points[nodes[others]], r=size[nodes[others]])
-    first = np.repeat(others, [len(found) for found in near])
-    second = np.fromiter((j for found in near for j in found), np.int64, len(first))
-    across = piece[first] != piece[second]
-    first, second = nodes[first[across]], nodes[second[across]]
+    pairs = cKDTree(points[nodes[others]]).sparse_distance_matrix(
+        cKDTree(points[nodes]), float(size[nodes[others]].max()), output_type="ndarray")
+    first, second = others[pairs["i"]], pairs["j"]
+    keep = (piece[first] != piece[second]) & (pairs["v"] <= size[nodes[first]])
+    first, second = nodes[first[keep]], nodes[second[keep]]
     if len(first) == 0:
         return np.zeros(0, np.int64)
     middle = 0.5 * (points[first] + points[second])
