@@ -43,9 +43,9 @@ def tet_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return keys, counts, inverse
 
 
-def _face_numbers(tets: np.ndarray, n_points: int) -> np.ndarray:
-    """A number per face slot ``4 t + i``, the same for the slots of one face, 0..F-1."""
-    mate, _ = face_uses(tets, n_points)
+def _face_numbers(mate: np.ndarray) -> np.ndarray:
+    """A number per face slot ``4 t + i``, the same for the slots of one face, 0..F-1, from each
+    slot's ``mate`` (:func:`face_uses`)."""
     slot = np.arange(len(mate))
     lowest = np.where((mate >= 0) & (mate < slot), mate, slot)
     first = lowest == slot
@@ -260,7 +260,8 @@ def repair_selection(
     edge_codes = (np.minimum(pairs[..., 0], pairs[..., 1]).astype(np.int64) * n
                   + np.maximum(pairs[..., 0], pairs[..., 1]))
     # each cell's four faces numbered once; a round counts the selected cells on each face
-    inverse = _face_numbers(tets, n_points)
+    mate, _ = face_uses(tets, n_points)
+    inverse = _face_numbers(mate)
     slots = inverse.reshape(-1, 4)
     oriented = tets[:, _FACES]
     edges_at, vertices_at = None, None  # made when the first defect is found
@@ -304,16 +305,17 @@ def repair_selection(
         chosen_clear = stuck[defect] & inside & ~locked[cell]
         selected[cell[chosen_fill]] = True
         selected[cell[chosen_carve | chosen_clear]] = False
-    return fill_enclosed(tets, selected, add_cost, remove_cost, n_points)
+    return fill_enclosed(tets, selected, add_cost, remove_cost, n_points, mate)
 
 
 def fill_enclosed(tets: np.ndarray, selected: np.ndarray, add_cost: np.ndarray, remove_cost: np.ndarray,
-                  n_points: int) -> np.ndarray:
+                  n_points: int, mate: np.ndarray | None = None) -> np.ndarray:
     """``selected`` with each closed void of unselected cells filled when filling it costs less.
 
     A void is a face-connected group of unselected cells of the triangulation ``tets`` with no
     face on its hull: the selected cells enclose it. Filling it takes away its whole boundary, a
-    closed surface of its own, and changes nothing else. It is filled when the sum of its
+    closed surface of its own, and changes nothing else (``mate``: each face slot's other use,
+    from :func:`face_uses`, if made already). It is filled when the sum of its
     ``add_cost`` is below the sum of its ``remove_cost`` (the cost of leaving it out): a cell
     carved by the repair next to a pinch that later fills closed round it (a cavity 0.2 h inside
     a SolidWorks export), not a hole the part has (cells outside cost more to add than to leave).
@@ -333,7 +335,8 @@ def fill_enclosed(tets: np.ndarray, selected: np.ndarray, add_cost: np.ndarray, 
     free = ~selected
     if not free.any() or free.all():
         return selected
-    mate, _ = face_uses(tets, n_points)
+    if mate is None:
+        mate, _ = face_uses(tets, n_points)
     cell_of = np.arange(len(mate)) // 4
     open_cell = np.zeros(len(tets), bool)
     open_cell[cell_of[mate < 0]] = True  # a face on the hull: the group reaches outside
