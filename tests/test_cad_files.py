@@ -58,6 +58,32 @@ def test_an_assembly_s_solids_are_united(tmp_path):
     assert model.repaired.internal == 0  # fused by OpenCASCADE, not by the repair
 
 
+def test_a_step_file_of_faces_without_a_solid_is_meshed_with_a_warning(tmp_path):
+    """A box's six faces exported without its volume: meshed as the solid they close (as with
+    --solids it is refused), but no longer silently (a new user's trial)."""
+    import warnings
+
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        box = gmsh.model.occ.addBox(0, 0, 0, 10, 10, 10)
+        gmsh.model.occ.synchronize()
+        gmsh.model.occ.remove([(3, box)])
+        gmsh.model.occ.synchronize()
+        gmsh.write(str(tmp_path / "shell.step"))
+    finally:
+        gmsh.finalize()
+    with pytest.warns(fepre.RepairWarning, match=r"shell\.step holds no solid: its faces were tessellated"):
+        model = sdf.mesh(tmp_path / "shell.step")
+    assert model.volume == pytest.approx(1000.0, rel=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.RepairWarning)
+        write_cad(tmp_path / "plate.step")
+        sdf.mesh(tmp_path / "plate.step")  # a solid: nothing to say
+
+
 def test_the_cli_meshes_a_step_file(tmp_path):
     volume = write_cad(tmp_path / "plate.step")
     out = tmp_path / "plate.vtu"

@@ -57,7 +57,12 @@ def read_cad_surface(path: str | os.PathLike, *, timeout: float = TIMEOUT):
         command = [sys.executable, "-m", "fepre.sdf.meshmodel.cad_files", str(path.resolve()), out]
         run_child(command, out, timeout=timeout, cwd=scratch, tool="OpenCASCADE", doing="reading it", error=ValueError)
         with np.load(out) as result:
-            points, triangles = result["points"], result["triangles"]
+            points, triangles, solids = result["points"], result["triangles"], int(result["solids"])
+    if solids == 0:
+        from ...errors import RepairWarning, warn_user
+
+        warn_user(f"{path} holds no solid: its faces were tessellated and taken as the surface of one (check "
+                  "that they close it, or export the solid)", RepairWarning)
     return pv.PolyData.from_regular_faces(points, triangles)
 
 
@@ -87,8 +92,9 @@ def mesh_faces() -> None:
         raise ValueError(f"gmsh could not tessellate its faces ({str(exc).strip()[:200]})") from None
 
 
-def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
-    """In the child: import ``path``, unite its solids and mesh their boundary."""
+def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """In the child: import ``path``, unite its solids and mesh their boundary; the number of
+    solids the file held."""
     import gmsh
 
     gmsh.initialize(interruptible=False)
@@ -107,7 +113,7 @@ def _tessellate(path: str) -> tuple[np.ndarray, np.ndarray]:
         surface = gmsh_cells(2, 2, 3)  # gmsh gives a solid's faces' triangles facing out of it
         if surface is None:
             raise ValueError("tessellating its faces gave no triangles")
-        return surface
+        return (*surface, len(volumes))
     finally:
         gmsh.finalize()
 
@@ -116,11 +122,11 @@ def main(arguments: list[str]) -> int:
     """``python -m fepre.sdf.meshmodel.cad_files CAD OUT.npz``: the tessellated boundary into OUT.npz."""
     path, out = arguments
     try:
-        points, triangles = _tessellate(path)
+        points, triangles, solids = _tessellate(path)
     except ValueError as exc:
         Path(out + ".error").write_text(str(exc), encoding="utf-8")
         return 1
-    np.savez(out, points=points, triangles=triangles)
+    np.savez(out, points=points, triangles=triangles, solids=solids)
     return 0
 
 
