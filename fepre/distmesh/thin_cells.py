@@ -75,14 +75,12 @@ def _deepest_samples(model, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return samples[np.arange(len(corners)), deepest], depth[np.arange(len(corners)), deepest]
 
 
-def chord_thickness(model, origins: np.ndarray, depth: np.ndarray, limit: float, step: float,
-                    inside: bool = True) -> np.ndarray:
+def chord_thickness(model, origins: np.ndarray, depth: np.ndarray, limit: float, step: float) -> np.ndarray:
     """The part's thickness through ``origins`` inside it (``depth`` deep): the shortest chord
     through each along the model's gradient and 13 fixed directions (within 27.6 degrees of any
     direction: at most 13% over a slab's thickness), or twice the depth if larger (off a rod's
     axis the shortest chord is shorter than the rod); ``inf`` past ``limit``, rays stepped at
-    least ``step``. With ``inside=False``, the width of the gap through ``origins`` outside the
-    part (``depth`` out), the same way.
+    least ``step``.
 
     Examples
     --------
@@ -99,8 +97,8 @@ def chord_thickness(model, origins: np.ndarray, depth: np.ndarray, limit: float,
                                  np.broadcast_to(_AXES, (len(origins), 13, 3))], axis=1)
     starts = np.repeat(origins, 14, axis=0)
     directions = directions.reshape(-1, 3)
-    chords = (ray_lengths(model, starts, directions, inside, limit, step)
-              + ray_lengths(model, starts, -directions, inside, limit, step))
+    chords = (ray_lengths(model, starts, directions, True, limit, step)
+              + ray_lengths(model, starts, -directions, True, limit, step))
     return np.maximum(chords.reshape(-1, 14).min(axis=1), 2.0 * depth)
 
 
