@@ -236,3 +236,26 @@ def test_shape_score_is_the_worst_of_the_three_measures_mapped_to_degrees():
     # a cell meets the three targets exactly when its score reaches min_dihedral
     meets = (smallest >= 25) & (largest <= 150) & (ratio >= 0.25)
     assert (meets == (score >= 25.0 - 1e-12))[valid].all()
+
+
+@pytest.mark.parametrize("bridges, removed", [(False, 0), (True, 1)])
+def test_a_cap_out_in_the_air_goes_only_when_bridges_are_removed(bridges, removed):
+    """The flat bipyramid's cells (rim a 62 deg crease) with their centroids 0.5 h outside the
+    part: caps bridging a valley of a faceted surface. They stay, unless within
+    ``bridges_removed()``, where one goes (the cells removed in one call share no vertex)."""
+    from contextlib import nullcontext
+
+    from fepre.distmesh.boundary_slivers import bridges_removed
+
+    points = np.array([*TRIANGLE, (0, 0, 0.3), (0, 0, -0.3)], dtype=float)
+    tets = np.array([[0, 2, 3, 4], [2, 1, 3, 4], [1, 0, 3, 4]])
+    n = len(points)
+    faces = faces_on_boundary(tets, face_neighbours(tets, n))
+    face_keys_ = np.unique(face_keys(faces, n))
+    out_in_the_air = lambda p: np.full(len(p), 0.5)  # noqa: E731
+    with bridges_removed() if bridges else nullcontext():
+        new, _, count, _, _ = remove_boundary_slivers(
+            points, tets, tet_min_dihedral(points, tets), 90.0, np.ones(n, dtype=bool), face_keys_,
+            boundary_edges(tets, n), out_in_the_air, 1.0)
+    assert count == removed and len(new) == 3 - removed
+    assert open_boundary_reason(faces_on_boundary(new, face_neighbours(new, n)), n) == ""

@@ -89,14 +89,15 @@ def test_the_advice_resolves_the_thinnest_place_even_when_it_is_not_shown():
 
 @pytest.mark.slow
 def test_distmesh_names_a_finger_one_element_thick_and_its_advice_meets_the_targets():
-    # a ball with a finger 1.3 across, meshed at h = 1: the finger is one layer of cells with
-    # every node on its surface, and 3 of the 7 cells left below the targets are there (18.5 deg;
-    # if the quality stage learns to mend this finger, pick a thinner one)
+    # a ball with a finger 1.2 across, meshed at h = 1: the finger is one layer of cells with
+    # every node on its surface, and the cell left below the targets is there (23.9 deg; if the
+    # quality stage learns to mend this finger, pick another: the one 1.3 across, 18.5 deg until
+    # session 54, is mended by the second stage run that removes caps bridging a valley)
     import warnings
 
     import fepre
 
-    part = sdf.sphere(2.0) | sdf.capsule((0, 0, 0), (5, 0, 0), 0.65)
+    part = sdf.sphere(2.0) | sdf.capsule((0, 0, 0), (5, 0, 0), 0.6)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         mesh = fepre.distmesh(part, h=1.0)
@@ -105,8 +106,8 @@ def test_distmesh_names_a_finger_one_element_thick_and_its_advice_meets_the_targ
     assert len(named) == 1 and issubclass(next(w.category for w in caught if "elements thick" in str(w.message)), fepre.ResolutionWarning)
     place = re.search(r"(\d+) near \(([^)]*)\), ([\d.]+) thick against a size of 1\b", named[0])
     centre = np.array([float(v) for v in place.group(2).split(",")])
-    assert 2.0 < centre[0] < 5.7 and np.hypot(centre[1], centre[2]) < 0.65  # in the finger
-    assert 0.6 < float(place.group(3)) <= 1.3 * 1.05  # chords through its cells: at most its diameter
+    assert 2.0 < centre[0] < 5.6 and np.hypot(centre[1], centre[2]) < 0.6  # in the finger
+    assert 0.6 < float(place.group(3)) <= 1.2 * 1.05  # chords through its cells: at most its diameter
     advice = re.search(r"mesh with h=\(([\d.]+), 1\)", named[0])
     graded = fepre.distmesh(part, h=(float(advice.group(1)), 1.0))
     assert graded.cell_data["min_dihedral_angle"].min() >= 25.0

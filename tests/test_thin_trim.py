@@ -58,13 +58,13 @@ def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_
     assert report.overused_faces == report.nonmanifold_edges == report.pinched_vertices == 0
 
 
-def test_a_zone_whose_removal_cuts_the_mesh_in_two_is_put_back():
+def test_a_zone_whose_removal_cuts_the_mesh_in_two_is_found():
     # a bar's cells across the plane x = 3.5 are a zone that would leave the bar in two pieces
     # (a rib's root thinner than an element: the rib floated free); a zone at the end does not
     from scipy.spatial import Delaunay
 
     from fepre.distmesh.pieces import mesh_pieces
-    from fepre.distmesh.thin_trim import _keep_joined
+    from fepre.distmesh.thin_trim import _cutting
 
     grid = np.stack(np.meshgrid(np.arange(8.0), np.arange(2.0), np.arange(2.0), indexing="ij"), -1).reshape(-1, 3)
     points = grid + np.random.default_rng(1).uniform(-0.1, 0.1, grid.shape)
@@ -75,15 +75,9 @@ def test_a_zone_whose_removal_cuts_the_mesh_in_two_is_put_back():
     removed = np.zeros(len(tets), bool)
     removed[across] = removed[end] = True
     assert len(mesh_pieces(tets[~removed], len(points))[1]) == 2
-    exposed = np.unique(tets[across])[:1]
-    moved = points.copy()
-    moved[exposed] += 0.05
-    zones = [(across, exposed), (end, np.zeros(0, np.int64))]
-    kept_points, kept_removed, found = _keep_joined(points, moved, tets, removed.copy(), zones, ["across", "end"])
-    assert found == ["end"]
-    assert np.flatnonzero(kept_removed).tolist() == end.tolist()
-    assert np.array_equal(kept_points, points)  # the exposed node is back where it was
-    assert len(mesh_pieces(tets[~kept_removed], len(points))[1]) == 1
+    assert _cutting(tets, len(points), removed, [across, end]).tolist() == [True, False]
+    removed[across] = False
+    assert _cutting(tets, len(points), removed, [end]).tolist() == [False]
 
 
 @pytest.mark.slow

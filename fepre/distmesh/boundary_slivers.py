@@ -11,11 +11,16 @@ Two kinds of bad cell sit on the boundary surface and resist the other operation
 Both keep the boundary a closed manifold (checked through the boundary edge keys), change the
 volume by about the flat cell's volume, and leave every boundary vertex on the zero set. Only cells
 whose centroid lies within ``0.1 h`` of the zero set are removed, and a boundary edge is flipped
-only between nearly coplanar faces (normals within ``CREASE_ANGLE``), never on a crease. The
-cells removed in one call share no vertex.
+only between nearly coplanar faces (normals within ``CREASE_ANGLE``), never on a crease; except
+that within :func:`bridges_removed` a cap whose centroid lies outside the part beyond ``0.1 h`` (a
+bridge over a valley of a faceted surface: ur3_base.stl's worst cell at D/50, 13.9 deg, 0.17 h
+out) goes whatever the angle of its ridge. The cells removed in one call share no vertex.
 """
 
 from __future__ import annotations
+
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 
@@ -23,7 +28,24 @@ from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets
 from .tet_topology import FACE_OF_TET, edge_keys, face_keys, in_sorted
 
-__all__ = ["remove_boundary_slivers", "expose_shallow_vertices"]
+__all__ = ["remove_boundary_slivers", "expose_shallow_vertices", "bridges_removed"]
+
+#: whether caps out in the air over a valley are removed too (see :func:`bridges_removed`)
+_BRIDGES: ContextVar[bool] = ContextVar("bridges", default=False)
+
+
+@contextmanager
+def bridges_removed():
+    """Within the block, :func:`remove_boundary_slivers` also removes bad caps whose centroid
+    lies outside the part beyond ``FLAT_DEPTH`` (bridges over a valley of a faceted surface),
+    whatever the angle of their ridge, where the faces they expose are no farther from the
+    surface and no further turned from it than theirs."""
+    token = _BRIDGES.set(True)
+    try:
+        yield
+    finally:
+        _BRIDGES.reset(token)
+
 
 #: A vertex this close to the zero set (times h) may be exposed onto it.
 SHALLOW = 0.25
@@ -107,16 +129,26 @@ def remove_boundary_slivers(
         allowed &= ~locked[cells].all(axis=1)
     centroids = points[cells].mean(axis=1)
     scale = h if guard is None else guard.length(centroids)
-    allowed &= np.abs(model(centroids)) <= FLAT_DEPTH * scale
-    # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never flipped
+    value = np.asarray(model(centroids), dtype=float)
+    # the two boundary faces must be nearly coplanar: an edge on a crease of the part is never
+    # flipped; a cell out in the air (centroid outside beyond FLAT_DEPTH) bridges a valley, and
+    # its ridge ``ab`` is no crease of the part: removing it takes away material the part has not
     rows = np.arange(cells.shape[0])[:, None]
     normals = [_unit_normals(points[cells[rows, FACE_OF_TET[order[:, k]]]]) for k in (0, 1)]
-    allowed &= np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
+    coplanar = np.einsum("ij,ij->i", normals[0], normals[1]) >= np.cos(np.radians(CREASE_ANGLE))
+    bridge = (value > FLAT_DEPTH * scale) & _BRIDGES.get()
+    allowed &= ((np.abs(value) <= FLAT_DEPTH * scale) & coplanar) | bridge
     if guard is not None and allowed.any():
         check = np.flatnonzero(allowed)
         # the faces opposite a and b, seen from outside once the cell is gone
         exposed = [cells[check[:, None], FACE_OF_TET[order[check, k]]][:, ::-1] for k in (2, 3)]
         fine = guard.faces_allowed(None, points[np.concatenate(exposed)]).reshape(2, -1).all(axis=0)
+        # a bridge's faces lie off the surface: the exposed ones need only be no farther
+        over = bridge[check]
+        if over.any():
+            old = np.stack([points[cells[check[over, None], FACE_OF_TET[order[check[over], k]]]] for k in (0, 1)], axis=1)
+            new = np.stack([points[faces[over]] for faces in exposed], axis=1)
+            fine[over] = guard.replacements_allowed(old, new)
         allowed[check[~fine]] = False
     chosen = _vertex_disjoint(cells, quality[candidates], allowed, n)
     if not chosen.any():

@@ -45,6 +45,8 @@ GROWTH = 8
 SHALLOW = 0.25
 #: a fixed inner node this close to the zero set (local sizes) is on it already
 ON_SURFACE = 1e-3
+#: searches for zones, each without the seeds of zones that cut the mesh in pieces in the last
+JOIN_TRIES = 3
 
 
 @dataclass(frozen=True)
@@ -185,40 +187,33 @@ def _surfaced(points: np.ndarray, tets: np.ndarray, incidence: _Incidence, remov
     return moved if (after > 0.05 * before).all() else None
 
 
-def _keep_joined(original: np.ndarray, points: np.ndarray, tets: np.ndarray, removed: np.ndarray,
-                 zones: list, found: list) -> tuple[np.ndarray, np.ndarray, list]:
-    """``(points, removed, found)`` without the zones whose removal cut the mesh into more pieces
-    (a rib's root thinner than an element: the rib would float free, and a solver needs every
-    piece held), their exposed nodes put back where no other zone kept exposes them."""
+def _cutting(tets: np.ndarray, n_points: int, removed: np.ndarray, zones: list) -> np.ndarray:
+    """(Z,) mask of the ``zones`` (cell index arrays, all in ``removed``) whose removal cuts the
+    mesh into more pieces (a rib's root thinner than an element: the rib would float free, and a
+    solver needs every piece held): the zones next to two pieces, put back until the count is
+    the mesh's own."""
     from .pieces import mesh_pieces
     from .tet_topology import face_neighbours
 
-    pieces = len(mesh_pieces(tets, len(points))[1])
-    neighbours = face_neighbours(tets, len(points))
-    accepted = np.ones(len(zones), dtype=bool)
+    pieces = len(mesh_pieces(tets, n_points)[1])
+    neighbours = face_neighbours(tets, n_points)
+    removed = removed.copy()
+    cutting = np.zeros(len(zones), dtype=bool)
     while True:
-        labels, counts = mesh_pieces(tets[~removed], len(points))
+        labels, counts = mesh_pieces(tets[~removed], n_points)
         if len(counts) <= pieces:
-            break
+            return cutting
         piece = np.full(len(tets), -1)
         piece[~removed] = labels
-        cutting = np.zeros(len(zones), dtype=bool)
-        for index in np.flatnonzero(accepted):
-            across = neighbours[zones[index][0]].ravel()
-            touched = np.unique(piece[across[across >= 0]])
-            cutting[index] = (touched >= 0).sum() > 1
-        if not cutting.any():
-            break
-        accepted &= ~cutting
-        for index in np.flatnonzero(cutting):
-            removed[zones[index][0]] = False
-    if accepted.all():
-        return points, removed, found
-    kept_exposed = np.concatenate([zones[i][1] for i in np.flatnonzero(accepted)] + [np.zeros(0, np.int64)])
-    back = np.setdiff1d(np.concatenate([zones[i][1] for i in np.flatnonzero(~accepted)]), kept_exposed)
-    points = points.copy()
-    points[back] = original[back]
-    return points, removed, [entry for entry, keep in zip(found, accepted) if keep]
+        found = np.zeros(len(zones), dtype=bool)
+        for index in np.flatnonzero(~cutting):
+            across = neighbours[zones[index]].ravel()
+            found[index] = (np.unique(piece[across[across >= 0]]) >= 0).sum() > 1
+        if not found.any():
+            return np.ones(len(zones), dtype=bool)  # cut, but by no zone alone: none is given up
+        cutting |= found
+        for index in np.flatnonzero(found):
+            removed[zones[index]] = False
 
 
 def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local_size=None,
@@ -288,33 +283,50 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
         shallow[inner] &= ~fixed_mask[inner] | (np.abs(depth) <= ON_SURFACE * size_there)
     fixed = np.zeros(len(points), dtype=bool) if fixed_mask is None else fixed_mask
     incidence = _Incidence(tets, len(points))
-    removed = np.zeros(len(tets), dtype=bool)
-    original = points
-    found, zones = [], []
     by_cell = dict(zip(bad[seeds].tolist(), zip(thickness[seeds].tolist(), size[seeds].tolist())))
-    for seed in sorted(_face_components(tets, bad[seeds]), key=lambda cells: float(volumes[cells].sum())):
-        if removed[seed].any():
-            continue
-        spent = float(volumes[removed].sum())
-        grown = _zone(tets, incidence, seed, removed, on_boundary, shallow, thin, volumes,
-                      min(ZONE_SHARE * total, budget - spent))
-        if grown is None:
-            continue
-        zone, exposed = grown
-        trial = removed.copy()
-        trial[zone] = True
-        moved = _surfaced(points, tets, incidence, trial, exposed[~fixed[exposed]], model)
-        if moved is None:
-            continue
-        points, removed = moved, trial
-        on_boundary[exposed] = True
-        measured = np.array([by_cell[c] for c in seed.tolist()])
-        found.append((centroids[zone].mean(axis=0), float(np.median(measured[:, 0])), float(measured[:, 1].max())))
-        zones.append((zone, exposed[~fixed[exposed]]))
-    if found:
-        points, removed, found = _keep_joined(original, points, tets, removed, zones, found)
-    if not found:
-        return original, tets, Trimmed.none()
+    ordered = sorted(_face_components(tets, bad[seeds]), key=lambda cells: float(volumes[cells].sum()))
+
+    def search(banned: np.ndarray) -> tuple:
+        """The zones grown from the seeds not ``banned``, one after the other, each on the
+        boundary the ones before it left."""
+        moved, removed, surface = points, np.zeros(len(tets), dtype=bool), on_boundary.copy()
+        found, zones, used = [], [], []
+        for number, seed in enumerate(ordered):
+            if banned[number] or removed[seed].any():
+                continue
+            spent = float(volumes[removed].sum())
+            grown = _zone(tets, incidence, seed, removed, surface, shallow, thin, volumes,
+                          min(ZONE_SHARE * total, budget - spent))
+            if grown is None:
+                continue
+            zone, exposed = grown
+            trial = removed.copy()
+            trial[zone] = True
+            surfaced = _surfaced(moved, tets, incidence, trial, exposed[~fixed[exposed]], model)
+            if surfaced is None:
+                continue
+            moved, removed = surfaced, trial
+            surface[exposed] = True
+            measured = np.array([by_cell[c] for c in seed.tolist()])
+            found.append((centroids[zone].mean(axis=0), float(np.median(measured[:, 0])), float(measured[:, 1].max())))
+            zones.append(zone)
+            used.append(number)
+        return moved, removed, found, zones, used
+
+    # a zone that cuts the mesh in pieces is never given up: its seed is left out and the zones
+    # are grown again (put back alone, a zone grown after it could leave a pinch where they met)
+    banned = np.zeros(len(ordered), dtype=bool)
+    for _ in range(JOIN_TRIES):
+        moved, removed, found, zones, used = search(banned)
+        if not found:
+            return points, tets, Trimmed.none()
+        cutting = _cutting(tets, len(points), removed, zones)
+        if not cutting.any():
+            break
+        banned[np.asarray(used)[cutting]] = True
+    else:
+        return points, tets, Trimmed.none()
+    points = moved
     centres, thick, sizes = (np.array(column) for column in zip(*found))
     return points, tets[~removed], Trimmed(int(removed.sum()), float(volumes[removed].sum()), centres.reshape(-1, 3), thick, sizes)
 
