@@ -5,7 +5,8 @@ where its model does; a new user's SolidWorks STL (trimesh's ``ADIS16480.STL``) 
 more, each the four faces of one missing cell 0.2 h inside the material, and nothing said so
 (its exported ``boundary`` set held their faces too). :func:`unmodelled_cavities` finds the
 inner boundary pieces (faces joined through edges whose enclosed volume is negative: they face
-into the void) whose middle the model puts inside the part.
+into the void) whose middle the model puts inside the part, and most of whose faces (by area)
+have the model's material just beyond them, in the void.
 """
 
 from __future__ import annotations
@@ -53,11 +54,20 @@ def unmodelled_cavities(points: np.ndarray, faces: np.ndarray, model, h: float) 
     corners = points[faces]
     signed = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) / 6.0
     enclosed = np.bincount(labels, weights=signed, minlength=count)
+    # a probe a little into the void from each face (the faces' normals point out of the mesh):
+    # a void the model has is outside it there, whatever its middle (a gyroid's labyrinth closed
+    # in a shell has its middle in the material)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    areas = np.linalg.norm(normals, axis=1)
+    probes = corners.mean(axis=1) + CAVITY_DEPTH * h * normals / np.maximum(areas, 1e-300)[:, None]
     found = []
     for label in np.flatnonzero(enclosed < 0):
         chosen = labels == label
         middle = corners[chosen].reshape(-1, 3).mean(axis=0)
-        if float(np.asarray(model(middle[None]), dtype=float)[0]) < -CAVITY_DEPTH * h:
+        if float(np.asarray(model(middle[None]), dtype=float)[0]) >= -CAVITY_DEPTH * h:
+            continue
+        inside = np.asarray(model(probes[chosen]), dtype=float) < 0
+        if areas[chosen][inside].sum() > 0.5 * areas[chosen].sum():
             found.append((middle, int(chosen.sum()), float(-enclosed[label])))
     return found
 
