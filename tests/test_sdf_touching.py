@@ -91,6 +91,24 @@ def test_surfaces_on_aligned_grids_have_no_coincident_vertices_or_degenerate_tri
     assert (check.components, check.genus, check.watertight, check.manifold) == (1, genus, True, True)
 
 
+@pytest.mark.parametrize("method", ["flying_edges", "marching_cubes", "marching_tetrahedra", "surface_nets"])
+@pytest.mark.parametrize("chunks", [None, 8])
+def test_nodes_a_rounding_error_off_the_level_are_welded(method, chunks):
+    # A label image's smoothed value at a node came out 1e-9 off its level: the crossings on the
+    # node's edges landed 6e-7 spacings apart, not on one point, and `fepre surface labels.vti
+    # --level 0.5` wrote 222 zero-area triangles. A box whose faces lie 6e-8 outside grid planes
+    # does the same; its vertices there are welded now, as for a node exactly on the level.
+    # (Dual contouring is left out: its own merging of cell vertices leaves this box open, as
+    # before; it is named in the design's open items.)
+    box = sdf.box((1 + 1.2e-7, 1.25 + 1.2e-7, 0.75 + 1.2e-7))
+    surface = fepre.isosurface(box, method=method, spacing=0.125, bounds=((-1, -1, -1), (1, 1, 1)), chunks=chunks)
+    check = fepre.check_surface(surface, box)
+    assert check.degenerate_triangles == 0
+    assert (check.components, check.genus, check.watertight, check.manifold) == (1, 0, True, True)
+    if method != "marching_tetrahedra":  # it cuts the box's edges and corners by its own diagonals
+        assert check.volume == pytest.approx(0.9375, rel=1e-6)
+
+
 def test_check_surface_counts_topology_as_a_reader_of_the_file_does(tmp_path):
     # Raw marching cubes output on an aligned grid keeps coincident vertices apart by their ids;
     # an STL reader merges them. check_surface now counts as the reader does.

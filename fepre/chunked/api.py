@@ -98,7 +98,7 @@ def isosurface_chunked(
         model=model,
     )
     points, triangles, on_level = surface_in_memory(tasks, progress)
-    points, triangles = clean_triangles(points, triangles, method, on_level, step)
+    points, triangles = clean_triangles(points, triangles, method, on_level, step, origin)
 
     def value_range():
         if isinstance(source, ChunkedGrid):

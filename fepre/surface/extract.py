@@ -175,7 +175,9 @@ def isosurface(
                 UserWarning,
             )
     points, triangles = _extract(method, grid, values, name, level, workers, model)
-    points, triangles = clean_triangles(points, triangles, method, bool((values == level).any()), grid.spacing)
+    points, triangles = clean_triangles(
+        points, triangles, method, bool((values == level).any()), grid.spacing, grid.origin
+    )
     return surface_dataset(
         points,
         triangles,
@@ -186,6 +188,12 @@ def isosurface(
         model=model,
         value_range=lambda: (float(values.min()), float(values.max())),
     )
+
+
+#: the weld's tolerance in grid spacings
+NEAR_LEVEL = 1e-6
+#: the methods whose vertices lie on grid edges (a node a hair off the level gathers them)
+_EDGE_METHODS = ("flying_edges", "marching_cubes", "marching_tetrahedra")
 
 
 def _sampled_source(source, model, spacing, shape, bounds, band, scalars, workers):
@@ -221,12 +229,15 @@ def _extract(method: str, grid, values: np.ndarray, name: str, level: float, wor
 
 
 def clean_triangles(
-    points: np.ndarray, triangles: np.ndarray, method: str, on_level: bool, spacing: Any
+    points: np.ndarray, triangles: np.ndarray, method: str, on_level: bool, spacing: Any, origin: Any = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The passes after extraction: weld where grid nodes lie on the level, then (for the
-    methods that make them) flip away triangles with three collinear corners."""
-    tolerance = 1e-6 * float(np.min(spacing))
-    if points.shape[0] and on_level:
+    """The passes after extraction: weld where grid nodes lie on the level (or so near it that
+    the crossings on their edges land within the weld's tolerance of the node: a label image's
+    smoothed value a rounding error off the level), then (for the methods that make them) flip
+    away triangles with three collinear corners."""
+    tolerance = NEAR_LEVEL * float(np.min(spacing))
+    near_node = method in _EDGE_METHODS and origin is not None and _vertex_at_node(points, origin, spacing, tolerance)
+    if points.shape[0] and (on_level or near_node):
         # nodes on the level: the crossings on their edges coincide
         points, triangles = weld(np.asarray(points), np.asarray(triangles), tolerance)
     if len(triangles) and method in _COLLINEAR_METHODS:
@@ -234,6 +245,14 @@ def clean_triangles(
         # edge): flipped away, the surface unchanged
         points, triangles = remove_zero_area(np.asarray(points), np.asarray(triangles), tolerance)
     return points, triangles
+
+
+def _vertex_at_node(points: np.ndarray, origin: Any, spacing: Any, tolerance: float) -> bool:
+    """Whether a vertex lies within ``tolerance`` of a grid node (a node all but on the level)."""
+    step = np.asarray(spacing, dtype=float)
+    cells = (np.asarray(points, dtype=float) - np.asarray(origin, dtype=float)) / step
+    off = np.abs(cells - np.rint(cells)) * step
+    return bool(np.any(np.all(off <= tolerance, axis=1)))
 
 
 def surface_dataset(
