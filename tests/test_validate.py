@@ -159,6 +159,46 @@ def test_the_volume_check():
     assert 39 <= off <= 44
 
 
+def test_the_volume_check_takes_a_closed_triangle_models_own_volume():
+    # A thin-walled tube was refused "-73% off the model's 284.016", the grid's estimate, where
+    # the model's own volume is 277.915: a closed triangle model's volume is exact.
+    import pyvista as pv
+
+    points, tets = block(4, size=1.0)
+    model = sdf.mesh(pv.Cube(center=(0.35, 0.5, 0.5), x_length=0.7, y_length=1.0, z_length=1.0))
+    found = {d.check: d for d in mesh_defects(points, tets, model, 1.0, bounds=(np.full(3, -0.2), np.full(3, 1.2)))}
+    assert "+43% off the model's 0.7 " in found["volume"].cause
+    # a box that cuts the model: the estimate in the box
+    cut = {d.check: d for d in mesh_defects(points, tets, model, 1.0, bounds=(np.full(3, 0.1), np.full(3, 1.2)))}
+    assert "off the model's 0.7 " not in cut["volume"].cause
+
+
+@pytest.mark.filterwarnings("ignore::fepre.errors.ResolutionWarning", "ignore::fepre.errors.FeatureWarning")
+def test_a_graded_mesh_refused_names_what_its_size_field_could_not_resolve():
+    # A tube with a 0.3 wall, graded at (D/50, D/12), was refused by the final mesh with "try a
+    # smaller h" only, though its size field had named the wall. The refusal names it, where the
+    # user placed the part, and the hmin it needs.
+    from fepre.distmesh.pipeline import _name_unresolved
+
+    plate = sdf.box((4.0, 4.0, 0.3), center=(1e4, 0.0, 0.0))
+    field = fepre.size_field(plate, 0.6, 2.0)
+    # the wall, and the plate's edges 0.3 apart
+    assert sorted(kind for *_, kind in field.unresolved) == ["edges", "wall"]
+    [(wanted, point, thickness, kind)] = [place for place in field.unresolved if place[3] == "wall"]
+    assert thickness == pytest.approx(0.3, abs=0.01) and wanted == pytest.approx(0.1, abs=0.005)
+    assert abs(point[0] - 1e4) <= 2.0
+    job = MeshingJob(model=plate, given_model=plate, h=field.hmin, size=field, options=DistMeshOptions(), absolute=True)
+    refused = MeshingError("DistMesh could not choose a valid solid (...); try a smaller h")
+    _name_unresolved(refused, job)
+    assert str(refused).startswith("DistMesh could not choose a valid solid (...); the size field named 2 place(s)")
+    assert str(refused).endswith(f"a wall {thickness:.3g} thick at ({point[0]:.6g}, {point[1]:.6g}, "
+                                 f"{point[2]:.6g}) would need {wanted:.3g}: pass hmin <= {wanted:.3g}")
+    # a uniform h has no field: the message stays
+    plain = MeshingError("... try a smaller h")
+    _name_unresolved(plain, MeshingJob(model=plate, given_model=plate, h=0.6, size=None, options=DistMeshOptions()))
+    assert str(plain) == "... try a smaller h"
+
+
 def _job(points, tets, model, h):
     job = MeshingJob(model=model, given_model=model, h=h, size=None, options=DistMeshOptions())
     job.points, job.tets, job.fixed_mask = points, tets, np.zeros(len(points), bool)

@@ -351,17 +351,25 @@ def finer_for_volume(h: float, error: float) -> float:
     return h * float(np.sqrt(VOLUME_AIM / abs(error)))
 
 
-def _mesh_model_volume(model) -> float | None:
-    """The exact volume of a triangle-mesh model, or of one seen through affine maps (a part
-    placed far from the origin is meshed as its translation), else None."""
+def mesh_model_volume(given, model, lower, upper) -> float | None:
+    """The exact volume of ``given``, a triangle-mesh model or one seen through affine maps (a
+    part placed far from the origin is meshed as its translation), when the domain box
+    ``lower``-``upper`` holds ``model``, the solid meshed (``given`` or ``given`` moved); else None.
+    Only a closed surface's solid is what it encloses (``inside="winding"`` spans are not)."""
     from ..sdf.meshmodel import MeshModel
     from ..sdf.transforms import Affine
 
     factor = 1.0
-    while isinstance(model, Affine):
-        factor *= abs(float(np.linalg.det(model.matrix[:3, :3])))
-        model = model.children[0]
-    return factor * abs(model.volume) if isinstance(model, MeshModel) else None
+    while isinstance(given, Affine):
+        factor *= abs(float(np.linalg.det(given.matrix[:3, :3])))
+        given = given.children[0]
+    if not isinstance(given, MeshModel) or given.inside != "closed" or not given.repaired.closed or model.bounds is None:
+        return None
+    bounds_lower, bounds_upper = (np.asarray(b, np.float64) for b in model.bounds)
+    slack = 1e-9 * float(np.max(bounds_upper - bounds_lower))
+    if (np.asarray(lower) > bounds_lower + slack).any() or (np.asarray(upper) < bounds_upper - slack).any():
+        return None
+    return factor * abs(given.volume)
 
 
 def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, upper, h: float, graded: bool) -> str | None:
@@ -388,11 +396,8 @@ def volume_message(given, model, points: np.ndarray, tets: np.ndarray, lower, up
     """
     from ..quality import signed_volumes
 
-    exact = _mesh_model_volume(given)
-    if exact is None or len(tets) == 0 or model.bounds is None:
-        return None
-    bounds_lower, bounds_upper = (np.asarray(b, np.float64) for b in model.bounds)
-    if (np.asarray(lower) > bounds_lower + 1e-9 * h).any() or (np.asarray(upper) < bounds_upper - 1e-9 * h).any():
+    exact = mesh_model_volume(given, model, lower, upper)
+    if exact is None or len(tets) == 0:
         return None
     meshed = float(signed_volumes(points, tets).sum())
     error = meshed / exact - 1.0

@@ -43,11 +43,12 @@ def _resolve_sizes(model: SDF, h: Any, size: Any, bounds: Any, regions: Any = No
         pair = np.asarray(h, dtype=object).reshape(-1)
         if pair.size != 2:
             raise ValueError(f"h must be a number or a pair (hmin, hmax); got {shown(h)}")
-        with one_warning():  # the part's and each region's field name a wall they share once
+        with one_warning() as named:  # the part's and each region's field name a wall they share once
             field = size_field(model, pair[0], pair[1], bounds=bounds)
             if isinstance(regions, dict) and len(regions) > 1:
                 own = [region if getattr(region, "within", None) is model else model & region for region in regions.values()]
                 field = field.minimum(*(size_field(part, pair[0], pair[1], bounds=bounds) for part in own))
+        field.unresolved = named
         if size is not None:
             field = field.minimum(_as_field(size, model, bounds) if isinstance(size, pv.DataSet) else size)
         return field.hmin, field, True

@@ -393,8 +393,30 @@ def run_pipeline(job: MeshingJob):
             stage(job)
         return STAGES[-1](job)
     except MeshingError as exc:
+        _name_unresolved(exc, job)
         for constraint in job.constraints:
             note = constraint.failure_note(job)
             if note and hasattr(exc, "add_note"):  # Python 3.11
                 exc.add_note(note)
         raise
+
+
+def _name_unresolved(exc: MeshingError, job: MeshingJob) -> None:
+    """A refusal that ends in "try a smaller h" from a mesh graded by a size field that named
+    places needing sizes below its hmin: the advice names the thinnest and the hmin it needs."""
+    message = str(exc)
+    places = getattr(job.size, "unresolved", None) if job.absolute else None
+    if not places or not message.endswith("try a smaller h"):
+        return
+    from ..sizing.under_hmin import named_place
+
+    sized = sorted((place for place in places if place[0] > 0), key=lambda place: place[0])
+    hmin = job.size.hmin
+    if sized:
+        advice = (f"the size field named {len(places)} place(s) thinner than its hmin={hmin:.4g} resolves, the "
+                  f"thinnest {named_place(*sized[0], hmin)}: pass hmin <= {sized[0][0]:.3g}")
+    else:
+        advice = (f"the size field named {len(places)} place(s) no element size resolves, "
+                  f"{named_place(*places[0], hmin)}: thicken, trim or join them in the model")
+    exc.args = (message[: -len("try a smaller h")] + advice,) + exc.args[1:]
+

@@ -236,10 +236,16 @@ def _refine_thin_cells(share, values, reach, axes, widths, model) -> None:
 
 
 def _volume_check(points, tets, model, lower, upper, defects) -> None:
-    """The mesh's volume against a grid estimate of the model's in the box (each sample cell
-    counted by the share ``1/2 - sdf/reach`` of it inside, clipped to [0, 1], ``reach`` the
-    cell's extent along the normal)."""
+    """The mesh's volume against the model's: a triangle-mesh model's own where the box holds
+    it, else a grid estimate in the box (each sample cell counted by the share ``1/2 - sdf/reach``
+    of it inside, clipped to [0, 1], ``reach`` the cell's extent along the normal)."""
+    from .lost_material import mesh_model_volume
+
     lower, upper = np.asarray(lower, np.float64), np.asarray(upper, np.float64)
+    exact = mesh_model_volume(model, model, lower, upper)
+    if exact is not None:
+        _compare_volume(points, tets, model, exact, defects)
+        return
     extent = np.maximum(upper - lower, 1e-300)
     samples = int(np.clip(len(tets) // _CELLS_PER_SAMPLE, *_VOLUME_SAMPLES))
     step = float(np.cbrt(np.prod(extent) / samples))
@@ -259,7 +265,10 @@ def _volume_check(points, tets, model, lower, upper, defects) -> None:
     reach = np.clip(np.where(reach > 0, reach, widths.max()), widths.min(), widths.max())
     share = np.clip(0.5 - values / reach, 0.0, 1.0)
     _refine_thin_cells(share, values, reach, axes, widths, model)
-    expected = float(share.sum() * np.prod(widths))
+    _compare_volume(points, tets, model, float(share.sum() * np.prod(widths)), defects)
+
+
+def _compare_volume(points, tets, model, expected: float, defects) -> None:
     volume = float(signed_volumes(points, tets).sum())
     if expected > 0 and abs(volume - expected) > VOLUME_BOUND * expected:
         centroids = points[tets].mean(axis=1)

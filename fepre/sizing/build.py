@@ -170,9 +170,11 @@ def size_field(
     seeds, normal = _surface_seeds(model, near, axes, counts, hmin)
     # the mesher's feature search at h = hmin takes this one's creases (fepre.features, creases=)
     found = _features(model, hmin, (lower, upper)) if features else None
-    points, wanted = _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance, found, spacing)
+    points, wanted, unresolved = _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_tolerance,
+                                               found, spacing)
     field = _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation)
     field.seconds = time.perf_counter() - start
+    field.unresolved = unresolved
     field.creases = None if found is None else found.creases
     return field
 
@@ -308,8 +310,7 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
         sizes_at.append(np.clip(feature_wanted, hmin, hmax))
         close = feature_wanted < NAMED_BELOW * hmin
         places += under_hmin("edges", feature_seeds[close], feature_wanted[close], feature_wanted[close], reach)
-    warn_under_hmin(places, hmin)
-    return np.concatenate(points), np.concatenate(sizes_at)
+    return np.concatenate(points), np.concatenate(sizes_at), warn_under_hmin(places, hmin)
 
 
 def _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation) -> SizeField:

@@ -67,6 +67,10 @@ class SizeField:
         #: feature search on the same grid takes it instead of searching again (not carried
         #: over to moved, clipped or combined fields)
         self.creases = None
+        #: the places :func:`fepre.size_field` names as needing sizes below its hmin, in the
+        #: user's frame: ``(size wanted, point, thickness or width, kind)`` with kind one of
+        #: "wall", "gap", "edges", "knife", "touching" (the last two without a size: 0)
+        self.unresolved: list[tuple] = []
 
     # ------------------------------------------------------------------ the field
     @property
@@ -132,7 +136,9 @@ class SizeField:
             if nodes is None:
                 nodes = self.nodes()
             np.minimum(values, evaluate_size(other, nodes).reshape(values.shape), out=values)
-        return SizeField(self.origin, self.spacing, values)
+        combined = SizeField(self.origin, self.spacing, values)
+        combined.unresolved = self.unresolved + [place for other in others for place in getattr(other, "unresolved", [])]
+        return combined
 
     def translated(self, offset: Any) -> "SizeField":
         """The same sizes moved by ``offset`` (the grid's origin moved; a background mesh's
@@ -147,6 +153,7 @@ class SizeField:
         offset = np.asarray(offset, dtype=np.float64).reshape(3)
         moved = SizeField(self.origin + offset, self.spacing, self.values)
         moved.seconds = self.seconds
+        moved.unresolved = self.unresolved  # named in the user's frame already
         if self.coverage is not None:
             moved.coverage = _Coverage(self.coverage.mesh.translate(tuple(offset), inplace=False))
         return moved
@@ -155,7 +162,9 @@ class SizeField:
         """The field with its sizes clamped to ``[hmin, hmax]``."""
         if not (0 < hmin <= hmax):
             raise ValueError(f"clip needs 0 < hmin <= hmax; got hmin={shown(hmin)}, hmax={shown(hmax)}")
-        return SizeField(self.origin, self.spacing, np.clip(self.values, hmin, hmax))
+        clipped = SizeField(self.origin, self.spacing, np.clip(self.values, hmin, hmax))
+        clipped.unresolved = [place for place in self.unresolved if place[0] < hmin or place[0] == 0]
+        return clipped
 
     # ------------------------------------------------------------------ images and meshes
     def to_image(self, name: str = "size"):

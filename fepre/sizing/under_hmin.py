@@ -17,7 +17,7 @@ import numpy as np
 
 from ..placement import in_user_frame
 
-__all__ = ["under_hmin", "warn_under_hmin", "one_warning", "MAX_NAMED"]
+__all__ = ["under_hmin", "warn_under_hmin", "one_warning", "named_place", "MAX_NAMED"]
 
 #: features named in the warning about sizes below hmin, at most
 MAX_NAMED = 8
@@ -45,22 +45,24 @@ def under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.nd
     return places
 
 
-def warn_under_hmin(places: list[tuple], hmin: float) -> None:
+def warn_under_hmin(places: list[tuple], hmin: float) -> list[tuple]:
     """One ResolutionWarning naming every feature that would need sizes below hmin (inside
-    :func:`one_warning`: gathered for it instead). The places are taken to the user's frame now."""
+    :func:`one_warning`: gathered for it instead). The places are taken to the user's frame now,
+    and returned so."""
     placed = [(size, np.asarray(in_user_frame(point), dtype=np.float64), measure, kind) for size, point, measure, kind in places]
     gathered = _GATHERED.get()
     if gathered is not None:
         gathered.append((placed, hmin))
-        return
+        return placed
     _warn(placed, hmin)
+    return placed
 
 
 @contextmanager
-def one_warning() -> Iterator[None]:
+def one_warning() -> Iterator[list[tuple]]:
     """Size fields built inside name their features in one warning, at the end, each feature
     once: a place of one field within ``2 hmin`` of a place of the same kind that another field
-    named before is left out.
+    named before is left out. Yields a list that holds the places named, once it ends.
 
     Examples
     --------
@@ -75,8 +77,9 @@ def one_warning() -> Iterator[None]:
     1
     """
     token = _GATHERED.set([])
+    named: list[tuple] = []
     try:
-        yield
+        yield named
         gathered = _GATHERED.get()
     finally:
         _GATHERED.reset(token)
@@ -88,6 +91,7 @@ def one_warning() -> Iterator[None]:
         new = [place for place in places
                if not any(other[3] == place[3] and np.linalg.norm(other[1] - place[1]) <= 2.0 * hmin for other in kept)]
         kept.extend(new)
+    named.extend(kept)
     _warn(kept, hmin)
 
 
@@ -97,7 +101,7 @@ def _warn(places: list[tuple], hmin: float) -> None:
     from ..errors import ResolutionWarning, warn_user
 
     places = sorted(places, key=lambda place: place[0])
-    lines = [_named(size, point, measure, kind, hmin) for size, point, measure, kind in places[:MAX_NAMED]]
+    lines = [named_place(size, point, measure, kind, hmin) for size, point, measure, kind in places[:MAX_NAMED]]
     if len(places) > MAX_NAMED:
         lines.append(f"and {len(places) - MAX_NAMED} more")
     sized = [kind for _, _, _, kind in places if kind not in _NO_SIZE]
@@ -118,7 +122,8 @@ def _warn(places: list[tuple], hmin: float) -> None:
 _NO_SIZE = ("knife", "touching")
 
 
-def _named(size: float, point: np.ndarray, measure: float, kind: str, hmin: float) -> str:
+def named_place(size: float, point: np.ndarray, measure: float, kind: str, hmin: float) -> str:
+    """One place as the warning names it: "a wall 0.3 thick at (x, y, z) would need 0.1"."""
     where = "(" + ", ".join(f"{c:.6g}" for c in point) + ")"
     if kind == "wall":
         return f"a wall {measure:.3g} thick at {where} would need {size:.3g}"
