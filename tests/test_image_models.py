@@ -4,6 +4,9 @@ projection), the image's border, anisotropic spacing, files and bad input."""
 
 from __future__ import annotations
 
+import re
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -257,3 +260,46 @@ def ball_image_file(tmp_path):
     grid.point_data["v"] = np.linalg.norm(grid.points - 1.75, axis=1)
     grid.save(tmp_path / "ball.vti")
     return tmp_path / "ball.vti"
+
+
+def _noisy_block(smoothing: float):
+    """A CT-like block 6 x 4 x 8 (thinnest side 4) with noise of 4% of the contrast, voxels
+    0.1 x 0.1 x 0.25, far from the origin (a new user's trial)."""
+    spacing, counts, origin = np.array([0.1, 0.1, 0.25]), np.array([90, 70, 48]), np.array([120.0, -340.0, 875.0])
+    x, y, z = np.meshgrid(*[origin[a] + spacing[a] * np.arange(counts[a]) for a in range(3)], indexing="ij")
+    centre = origin + spacing * (counts - 1) / 2
+    q = np.stack([abs(x - centre[0]) - 3.0, abs(y - centre[1]) - 2.0, abs(z - centre[2]) - 4.0])
+    box = np.linalg.norm(np.maximum(q, 0), axis=0) + np.minimum(q.max(0), 0)
+    noise = np.random.default_rng(1).normal(0, 40, box.shape)
+    grey = np.round(1000.0 / (1 + np.exp(box / 0.05)) + 20 + noise).astype(np.int16)
+    return sdf.image(grey, level=500, spacing=spacing, origin=origin, smoothing=smoothing)
+
+
+def test_walls_a_few_voxels_across_on_an_unsmoothed_image_are_named_as_maybe_noise():
+    from fepre.sizing.build import _noise_note
+
+    image = sdf.image(np.pad(np.ones((6, 6, 6)), 2), level=0.5, spacing=(0.25, 0.1, 0.1))
+    nub = [(0.118, np.zeros(3), 0.355, "wall")]
+    assert "smoothing=1 (fepre mesh --smoothing 1)" in _noise_note(image, nub)
+    assert "(0.25) across" in _noise_note(image.translate((1e4, 0, 0)), nub)  # a part moved to its local frame
+    assert _noise_note(image, [(0.4, np.zeros(3), 1.2, "wall")]) == ""  # over 4 voxels: a wall
+    assert _noise_note(image, [(0.1, np.zeros(3), 0.1, "edges")]) == ""
+    smoothed = sdf.image(np.pad(np.ones((6, 6, 6)), 2), level=0.5, spacing=(0.25, 0.1, 0.1), smoothing=1)
+    assert _noise_note(smoothed, nub) == ""
+    assert _noise_note(sdf.box((1, 1, 1)), nub) == ""
+
+
+@pytest.mark.slow
+def test_a_noisy_blocks_edge_is_named_with_the_smoothing_that_evens_it():
+    # A noisy CT block's 90 degree edge was named "a wall 0.355 thick" with advice to pass a
+    # smaller hmin; the nub is the noise's, and smoothing=1 evens it out.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fepre.size_field(_noisy_block(0.0), 0.15, 0.8)
+    [named] = [str(w.message) for w in caught if "size field stops" in str(w.message)]
+    assert re.search(r"a wall 0\.3\d+ thick at \(127\.\d+, -338\.\d+, 879\.\d+\)", named)
+    assert named.endswith("smoothing=1 (fepre mesh --smoothing 1) evens them out")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fepre.size_field(_noisy_block(1.0), 0.15, 0.8)
+    assert not [w for w in caught if "size field stops" in str(w.message)]

@@ -310,7 +310,29 @@ def _wanted_sizes(model, seeds, normal, hmin, hmax, elements_across, chord_toler
         sizes_at.append(np.clip(feature_wanted, hmin, hmax))
         close = feature_wanted < NAMED_BELOW * hmin
         places += under_hmin("edges", feature_seeds[close], feature_wanted[close], feature_wanted[close], reach)
-    return np.concatenate(points), np.concatenate(sizes_at), warn_under_hmin(places, hmin)
+    return np.concatenate(points), np.concatenate(sizes_at), warn_under_hmin(places, hmin, _noise_note(model, places))
+
+
+#: walls and gaps named on an image read without smoothing, up to this many voxels across, may be noise
+NOISE_VOXELS = 4.0
+
+
+def _noise_note(model: SDF, places: list[tuple]) -> str:
+    """The note for walls and gaps a few voxels across on an image read without smoothing: a
+    noisy scan's level set has nubs and dimples that size (a 90 degree edge of a CT block was
+    named "a wall 0.355 thick", 1.4 of its largest voxel side)."""
+    from ..sdf.imagemodel import ImageModel
+
+    while not isinstance(model, ImageModel) and model.children and (
+            len(model.children) == 1 or isinstance(model.children[0], ImageModel)):
+        model = model.children[0]  # through a move and the image's box
+    if not isinstance(model, ImageModel) or model.smoothing:
+        return ""
+    voxel = float(np.max(model.spacing))
+    if not any(kind in ("wall", "gap") and measure <= NOISE_VOXELS * voxel for _, _, measure, kind in places):
+        return ""
+    return (f"; on an image read without smoothing, walls and gaps a few voxels ({voxel:g}) across can be its "
+            "noise: smoothing=1 (fepre mesh --smoothing 1) evens them out")
 
 
 def _graded_field(points, wanted, lower, upper, spacing, counts, hmin, hmax, gradation) -> SizeField:

@@ -45,16 +45,16 @@ def under_hmin(kind: str, points: np.ndarray, measure: np.ndarray, wanted: np.nd
     return places
 
 
-def warn_under_hmin(places: list[tuple], hmin: float) -> list[tuple]:
+def warn_under_hmin(places: list[tuple], hmin: float, note: str = "") -> list[tuple]:
     """One ResolutionWarning naming every feature that would need sizes below hmin (inside
-    :func:`one_warning`: gathered for it instead). The places are taken to the user's frame now,
-    and returned so."""
+    :func:`one_warning`: gathered for it instead), ``note`` at its end. The places are taken to
+    the user's frame now, and returned so."""
     placed = [(size, np.asarray(in_user_frame(point), dtype=np.float64), measure, kind) for size, point, measure, kind in places]
     gathered = _GATHERED.get()
     if gathered is not None:
-        gathered.append((placed, hmin))
+        gathered.append((placed, hmin, note))
         return placed
-    _warn(placed, hmin)
+    _warn(placed, hmin, note)
     return placed
 
 
@@ -85,17 +85,18 @@ def one_warning() -> Iterator[list[tuple]]:
         _GATHERED.reset(token)
     if not gathered:
         return
-    hmin = min(h for _, h in gathered)
+    hmin = min(h for _, h, _ in gathered)
+    note = next((note for _, _, note in gathered if note), "")
     kept: list[tuple] = []
-    for places, _ in gathered:
+    for places, _, _ in gathered:
         new = [place for place in places
                if not any(other[3] == place[3] and np.linalg.norm(other[1] - place[1]) <= 2.0 * hmin for other in kept)]
         kept.extend(new)
     named.extend(kept)
-    _warn(kept, hmin)
+    _warn(kept, hmin, note)
 
 
-def _warn(places: list[tuple], hmin: float) -> None:
+def _warn(places: list[tuple], hmin: float, note: str = "") -> None:
     if not places:
         return
     from ..errors import ResolutionWarning, warn_user
@@ -113,7 +114,7 @@ def _warn(places: list[tuple], hmin: float) -> None:
                       "join them in the model, or accept flat cells there")
     warn_user(
         f"the size field stops at hmin={hmin:g}; {len(places)} feature(s) would need smaller elements: "
-        + "; ".join(lines) + " (" + "; ".join(advice) + ")",
+        + "; ".join(lines) + " (" + "; ".join(advice) + ")" + note,
         ResolutionWarning,
     )
 
