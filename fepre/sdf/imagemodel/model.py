@@ -230,7 +230,9 @@ def image(
     vertices, faces, touches = level_surface(field, fine_spacing, data.origin, pad=pad,
                                              outside=outside_value(low, high, level))
     found = None
-    if partial_volume:
-        vertices, found = volume_shift(data, level, inside, vertices, faces, touches)
+    if partial_volume:  # repaired first: moved, the zero-area triangles of nodes on the level would stay
+        cleaned = repair(vertices, faces, level_set=True, coincident=on_level)
+        vertices, found = volume_shift(data, level, inside, cleaned.vertices, cleaned.faces, touches)
+        faces = cleaned.faces
     return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
                        features=features, on_level=on_level, partial_volume=found)
