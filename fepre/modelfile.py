@@ -176,6 +176,11 @@ def _load_solids(path: Path, names: dict, inside: str) -> ModelFile:
     return ModelFile(path=path, model=regions.part, regions=dict(regions))
 
 
+#: the options of an image MODEL (``load_model(image=)``'s keys) and their flags
+_IMAGE_FLAGS = {"smoothing": "--smoothing", "partial_volume": "--partial-volume", "spacing": "--voxel-size",
+                "origin": "--origin", "labels": "--labels"}
+
+
 def _is_image(path: Path) -> bool:
     from .sdf.imagemodel import IMAGE_SUFFIXES
 
@@ -240,6 +245,10 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if image_inside in ("above", "below"):
         raise ModelFileError(f"model file {path}: --inside {image_inside} applies to images only; a surface mesh file "
                              "takes --inside closed or winding")
+    given = [flag for key, flag in _IMAGE_FLAGS.items() if (image or {}).get(key) not in (None, False)]
+    if given:
+        raise ModelFileError(f"model file {path}: {', '.join(given)} applies to images (.vti, .nii, .nii.gz, .tif, "
+                             f".zarr) only; {path.name} is not one")
     if path.suffix.lower() in MESH_SUFFIXES:
         return _load_mesh_file(path, inside)
     if inside != "closed":

@@ -101,6 +101,7 @@ def test_mesh_of_a_label_image(tmp_path, capsys):
         (["--label", "1=x"], "--label names a region of a label image: add --labels"),
         (["--labels", "--label", "1:x"], "--label must be VALUE=NAME with an integer VALUE"),
         (["--labels"], "holds 1 label besides the background 0"),
+        (["--labels", "--partial-volume"], "--partial-volume is for a grey image; a label image (--labels) has no"),
     ],
 )
 def test_label_errors(scan, tmp_path, capsys, arguments, message):
@@ -136,3 +137,23 @@ def test_a_tiff_stack_without_a_voxel_size_says_so_and_takes_one(tmp_path, capsy
                  "--origin", "-1", "-1", "-0.4", "-o", str(out)]) == 0
     assert "voxels of 0.1 x 0.1 x 0.1," in capsys.readouterr().err
     assert pv.read(out).volume == pytest.approx(TORUS_VOLUME, rel=0.03)
+
+
+def test_partial_volume_from_the_command_line(scan, capsys, tmp_path):
+    # the torus at 20 voxels across its tube: its surface holds the shares' volume, and the
+    # header line says what was found
+    out = tmp_path / "pv.stl"
+    assert main(["surface", str(scan), "--level", "500", "--partial-volume", "-o", str(out), "--no-check"]) == 0
+    err = capsys.readouterr().err
+    assert "partial volumes (background 0, material 1000): volume 1.066" in err and "the level set moved +0.0" in err
+    assert pv.read(out).volume == pytest.approx(TORUS_VOLUME, rel=0.002)
+
+
+@pytest.mark.parametrize("flags, named", [(["--smoothing", "1"], "--smoothing"), (["--partial-volume"], "--partial-volume"),
+                                          (["--origin", "0", "0", "0"], "--origin")])
+def test_image_flags_on_a_surface_mesh_file_are_refused(tmp_path, capsys, flags, named):
+    stl = tmp_path / "ball.stl"
+    pv.Sphere(radius=1.0).save(stl)
+    assert main(["mesh", str(stl), "--h", "0.5", "-o", str(tmp_path / "x.inp"), *flags]) == 1
+    assert f"{named} applies to images (.vti, .nii, .nii.gz, .tif, .zarr) only; ball.stl is not one" in capsys.readouterr().err
+    assert not (tmp_path / "x.inp").exists()

@@ -1,7 +1,8 @@
 """Images as models: partial-volume and label phantoms of analytic parts at several resolutions, meshed.
 
 Grey phantoms (each voxel's partial volume of the part, :mod:`fepre.sdf.imagemodel.phantoms`): a
-torus and a gyroid lattice in a box, each at 3-4 voxel sizes, as ``sdf.image(level=0.5)``. Printed
+torus and a gyroid lattice in a box, each at 3-4 voxel sizes, as ``sdf.image(level=0.5)`` and (rows
+``+pv``) with ``partial_volume=True``, the level set moved to hold the shares' volume. Printed
 per phantom and voxel size: the image model's time and triangles, the largest distance of its
 triangles' vertices from the true surface and the volume they enclose against the analytic one,
 then its mesh at a fixed ``h``: the largest distance of a boundary node from the true surface (in
@@ -70,17 +71,18 @@ def _grey(quick: bool) -> None:
     from .. import sdf
     from ..sdf.imagemodel.phantoms import partial_volume
 
-    print("grey phantoms: partial volumes, sdf.image(level=0.5), meshed at a fixed h against the analytic part's mesh")
+    print("grey phantoms: partial volumes, sdf.image(level=0.5) and, +pv, with partial_volume=True (the level set moved to "
+          "hold the shares' volume), meshed at a fixed h against the analytic part's mesh")
     print(f"{'phantom':25s} {'voxel':>6s} {'image s':>7s} {'tris':>7s} {'vert/vox':>8s} {'vol err':>8s} {'h':>5s} "
           f"{'cells':>7s} {'node/vox':>8s} {'vs mesh':>8s} {'vs exact':>8s} {'min':>5s} {'max':>6s} {'rr':>5s} {'mesh s':>6s}")
     for name, model, (lower, upper), volume, h, voxels in _grey_phantoms(quick):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             exact = fepre.distmesh(model, h, progress=False)
-        for voxel in voxels:
+        for voxel, shares in ((voxel, shares) for voxel in voxels for shares in (False, True)):
             grid = partial_volume(model, lower, upper, voxel)
             start = time.perf_counter()
-            image = sdf.image(grid, level=0.5)
+            image = sdf.image(grid, level=0.5, partial_volume=shares)
             image_seconds = time.perf_counter() - start
             surface = image if isinstance(image, sdf.ImageModel) else image.children[0]
             vertex = float(np.abs(model(surface.vertices)).max()) / voxel
@@ -95,7 +97,7 @@ def _grey(quick: bool) -> None:
             versus = float(mesh["volume"].sum() / exact["volume"].sum() - 1)
             truth = float(mesh["volume"].sum() / volume - 1)
             low, high, ratio = _quality(mesh)
-            print(f"{name:25s} {voxel:6.3f} {image_seconds:7.2f} {len(surface.faces):7d} {vertex:8.3f} {error:8.4f} "
+            print(f"{name + (' +pv' if shares else ''):25s} {voxel:6.3f} {image_seconds:7.2f} {len(surface.faces):7d} {vertex:8.3f} {error:8.4f} "
                   f"{h:5.3f} {mesh.n_cells:7d} {node:8.3f} {versus:8.4f} {truth:8.4f} {low:5.1f} {high:6.1f} {ratio:5.2f} {seconds:6.1f}")
 
 
