@@ -181,6 +181,14 @@ _IMAGE_FLAGS = {"smoothing": "--smoothing", "partial_volume": "--partial-volume"
                 "origin": "--origin", "labels": "--labels"}
 
 
+def _refuse_image_options(path: Path, image: dict | None) -> None:
+    """A clear error for an image's option given with a model that is not an image."""
+    given = [flag for key, flag in _IMAGE_FLAGS.items() if (image or {}).get(key) not in (None, False)]
+    if given:
+        raise ModelFileError(f"model file {path}: {', '.join(given)} applies to images (.vti, .nii, .nii.gz, .tif, "
+                             f".zarr) only; {path.name} is not one")
+
+
 def _is_image(path: Path) -> bool:
     from .sdf.imagemodel import IMAGE_SUFFIXES
 
@@ -245,10 +253,7 @@ def load_model(path: str | os.PathLike, image: dict | None = None, *, inside: st
     if image_inside in ("above", "below"):
         raise ModelFileError(f"model file {path}: --inside {image_inside} applies to images only; a surface mesh file "
                              "takes --inside closed or winding")
-    given = [flag for key, flag in _IMAGE_FLAGS.items() if (image or {}).get(key) not in (None, False)]
-    if given:
-        raise ModelFileError(f"model file {path}: {', '.join(given)} applies to images (.vti, .nii, .nii.gz, .tif, "
-                             f".zarr) only; {path.name} is not one")
+    _refuse_image_options(path, image)
     if path.suffix.lower() in MESH_SUFFIXES:
         return _load_mesh_file(path, inside)
     if inside != "closed":

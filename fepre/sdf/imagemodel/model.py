@@ -80,8 +80,11 @@ def checked_level(name: str, level: Any, low: float, high: float) -> float:
     return level
 
 
-def checked_options(inside: Any, smoothing: Any, features: Any, refine: Any) -> tuple[float, float]:
+def checked_options(inside: Any, smoothing: Any, features: Any, refine: Any,
+                    partial_volume: Any = False) -> tuple[float, float]:
     """``smoothing`` and ``features`` as floats after checking every option of :func:`image`."""
+    if not isinstance(partial_volume, (bool, np.bool_)):
+        raise TypeError(f"partial_volume must be True or False; got {shown(partial_volume)}")
     if inside not in INSIDE:
         raise ValueError(f"inside must be 'above' or 'below' (which side of the level is the solid); got {shown(inside)}")
     smoothing = nonnegative_float(smoothing, "smoothing")
@@ -203,9 +206,7 @@ def image(
     >>> round(float(ball([0.0, 0.0, 0.0])), 2)      # the level set is the sphere of radius 0.7
     -0.7
     """
-    smoothing, features = checked_options(inside, smoothing, features, refine)
-    if not isinstance(partial_volume, (bool, np.bool_)):
-        raise TypeError(f"partial_volume must be True or False; got {shown(partial_volume)}")
+    smoothing, features = checked_options(inside, smoothing, features, refine, partial_volume)
     if chunks is not None or is_chunked_source(source):
         if partial_volume:
             raise ValueError("partial_volume applies to an image held in memory, not one read chunk by chunk "
