@@ -19,7 +19,8 @@ import numpy as np
 
 from ..config import config
 
-__all__ = ["LostRegion", "lost_material", "added_material", "material_checks", "lost_material_message", "added_material_message"]
+__all__ = ["LostRegion", "lost_material", "added_material", "material_checks", "material_candidates",
+           "lost_material_message", "added_material_message", "significant"]
 
 #: nodes at least this deep (times h) must be in the mesh
 _DEPTH = 0.1
@@ -175,12 +176,21 @@ def _sampled(model, points: np.ndarray, tets: np.ndarray, h: float) -> _Sampled:
 def material_checks(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> tuple[list[LostRegion], list[LostRegion]]:
     """:func:`lost_material` and :func:`added_material` from one sampled grid (a graded mesh's,
     ``size`` given: one grid per octave of its sizes, each over the zones of that octave)."""
+    lost, added, _ = material_candidates(model, points, tets, h, size)
+    return significant(lost, points, tets, h), significant(added, points, tets, h)
+
+
+def material_candidates(model, points: np.ndarray, tets: np.ndarray, h: float, size=None):
+    """Every region lost and added, largest first, whatever their volume (:func:`material_checks`
+    keeps those that hold ``_MIN_VOLUME h^3`` together), and the sampled grid when it is one over
+    the whole box: ``(lost, added, grid)`` (grid None for a graded mesh's zone grids)."""
     points = np.asarray(points, dtype=np.float64)
     grids = None if size is None else _zone_grids(model, points, tets, h, size)
     if grids is None:
         grids = [_sampled(model, points, tets, h)]
-    return tuple(_significant([r for g in grids for r in _candidate_regions(model, h, outside, size, g)], points, tets, h)
-                 for outside in (False, True))
+    lost, added = (sorted([r for g in grids for r in _candidate_regions(model, h, outside, size, g)],
+                          key=lambda region: -region.volume) for outside in (False, True))
+    return lost, added, grids[0] if len(grids) == 1 and grids[0].mine is None else None
 
 
 def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None,
@@ -193,7 +203,7 @@ def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, ou
 
     if sampled is None:
         sampled = _sampled(model, points, tets, h)
-    return _significant(_candidate_regions(model, h, outside, size, sampled), points, tets, h)
+    return significant(_candidate_regions(model, h, outside, size, sampled), points, tets, h)
 
 
 def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) -> list[LostRegion]:
@@ -263,7 +273,7 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
     return [LostRegion(tuple(float(c) for c in centre[r]), float(thickness[r]), float(volume[r])) for r in keep]
 
 
-def _significant(regions: list[LostRegion], points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
+def significant(regions: list[LostRegion], points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
     """``regions`` largest first, or none when together they hold less than ``_MIN_VOLUME h^3``
     and less than ``_MIN_SHARE`` of the mesh's volume."""
     if not regions:

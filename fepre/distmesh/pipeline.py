@@ -280,13 +280,22 @@ def _smaller_h(job: MeshingJob, found: list) -> str:
 def _material_checks(job: MeshingJob) -> tuple[list, list]:
     """The regions of material lost and added (:func:`~fepre.distmesh.lost_material.material_checks`),
     their places in the user's frame."""
-    from .lost_material import material_checks
+    from .lost_material import significant
 
-    lost, added = material_checks(job.model, job.points, job.tets, job.h, job.size if job.absolute else None)
+    lost, added, _ = _material_candidates(job)
+    return significant(lost, job.points, job.tets, job.h), significant(added, job.points, job.tets, job.h)
+
+
+def _material_candidates(job: MeshingJob) -> tuple[list, list, object]:
+    """Every region lost and added, whatever its volume, in the user's frame, and the checks'
+    grid (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
+    from .lost_material import material_candidates
+
+    lost, added, grid = material_candidates(job.model, job.points, job.tets, job.h, job.size if job.absolute else None)
     if job.frame_offset.any():
         lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
                        for found in (lost, added))
-    return lost, added
+    return lost, added, grid
 
 
 def check_mesh(job: MeshingJob) -> None:
@@ -294,7 +303,13 @@ def check_mesh(job: MeshingJob) -> None:
     from .lost_material import added_material_message, lost_material_message, volume_message
 
     o, loop, h = job.options, job.loop, job.h
-    lost, added = _material_checks(job) if o.check_resolution else ([], [])
+    lost, added, small_lost, small_added, grid = [], [], [], [], None
+    if o.check_resolution:
+        from .lost_material import significant
+
+        small_lost, small_added, grid = _material_candidates(job)
+        lost, added = (significant(found, job.points, job.tets, h) for found in (small_lost, small_added))
+        small_lost, small_added = ([] if big else small for big, small in ((lost, small_lost), (added, small_added)))
     if lost:
         warn_user(f"distmesh: {lost_material_message(lost, None if job.absolute else h)}", ResolutionWarning)
     if added:
@@ -305,6 +320,12 @@ def check_mesh(job: MeshingJob) -> None:
         from .topology import boundary_faces
 
         faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
+        if small_lost or small_added:  # under the volume floor: named where they change the topology
+            from .genus import genus_message
+
+            message = genus_message(faces, job.model, grid, small_lost, small_added, None if job.absolute else h)
+            if message:
+                warn_user(f"distmesh: {message}", ResolutionWarning)
         message = cavities_message(unmodelled_cavities(job.points, faces, job.model, h), job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
