@@ -195,7 +195,6 @@ def _section(name: str, comparison: Any, progress: Any) -> str:
             "</figcaption></figure>"
         )
     volume_note = f"Volume error relative to {comparison.volume_reference:.6g} ({html.escape(comparison.volume_source)})."
-    spacing = comparison.settings.get("surface_spacing")
     failures = "".join(
         f'<p class="bad">{html.escape(r.name)} failed: {html.escape(r.error)}</p>' for r in comparison.results if r.error
     ) + "".join(f'<p class="note">{html.escape(r.name)}: {html.escape(r.note)}</p>' for r in comparison.results if r.note) + (
@@ -206,9 +205,8 @@ def _section(name: str, comparison: Any, progress: Any) -> str:
     return f"""
 <h2 id="{html.escape(name)}">{html.escape(name)}</h2>
 <p>Target edge length h = {comparison.h:g}. {volume_note} Boundary fidelity: |model| at the boundary
-nodes of each mesh, and the two-sided Hausdorff distance between the mesh boundary and the
-{html.escape(str(comparison.settings.get("surface_method", "flying_edges")).replace("_", "-"))} surface at spacing
-{spacing:g} (the surface every reference meshed). Best values in bold.</p>
+nodes of each mesh, and the two-sided Hausdorff distance between the mesh boundary and
+{html.escape(comparison.surface_text())} (the surface every reference meshed). Best values in bold.</p>
 {_metrics_table(comparison)}
 {failures}
 <h3>Element quality</h3>

@@ -179,6 +179,26 @@ def test_a_file_without_an_edge_length_is_refused_before_it_is_read(tmp_path, ca
         assert "no edge length: pass --h" in err and "part.step" in err
 
 
+def test_edge_lengths_as_the_parts_diagonal_over_n(tmp_path, capsys):
+    # The hint said "--h D/20" and --h refused it ("invalid float value"): D/N is now an edge
+    # length, the diagonal of the part's box over N, said on the header line.
+    stl = tmp_path / "box.stl"
+    pv.Box(bounds=(0, 4, 0, 3, 0, 12)).triangulate().save(stl)  # diagonal 13
+    out = tmp_path / "box.vtu"
+    assert main(["mesh", str(stl), "--h", "D/10", "--hmax", "d/5", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "--h D/10: 1.3 (the part's box has a diagonal of 13)" in err and "--hmax D/5: 2.6" in err
+    assert "h from 1.3 to 2.6" in err
+    for flags, words in ((["--h", "D/0"], "argument --h: D/N needs a number N > 0"),
+                         (["--h", "D/fifty"], "argument --h: D/N needs a number N > 0"),
+                         (["--h", "half"], "argument --h: expected a length, or D/N")):
+        with pytest.raises(SystemExit):
+            main(["mesh", str(stl), *flags, "-o", str(tmp_path / "x.vtu")])
+        assert words in capsys.readouterr().err
+    assert main(["mesh", str(stl), "-o", str(tmp_path / "x.vtu")]) == 1
+    assert "or --h D/N for the part's bounding-box diagonal over N" in capsys.readouterr().err
+
+
 def test_missing_files_and_bad_usage(tmp_path, capsys):
     assert main(["mesh", str(tmp_path / "nope.py"), "-o", str(tmp_path / "x.inp")]) == 1
     assert "does not exist" in capsys.readouterr().err

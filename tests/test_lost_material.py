@@ -144,14 +144,15 @@ def _volume_warning(model, h):
 def test_a_triangle_mesh_model_meshed_short_of_its_volume_warns_with_the_h_that_keeps_it():
     """Issue 32: fertility at D/25 came out 3.7% short, arm 8.8%, with no warning naming an h
     (nothing there is thinner than h). The mesh's volume is now checked against the model's
-    exact one and the warning names the h that brings it to about 0.5% (the sag falls as h^2)."""
+    exact one and the warning names the h that brings it to about 0.5% (taking the error to fall
+    as h^1.5: a new user's quadknot fell as h^1.2, and the square law's h left it at 1.09%)."""
     model = _faceted_rod()
     h = float(np.linalg.norm(np.subtract(*model.bounds[::-1]))) / 25
     mesh, lines, named = _volume_warning(model, h)
     error = mesh.volume / model.volume - 1
     assert -0.08 < error < -0.01  # measured -5.3%
     assert len(lines) == 1 and f"{100 * abs(error):.1f}% short of the model's" in lines[0]
-    assert named[0] == pytest.approx(h * np.sqrt(0.005 / abs(error)), rel=0.02)
+    assert named[0] == pytest.approx(h * (0.005 / abs(error)) ** (1 / 1.5), rel=0.03)  # two digits
 
 
 def test_the_volume_warning_holds_far_from_the_origin_and_through_transforms():
@@ -288,3 +289,20 @@ def test_a_wall_punched_through_under_the_volume_floor_is_named_by_the_genus(mon
         assert re.search(r"about \d+ near \((5\d|6\d|7\d|8\d)\.\d+, (29|30)\.\d+, 1\d\.\d+\), 2\.5 thick", message)
     else:
         assert named == []
+
+
+def test_a_mesh_over_its_triangle_models_volume_is_explained_by_bridged_gaps():
+    # octagonal_pocket at D/25 came out 5.7% over, explained by "chords' sag, parts thinner than
+    # h are lost", which can only make a mesh short
+    import pyvista as pv
+
+    from fepre.distmesh.lost_material import volume_message
+
+    ball = sdf.mesh(pv.Sphere(radius=1.0, theta_resolution=64, phi_resolution=64))
+    unit = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], [0, 0, 0]], float)
+    cells = np.array([[6, 0, 2, 4], [6, 2, 1, 4], [6, 1, 3, 4], [6, 3, 0, 4], [6, 2, 0, 5], [6, 1, 2, 5], [6, 3, 1, 5],
+                      [6, 0, 3, 5]])
+    octahedron = 1.5 * unit  # 4.5 against the ball's 4.18
+    line = volume_message(ball, ball, octahedron, cells, (-2, -2, -2), (2, 2, 2), 1.0, False)
+    assert line.startswith("the mesh's volume is 7.7% over the model's (4.5 against 4.179)")
+    assert "gaps, pockets or holes narrower than h are bridged" in line and "chords' sag" not in line

@@ -337,15 +337,51 @@ def periods(values: list[float] | None):
     return values[0] if len(values) == 1 else tuple(values)
 
 
+def length(text: str) -> float | str:
+    """An argparse type for an edge length: a number, or ``D/N`` (the part's bounding-box
+    diagonal over N, resolved once the part is read: :func:`resolve_lengths`)."""
+    text = text.strip()
+    if text[:2].upper() == "D/":
+        try:
+            count = float(text[2:])
+        except ValueError:
+            count = float("nan")
+        if math.isfinite(count) and count > 0:
+            return f"D/{count:g}"
+        raise argparse.ArgumentTypeError(f"D/N needs a number N > 0 (D/50: 50 elements along the part's diagonal); "
+                                         f"got {text!r}")
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a length, or D/N for the part's bounding-box diagonal over N "
+                                         f"(e.g. 0.5 or D/50); got {text!r}") from None
+
+
+LENGTH_HELP = "; or D/N: the part's bounding-box diagonal over N"
+
+
+def resolve_lengths(args: argparse.Namespace, part) -> None:
+    """``--h`` and ``--hmax`` given as ``D/N``, as numbers: the diagonal of the part's box over N."""
+    for name in ("h", "hmax"):
+        value = getattr(args, name, None)
+        if isinstance(value, str):
+            lower, upper = part.domain_bounds()
+            diagonal = float(np.linalg.norm(np.subtract(upper, lower)))
+            setattr(args, name, diagonal / float(value[2:]))
+            if not getattr(args, "quiet", False):
+                say(f"--{name} {value}: {getattr(args, name):.6g} (the part's box has a diagonal of {diagonal:.6g})")
+
+
 def require_edge_length(args: argparse.Namespace) -> None:
     """A mesh, CAD or image file carries no edge length: without ``--h`` (or ``--size``) say so
     before the file is read (a STEP file's tessellation takes seconds)."""
     if args.h is None and getattr(args, "size", None) is None and not str(args.model).endswith(".py"):
-        raise ValueError(f"no edge length: pass --h, an edge length in the units of {args.model} (--h D/20 puts "
-                         "about 20 elements across a part D across)")
+        raise ValueError(f"no edge length: pass --h, an edge length in the units of {args.model}, or --h D/N for "
+                         "the part's bounding-box diagonal over N (--h D/50: about 50 elements along it)")
 
 
 def edge_length(args: argparse.Namespace, part) -> float:
+    resolve_lengths(args, part)
     h = args.h if args.h is not None else part.h
     if h is None:
         if part.path.suffix == ".py":

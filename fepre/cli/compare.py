@@ -13,7 +13,7 @@ HELP = "mesh a model file with fepre and reference meshers and compare them"
 
 def configure(parser: argparse.ArgumentParser) -> None:
     common.model_argument(parser)
-    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--h", type=common.length, help="target edge length (default: the model file's h)" + common.LENGTH_HELP)
     parser.add_argument("--report", help="write a self-contained HTML report here")
     parser.add_argument("--references", nargs="*", default=["pytetwild"], metavar="NAME",
                         help="reference meshers: pytetwild, gmsh (default: pytetwild)")

@@ -17,7 +17,7 @@ HELP = "mesh one periodic cell and compute its effective elastic stiffness in Ca
 def configure(parser: argparse.ArgumentParser) -> None:
     common.model_argument(parser)
     common.period_argument(parser, required=True)
-    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h)")
+    parser.add_argument("--h", type=common.length, help="target edge length (default: the model file's h)" + common.LENGTH_HELP)
     parser.add_argument("--E", type=float, required=True, help="Young's modulus of the solid")
     parser.add_argument("--nu", type=float, required=True, help="Poisson's ratio of the solid")
     parser.add_argument("--order", type=int, choices=(1, 2), default=2, help="C3D4 (1) or C3D10 (2, default)")

@@ -20,9 +20,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     common.label_arguments(parser)
     common.solid_arguments(parser)
     parser.add_argument("-o", "--output", required=True, help="solver file: .inp, .msh, .vtu, .xdmf, .bdf, .mesh, .med")
-    parser.add_argument("--h", type=float, help="target edge length (default: the model file's h); with --hmax, the smallest the size field gives "
-                        "(thinner walls and narrower gaps get it too, and are named in a warning)")
-    parser.add_argument("--hmax", type=float, help="largest edge length: grade the mesh with the automatic size field from --h (its floor) to this")
+    parser.add_argument("--h", type=common.length, help="target edge length (default: the model file's h); with --hmax, the smallest the size field gives "
+                        "(thinner walls and narrower gaps get it too, and are named in a warning)" + common.LENGTH_HELP)
+    parser.add_argument("--hmax", type=common.length, help="largest edge length: grade the mesh with the automatic size field from --h (its floor) to this"
+                        + common.LENGTH_HELP)
     parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes "
                         "(the model file's h is not used with it; --h clamps the sizes from below)")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")

@@ -15,8 +15,8 @@ HELP = "the automatic size field of a model file: write it as an image (.vti) to
 def configure(parser: argparse.ArgumentParser) -> None:
     common.model_argument(parser)
     parser.add_argument("-o", "--output", required=True, help="write the size field here (.vti)")
-    parser.add_argument("--h", type=float, help="smallest edge length, the field's floor (default: the model file's h)")
-    parser.add_argument("--hmax", type=float, required=True, help="largest edge length (--h is the smallest: the field never goes below it; walls, gaps "
+    parser.add_argument("--h", type=common.length, help="smallest edge length, the field's floor (default: the model file's h)" + common.LENGTH_HELP)
+    parser.add_argument("--hmax", type=common.length, required=True, help="largest edge length (--h is the smallest: the field never goes below it; walls, gaps "
                         "and edges that would need smaller are named in a warning)")
     parser.add_argument("--elements-across", type=float, default=3.0, help="elements through every wall (default 3)")
     parser.add_argument("--chord-tolerance", type=float, help="largest chord error on curved faces (default: the smaller of h/10 and 0.003 times the radius)")

@@ -30,8 +30,10 @@ Regions select cells whose centroid has a negative value.
 
 from __future__ import annotations
 
-from ..errors import warn_user
+import warnings
 from dataclasses import dataclass
+
+from ..errors import warn_user
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -66,6 +68,10 @@ TANGENT_ANGLE = 20.0
 #: surface's (a journal's crown under an unbounded plane through a keyway's floor), not faces of a
 #: mesh made elsewhere (gmsh's and pytetwild's bore nodes: 0.003-0.004 h off)
 EXACT_NODES = 1e-6
+#: a set left at the default tolerance whose missed parallel faces all lie within this times h of
+#: its surface (their nodes on a tessellation's facets under an exact cylinder, or a mesh made
+#: elsewhere: 0.002-0.004 h) takes them, with a warning: the tolerance that would take them
+FACET_TOLERANCE = 0.02
 
 # Faces in Abaqus/CalculiX order S1..S4 (1-2-3, 1-4-2, 2-4-3, 3-4-1), each written here with its
 # nodes ordered so the right-hand normal points out of a positive-volume tetrahedron.
@@ -265,9 +271,38 @@ def assign_boundaries(
     """
     boundaries = _as_mapping(boundaries, "boundaries")
     tolerance, angle = _checked_tolerances(boundary_tolerance, boundary_angle)
+    check_names(list(boundaries), "boundaries")
+    if tolerance != DEFAULT_TOLERANCE or not boundaries:
+        return _assign(points, cells, boundaries, {}, tolerance, angle)[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sets, missed = _assign(points, cells, boundaries, {}, tolerance, angle)
+    widened = {name: found for name, found in missed.items() if found[0] <= FACET_TOLERANCE}
+    if not widened:
+        for item in caught:
+            warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
+        return sets
+    first = sets
+    sets, _ = _assign(points, cells, boundaries, {name: found[0] for name, found in widened.items()}, tolerance, angle)
+    for name, (wider, _, median) in widened.items():
+        j = sets.names.index(name)
+        warn_user(
+            f"boundaries {name!r}: the faces along its surface have their nodes a median {median:.3g} h off it (h the "
+            f"local edge length), not on it: a tessellated model's facets under an exact surface (a STEP file's, an "
+            f"STL's), or a mesh made elsewhere. Taken with boundary_tolerance={wider:.3g} for this set: "
+            f"{int(np.count_nonzero(sets.set_ids == j))} faces, against {int(np.count_nonzero(first.set_ids == j))} "
+            f"at the default {DEFAULT_TOLERANCE:g} (pass boundary_tolerance to choose it yourself)",
+            BoundaryWarning)
+    return sets
+
+
+def _assign(points: np.ndarray, cells: np.ndarray, boundaries: Mapping[str, Callable], tolerances: dict,
+            tolerance: float, angle: float) -> tuple[FaceSets, dict]:
+    """:func:`assign_boundaries` with ``tolerances`` for some sets (the others ``tolerance``);
+    also returns the sets reported as missing their nearby parallel faces, with the tolerance
+    that would take them, how many and how far (:func:`_warn_missed`)."""
     min_cosine = np.cos(np.radians(angle)) - 1e-12
     names = list(boundaries)
-    check_names(names, "boundaries")
     elements, local, triangles = boundary_faces(cells)
     corners, centroids, edges, normals, height = _face_geometry(points, cells, elements, local, triangles)
     h = edges.mean(axis=1)
@@ -284,8 +319,8 @@ def assign_boundaries(
             candidates = np.flatnonzero(values <= NEAR * h)
             # faces reported as missed: not those of the far side of a part one element thick
             near_faces.append(candidates[values[candidates] <= 0.5 * height[candidates]])
-            on, against = _on_surface(boundaries[name], name, corners, centroids, edges, normals, limit, min_cosine,
-                                      candidates)
+            on, against = _on_surface(boundaries[name], name, corners, centroids, edges, normals,
+                                      tolerances.get(name, tolerance) * h, min_cosine, candidates)
             distance[on, j] = values[on]
             if against.size:
                 area = 0.5 * float(np.linalg.norm(np.cross(corners[against, 1] - corners[against, 0],
@@ -300,11 +335,13 @@ def assign_boundaries(
         set_ids[matched] = best[matched]
         _warn_overlaps(names, distance, best, nearest, limit)
         areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-        reported = _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance,
-                                angle, min_cosine, set_ids)
-        _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, reported)
+        missed = _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance,
+                              angle, min_cosine, set_ids)
+        _warn_tangent(names, boundaries, triangles, corners, normals, h, areas, set_ids, set(missed))
+    else:
+        missed = {}
     all_names = names if default_index < len(names) else names + [DEFAULT_BOUNDARY]
-    return FaceSets(elements, local, triangles, set_ids, all_names)
+    return FaceSets(elements, local, triangles, set_ids, all_names), missed
 
 
 def _warn_overlaps(names, distance, best, nearest, limit) -> None:
@@ -372,11 +409,11 @@ def _exact_set(boundary, name: str, corners: np.ndarray, h: np.ndarray) -> bool:
 
 
 def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_faces, tolerance, angle,
-                 min_cosine, set_ids) -> set:
+                 min_cosine, set_ids) -> dict:
     """Warn about sets that match no face, and about sets most of whose nearby, parallel faces have
     no node on the surface (a mesh made elsewhere, whose nodes lie only near the model); return the
-    names of the latter."""
-    empty, reported = [], set()
+    latter: name -> (the boundary_tolerance that takes them, how many, their median offset in h)."""
+    empty, reported = [], {}
     for j, name in enumerate(names):
         taken = float(areas[set_ids == j].sum())
         near = near_faces[j][~np.isfinite(distance[near_faces[j], j])]
@@ -391,14 +428,15 @@ def _warn_missed(names, boundaries, corners, normals, h, areas, distance, near_f
             if off.any() and missed > taken and not _exact_set(boundaries[name], name, corners[set_ids == j], h[set_ids == j]):
                 offset = nodes[off].max(axis=1)
         if offset.size:
-            reported.add(name)
+            wider = min(MAX_TOLERANCE, float(np.quantile(offset, 0.9)) * 1.5)
+            reported[name] = (wider, int(offset.size), float(np.median(offset)))
             warn_user(
                 f"boundaries {name!r}: {int(np.count_nonzero(set_ids == j))} faces have their nodes on its "
                 f"surface (within boundary_tolerance={tolerance:g} h), but {offset.size} parallel faces near it "
                 f"have none: their nodes lie a median {float(np.median(offset)):.3g} h from it (h the local edge "
                 f"length). A mesh made elsewhere, or one of a model whose surface only comes near the set's (a "
                 f"triangle mesh's facets under an exact cylinder), has its nodes only near it; pass boundary_tolerance="
-                f"{min(MAX_TOLERANCE, float(np.quantile(offset, 0.9)) * 1.5):.3g} to take them (in a model file: "
+                f"{wider:.3g} to take them (in a model file: "
                 f"`boundary_tolerance = ...`)",
                 BoundaryWarning)
         elif not np.any(set_ids == j):
