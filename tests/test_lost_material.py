@@ -306,3 +306,19 @@ def test_a_mesh_over_its_triangle_models_volume_is_explained_by_bridged_gaps():
     line = volume_message(ball, ball, octahedron, cells, (-2, -2, -2), (2, 2, 2), 1.0, False)
     assert line.startswith("the mesh's volume is 7.7% over the model's (4.5 against 4.179)")
     assert "gaps, pockets or holes narrower than h are bridged" in line and "chords' sag" not in line
+
+
+def test_the_exact_volume_of_a_winding_model_serves_the_warning_not_the_refusal():
+    import pyvista as pv
+
+    from fepre.distmesh.lost_material import mesh_model_volume
+
+    ball = pv.Sphere(radius=1.0, theta_resolution=48, phi_resolution=48)
+    open_ball = ball.extract_cells(np.flatnonzero(ball.cell_centers().points[:, 2] < 0.9)).extract_surface()
+    model = sdf.mesh(open_ball, inside="winding")
+    box = (np.full(3, -2.0), np.full(3, 2.0))
+    assert mesh_model_volume(model, model, *box) == pytest.approx(model.volume)
+    assert mesh_model_volume(model, model, *box, closed=True) is None
+    closed = sdf.mesh(ball)
+    assert mesh_model_volume(closed, closed, *box, closed=True) == pytest.approx(closed.volume)
+    assert mesh_model_volume(closed, closed, np.full(3, -0.5), np.full(3, 2.0)) is None  # the box cuts it

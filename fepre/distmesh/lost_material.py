@@ -364,11 +364,13 @@ def finer_for_volume(h: float, error: float, power: float = 2.0) -> float:
     return h * float((VOLUME_AIM / abs(error)) ** (1.0 / power))
 
 
-def mesh_model_volume(given, model, lower, upper) -> float | None:
+def mesh_model_volume(given, model, lower, upper, closed: bool = False) -> float | None:
     """The exact volume of ``given``, a triangle-mesh model or one seen through affine maps (a
     part placed far from the origin is meshed as its translation), when the domain box
     ``lower``-``upper`` holds ``model``, the solid meshed (``given`` or ``given`` moved); else None.
-    Only a closed surface's solid is what it encloses (``inside="winding"`` spans are not)."""
+    With ``closed``, only for a model whose repaired surface is closed (``inside="closed"``):
+    the validation refuses a mesh by it, and the volume of ``inside="winding"``'s sheet and spans
+    is good for a warning only."""
     from ..sdf.meshmodel import MeshModel
     from ..sdf.transforms import Affine
 
@@ -376,7 +378,9 @@ def mesh_model_volume(given, model, lower, upper) -> float | None:
     while isinstance(given, Affine):
         factor *= abs(float(np.linalg.det(given.matrix[:3, :3])))
         given = given.children[0]
-    if not isinstance(given, MeshModel) or given.inside != "closed" or not given.repaired.closed or model.bounds is None:
+    if not isinstance(given, MeshModel) or model.bounds is None:
+        return None
+    if closed and (given.inside != "closed" or not given.repaired.closed):
         return None
     bounds_lower, bounds_upper = (np.asarray(b, np.float64) for b in model.bounds)
     slack = 1e-9 * float(np.max(bounds_upper - bounds_lower))

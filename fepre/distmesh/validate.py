@@ -242,7 +242,7 @@ def _volume_check(points, tets, model, lower, upper, defects) -> None:
     from .lost_material import mesh_model_volume
 
     lower, upper = np.asarray(lower, np.float64), np.asarray(upper, np.float64)
-    exact = mesh_model_volume(model, model, lower, upper)
+    exact = mesh_model_volume(model, model, lower, upper, closed=True)
     if exact is not None:
         _compare_volume(points, tets, model, exact, defects)
         return
