@@ -199,6 +199,21 @@ def test_edge_lengths_as_the_parts_diagonal_over_n(tmp_path, capsys):
     assert "or --h D/N for the part's bounding-box diagonal over N" in capsys.readouterr().err
 
 
+def test_strict_writes_nothing_when_the_mesh_draws_a_resolution_warning(tmp_path, capsys):
+    # a new user's enclosure at D/25 came out with a free 57-cell piece, warned, written, exit 0,
+    # and CalculiX solved it; --strict refuses such a mesh
+    path = tmp_path / "fin.py"
+    path.write_text("from fepre import sdf\nmodel = sdf.box((8, 8, 2)) | sdf.box((0.3, 8, 6)).translate((2, 0, 3))\n")
+    out = tmp_path / "fin.inp"
+    assert main(["mesh", str(path), "--h", "1", "--strict", "-o", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "warning: distmesh: the mesh leaves out about" in err
+    assert "error: --strict: " in err and "nothing written" in err and not out.exists()
+    ball = tmp_path / "ball.py"
+    ball.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    assert main(["mesh", str(ball), "--h", "0.3", "--strict", "-o", str(tmp_path / "ball.inp"), "--quiet"]) == 0
+
+
 def test_missing_files_and_bad_usage(tmp_path, capsys):
     assert main(["mesh", str(tmp_path / "nope.py"), "-o", str(tmp_path / "x.inp")]) == 1
     assert "does not exist" in capsys.readouterr().err

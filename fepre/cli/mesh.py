@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -27,6 +29,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--size", metavar="FILE", help="sizes to mesh with: a .vti written by `fepre size`, or a background mesh with one array of sizes "
                         "(the model file's h is not used with it; --h clamps the sizes from below)")
     parser.add_argument("--order", type=int, choices=(1, 2), default=1, help="1: linear tets, 2: quadratic (curved)")
+    parser.add_argument("--strict", action="store_true",
+                        help="write nothing when the mesh draws a warning about its resolution or quality (parts "
+                             "left out or cut off, gaps bridged, cells short of the quality targets): exit 1 instead")
     common.period_argument(parser, required=False)
     parser.add_argument("--no-regions", action="store_true",
                         help="mesh the part as one region even if the model file defines `regions`")
@@ -122,9 +127,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         say(f"fepre mesh: DistMesh h={h:g} ...")
     start = time.perf_counter()
-    mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
-                          features=not args.no_features, periodic=period, regions=regions or None,
-                          thin_parts="keep" if args.keep_thin else "trim")
+    with _strict(args.strict):
+        mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
+                              features=not args.no_features, periodic=period, regions=regions or None,
+                              thin_parts="keep" if args.keep_thin else "trim")
     if regions:
         names = list(mesh.field_data["region_names"])
         for index, name in enumerate(names):
@@ -160,6 +166,28 @@ def run(args: argparse.Namespace) -> int:
     for companion in common.companions(output, fmt):
         print(f"wrote {companion}")
     return 0
+
+
+@contextmanager
+def _strict(strict: bool) -> Iterator[None]:
+    """With ``--strict``, the mesh's warnings about its resolution or quality (ResolutionWarning,
+    ConvergenceWarning) refuse it: they are shown, then a ValueError says nothing is written."""
+    if not strict:
+        yield
+        return
+    import warnings
+
+    from ..errors import ConvergenceWarning, ResolutionWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    for item in caught:
+        warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
+    serious = {str(item.message) for item in caught if issubclass(item.category, (ResolutionWarning, ConvergenceWarning))}
+    if serious:
+        raise ValueError(f"--strict: {len(serious)} warning(s) about the mesh's resolution or quality (above); "
+                         "nothing written")
 
 
 def _set_tolerance(part) -> dict:
