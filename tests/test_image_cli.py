@@ -145,7 +145,7 @@ def test_partial_volume_from_the_command_line(scan, capsys, tmp_path):
     out = tmp_path / "pv.stl"
     assert main(["surface", str(scan), "--level", "500", "--partial-volume", "-o", str(out), "--no-check"]) == 0
     err = capsys.readouterr().err
-    assert "partial volumes (background 0, material 1000): volume 1.066" in err and "the level set moved +0.0" in err
+    assert "partial volumes (background 0, material 1000): volume 1.066" in err and "the surface moved +0.0" in err
     assert pv.read(out).volume == pytest.approx(TORUS_VOLUME, rel=0.002)
 
 

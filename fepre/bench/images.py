@@ -2,7 +2,7 @@
 
 Grey phantoms (each voxel's partial volume of the part, :mod:`fepre.sdf.imagemodel.phantoms`): a
 torus and a gyroid lattice in a box, each at 3-4 voxel sizes, as ``sdf.image(level=0.5)`` and (rows
-``+pv``) with ``partial_volume=True``, the level set moved to hold the shares' volume. Printed
+``+pv``) with ``partial_volume=True``, the level moved so that the part holds the shares' volume. Printed
 per phantom and voxel size: the image model's time and triangles, the largest distance of its
 triangles' vertices from the true surface and the volume they enclose against the analytic one,
 then its mesh at a fixed ``h``: the largest distance of a boundary node from the true surface (in
@@ -71,8 +71,8 @@ def _grey(quick: bool) -> None:
     from .. import sdf
     from ..sdf.imagemodel.phantoms import partial_volume
 
-    print("grey phantoms: partial volumes, sdf.image(level=0.5) and, +pv, with partial_volume=True (the level set moved to "
-          "hold the shares' volume), meshed at a fixed h against the analytic part's mesh")
+    print("grey phantoms: partial volumes, sdf.image(level=0.5) and, +pv, with partial_volume=True (the level moved so that the "
+          "part holds the shares' volume), meshed at a fixed h against the analytic part's mesh")
     print(f"{'phantom':25s} {'voxel':>6s} {'image s':>7s} {'tris':>7s} {'vert/vox':>8s} {'vol err':>8s} {'h':>5s} "
           f"{'cells':>7s} {'node/vox':>8s} {'vs mesh':>8s} {'vs exact':>8s} {'min':>5s} {'max':>6s} {'rr':>5s} {'mesh s':>6s}")
     for name, model, (lower, upper), volume, h, voxels in _grey_phantoms(quick):

@@ -242,8 +242,8 @@ def partial_volume_note(image) -> str:
     if found is None:
         return ""
     return (f"; partial volumes (background {found.background:g}, material {found.material:g}): volume "
-            f"{found.volume:.6g}, the level set moved {found.shift / float(max(image.spacing)):+.3f} voxel "
-            f"from {found.level_set_volume:.6g}")
+            f"{found.volume:.6g} at level {found.level:.6g}, the surface moved {found.shift / float(max(image.spacing)):+.3f} "
+            f"voxel on average from {found.level_set_volume:.6g}")
 
 
 def voxel_size(image) -> str:

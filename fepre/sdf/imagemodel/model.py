@@ -13,7 +13,7 @@ from ..meshmodel.model import MeshModel
 from ..meshmodel.repair import repair
 from .levelset import (auto_refine, border_depth, border_slab_ranges, level_surface, needs_padding, outside_value,
                        prepared_values)
-from .partial_volume import PartialVolume, volume_shift
+from .partial_volume import PartialVolume, volume_level
 from .read import Image, ImageInputError, read_image
 
 __all__ = ["ImageModel", "image", "image_model", "checked_level", "checked_options", "is_chunked_source", "INSIDE"]
@@ -178,9 +178,9 @@ def image(
         The values are partial volumes, or a scan's blur of the part (one material on one
         background): they integrate to the part's volume, which the level set midway between
         the two does not keep where the surface is curved at the scale of a voxel or has edges
-        (a gyroid lattice in a box at 30 voxels across: -1.27%). The level set is then moved
-        along its normals by the one distance that gives the solid that volume (a few hundredths
-        of a voxel on the phantoms; see :mod:`fepre.sdf.imagemodel.partial_volume`); the
+        (a gyroid lattice in a box at 30 voxels across: -1.27%). The level is then moved to the
+        one at which the solid holds that volume (the surface moves a few hundredths of a voxel
+        on the phantoms; see :mod:`fepre.sdf.imagemodel.partial_volume`); the
         background's and material's values are the medians of the samples 2 voxels or more from
         the level set. Not for densities (a SIMP design's grey values are not shares of a
         shape). Default False.
@@ -231,9 +231,9 @@ def image(
     vertices, faces, touches = level_surface(field, fine_spacing, data.origin, pad=pad,
                                              outside=outside_value(low, high, level))
     found = None
-    if partial_volume:  # repaired first: moved, the zero-area triangles of nodes on the level would stay
-        cleaned = repair(vertices, faces, level_set=True, coincident=on_level)
-        vertices, found = volume_shift(data, level, inside, cleaned.vertices, cleaned.faces, touches)
-        faces = cleaned.faces
+    if partial_volume:
+        vertices, faces, touches, found = volume_level(data, level, inside, field, fine_spacing, pad=pad,
+                                                       outside=outside_value(low, high, level),
+                                                       first=(vertices, faces, touches))
     return image_model(vertices, faces, data, touches, level=level, inside=inside, smoothing=smoothing, refine=refine,
-                       features=features, on_level=on_level, partial_volume=found)
+                       features=features, on_level=on_level or partial_volume, partial_volume=found)

@@ -8,11 +8,14 @@ voxel or meets another at an edge, the interpolant's level set cuts inside: a to
 voxels in radius came out 1.34% small, a gyroid lattice cut by a box at 30 voxels across 1.27%
 (its box's edges and rims rounded over about a voxel).
 
-:func:`volume_shift` moves every vertex of the level set along its normal by one distance, the
-one that gives the solid the shares' volume: the missing volume over the surface's area. On
-the bench's phantoms it is 0.004-0.043 voxel, and the largest distance from the true surface
-stays within a quarter voxel. The background and material values are the medians of the samples
-``DEPTH`` voxels or more from the level set on each side (fewer where a side has none that deep) (a CT's air and solid, noise and all).
+:func:`volume_level` moves the level instead, to the one at which the solid holds the volume
+the values give (secant steps on the field's offset, each one contour of the refined field that
+the level set came from: no smoothing or refining again). Moving the level set's vertices along
+their normals (the first way, session 55) flipped sliver triangles of flying edges, whose normals
+then signed points 2 mm inside a scan's plate as outside. On the bench's phantoms the level moves
+the surface by 0.004-0.04 voxel on average; the largest distance from the true surface stays
+within a quarter voxel. The background and material values are the medians of the samples
+``DEPTH`` voxels or more from the level set on each side (fewer where a side has none that deep).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ import numpy as np
 from ...arguments import shown
 from .read import Image, ImageInputError
 
-__all__ = ["PartialVolume", "volume_shift", "DEPTH", "MAX_SHIFT"]
+__all__ = ["PartialVolume", "volume_level", "DEPTH", "MAX_SHIFT"]
 
 #: samples this many voxels or more inside (outside) the level set give the material's
 #: (background's) value (fewer where a side has none that deep); a scan blurred by a voxel
@@ -33,22 +36,25 @@ DEPTH = 3
 #: samples within this many voxels of the level set (face neighbours) count by their share; a
 #: scan's blur spreads the part's material about that far
 BAND = 3
-#: the largest shift, in voxels of the largest side, that is taken as a correction (beyond it
-#: the level is far from midway, or the image is not of one material on one background)
+#: the largest mean shift of the surface, in voxels of the largest side, that is taken as a
+#: correction (beyond it the level is far from midway, or the image is not of one material on
+#: one background)
 MAX_SHIFT = 0.5
-#: Newton steps on the shift (the volume is measured again after each)
-NEWTON_STEPS = 3
+#: contours of the field at most, in the secant steps on its offset
+SECANT_STEPS = 4
 
 
 @dataclass(frozen=True)
 class PartialVolume:
-    """What :func:`volume_shift` found: the two phases' values, the volume the image's values
-    give, the level set's volume before the shift, and the shift (along the outward normal)."""
+    """What :func:`volume_level` found: the two phases' values, the volume the image's values
+    give, the level set's volume at the level given, the level used, and the mean distance the
+    surface moved (outward positive: the change of volume over the area)."""
 
     background: float
     material: float
     volume: float
     level_set_volume: float
+    level: float
     shift: float
 
 
@@ -114,24 +120,25 @@ def _inside_box(vertices: np.ndarray, faces: np.ndarray, lower: np.ndarray, uppe
     return float(abs(clipped.volume)), within
 
 
-def volume_shift(image: Image, level: float, inside: str, vertices: np.ndarray, faces: np.ndarray,
-                 touches: bool) -> tuple[np.ndarray, PartialVolume]:
-    """The level set's ``vertices`` moved along their normals so that the solid's volume (in the
-    voxels' box, when it reaches the border: ``touches``) is the image's shares', and what was found.
+def volume_level(image: Image, level: float, inside: str, field: np.ndarray, spacing: np.ndarray, *, pad: bool,
+                 outside: float, first: tuple[np.ndarray, np.ndarray, bool]):
+    """The level set of ``field + c`` (``field`` negative inside, the refined field the level set
+    ``first`` = (vertices, faces, touches) came from) whose solid holds the volume the image's
+    values give (in the voxels' box where it reaches the border), and what was found:
+    ``(vertices, faces, touches, PartialVolume)``.
 
-    Raises ImageInputError when the image has no deep samples on one side, or when the shift
-    would exceed ``MAX_SHIFT`` voxels.
+    Raises ImageInputError when the image has no deep samples on one side, or when the surface
+    would move more than ``MAX_SHIFT`` voxels on average.
     """
+    from .levelset import level_surface
+
     values = np.asarray(image.values)
     background, material = _phase_values(values, level, inside, image.name)
     target = _shares_volume(values, level, inside, background, material, image.spacing)
-    volume, area, normals = _measured(image, vertices, faces, touches)
-    shift, moved, last = 0.0, vertices, volume
-    for _ in range(NEWTON_STEPS):  # a small ball's volume grows faster than its area times the shift
-        shift += (target - last) / area
-        moved = vertices + shift * normals
-        last, area, _ = _measured(image, moved, faces, touches)
+    vertices, faces, touches = first
+    volume, area = _measured(image, vertices, faces, touches)
     voxel = float(np.max(image.spacing))
+    shift = (target - volume) / area
     if abs(shift) > MAX_SHIFT * voxel:
         raise ImageInputError(
             f"{image.name}: partial_volume: the values give a volume of {target:.6g} (background {background:.6g}, "
@@ -139,26 +146,39 @@ def volume_shift(image: Image, level: float, inside: str, vertices: np.ndarray, 
             f"{abs(shift) / voxel:.2g} voxels would match them, more than {MAX_SHIFT:g}; the level should lie midway "
             f"({0.5 * (background + material):.6g}), and the image show one material on one background"
         )
-    return moved, PartialVolume(background, material, target, volume, shift)
+    # the field's offset c (added: c < 0 grows the solid) against the volume, by secant steps
+    # from a first probe: the contrast over two voxels (a partial-volume or blurred edge's
+    # slope, about) times the shift
+    steps = [(0.0, volume)]
+    offset = -shift * abs(material - background) / (2.0 * voxel)
+    result = first
+    for _ in range(SECANT_STEPS):
+        result = level_surface(field + np.float32(offset), spacing, image.origin, pad=pad, outside=outside)
+        measured, _ = _measured(image, result[0], result[1], result[2])
+        steps.append((offset, measured))
+        if abs(measured - target) <= 1e-4 * target:
+            break
+        (c0, v0), (c1, v1) = steps[-2], steps[-1]
+        if v1 == v0:
+            break
+        offset = c1 + (target - v1) * (c1 - c0) / (v1 - v0)
+    best = min(steps[1:], key=lambda step: abs(step[1] - target))
+    if best[0] != steps[-1][0]:
+        result = level_surface(field + np.float32(best[0]), spacing, image.origin, pad=pad, outside=outside)
+    moved = level + (best[0] if inside == "above" else -best[0])  # field + c: level - value + c, or value - level + c
+    return (*result, PartialVolume(background, material, target, volume, moved, (best[1] - volume) / area))
 
 
-def _measured(image: Image, vertices: np.ndarray, faces: np.ndarray, touches: bool):
-    """The solid's volume (in the voxels' box when it ``touches`` the border), the surface's area
-    there and the unit outward vertex normals (area-weighted)."""
+def _measured(image: Image, vertices: np.ndarray, faces: np.ndarray, touches: bool) -> tuple[float, float]:
+    """The solid's volume (in the voxels' box when it ``touches`` the border) and the surface's
+    area there."""
     points = vertices[faces]
     cross = np.cross(points[:, 1] - points[:, 0], points[:, 2] - points[:, 0])
     centre = vertices.mean(axis=0)
-    if float(np.einsum("ij,ij->i", points[:, 0] - centre, cross).sum()) < 0:
-        cross = -cross  # outward
     if touches:
         lower, upper = image.voxel_box()
         volume, within = _inside_box(vertices, faces, lower, upper)
     else:
-        volume = float(np.einsum("ij,ij->i", points[:, 0] - centre, cross).sum() / 6.0)
+        volume = abs(float(np.einsum("ij,ij->i", points[:, 0] - centre, cross).sum() / 6.0))
         within = np.ones(len(faces), dtype=bool)
-    area = float(np.linalg.norm(cross[within], axis=1).sum() / 2.0)
-    normals = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(normals, faces[:, corner], cross)
-    normals /= np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
-    return volume, area, normals
+    return volume, float(np.linalg.norm(cross[within], axis=1).sum() / 2.0)
