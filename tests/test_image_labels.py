@@ -518,3 +518,34 @@ def test_random_label_images_mesh_graded(seed):
     assert min(worst) >= (22.0 if seed == 5 else 25.0)  # seed 5: 22.3 deg beside the piece left out
     plain = fepre.distmesh(regions.part, (0.5, 2.0), progress=False)
     assert mesh.volume == pytest.approx(plain.volume, rel=0.005)
+
+
+def test_small_labels_inside_an_image_whose_block_reaches_the_border_have_their_volumes_checked():
+    # A new user's label image: a substrate touching the image's borders, a ball inclusion 4
+    # voxels in radius and a post. The ball's mesh came out 5.2% short of its voxels and nothing
+    # was said: a label reaching the border switched the regions' volume check off for all. Now
+    # a label inside the image is checked against its own surface, and sdf.labels names a label
+    # whose surface is more than 2% off its voxels.
+    import warnings
+
+    block = sdf.box((6.0, 6.0, 6.0))  # fills the image: reaches every border
+    ball = sdf.sphere(0.4, center=(0.0, 0.0, 0.5))
+    image = label_image([block, ball], (-1.5, -1.5, -1.5), (1.5, 1.5, 1.5), 0.1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        regions = sdf.labels(image, names={1: "block", 2: "ball"})
+    assert regions["ball"].inside_image and not regions["block"].inside_image
+    voxels = int(np.count_nonzero(np.asarray(image["labels"]) == 2)) * 0.1**3
+    error = regions["ball"].volume / voxels - 1
+    named = [str(w.message) for w in caught if "rounded over about a voxel" in str(w.message)]
+    assert (abs(error) > 0.02) == bool(named)
+    if named:
+        assert f"'ball' (label 2) {100 * abs(error):.1f}% less than its" in named[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(regions.part, 0.2, regions=regions)
+    meshed = float(mesh["volume"][np.asarray(mesh["region_id"]) == 1].sum())
+    short = meshed / regions["ball"].volume - 1
+    checked = [str(w.message) for w in caught if "region 'ball'" in str(w.message) and "its model" in str(w.message)]
+    assert short < -0.01 and len(checked) == 1  # a ball 4 elements across loses its chords' sag
+    assert f"region 'ball' {100 * abs(short):.1f}% short of its model" in checked[0]

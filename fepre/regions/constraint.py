@@ -253,7 +253,9 @@ class RegionConstraint(MeshConstraint):
         size = "hmin" if job.size is not None else "h"
         lines = []
         for name, region, meshed in zip(self.region_set.names, self.region_set.models, volumes):
-            exact = getattr(surface_model(region), "volume", None) if getattr(region, "within", None) is job.model else None
+            own = surface_model(region)  # a label inside the image has its volume whatever the others do
+            exact = getattr(own, "volume", None) if (getattr(region, "within", None) is job.model
+                                                     or getattr(own, "inside_image", False)) else None
             if not exact:
                 continue
             error = meshed / abs(float(exact)) - 1.0
