@@ -93,6 +93,9 @@ def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None
     parser.add_argument("--smoothing", type=float,
                         help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans; "
                              "default 0, for --labels 0.5)")
+    parser.add_argument("--array", metavar="NAME",
+                        help="for an image MODEL with several arrays (a .vti) or a zarr group: the one to read "
+                             "(default its active scalars or its only array)")
     parser.add_argument("--partial-volume", action="store_true",
                         help="for an image MODEL whose values are partial volumes or a scan's blur of one material on "
                              "one background: move the level set (by a few hundredths of a voxel) so that the part "
@@ -150,7 +153,7 @@ def mesh_inside(args: argparse.Namespace) -> str:
 def image_options(args: argparse.Namespace) -> dict:
     """The options of ``sdf.image`` from the command line (the flags the command has)."""
     options = {"level": getattr(args, "level", None)}
-    for name in ("inside", "smoothing", "origin"):
+    for name in ("inside", "smoothing", "origin", "array"):
         if getattr(args, name, None) is not None:
             options[name] = getattr(args, name)
     if getattr(args, "partial_volume", False):
