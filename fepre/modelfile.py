@@ -178,7 +178,7 @@ def _load_solids(path: Path, names: dict, inside: str) -> ModelFile:
 
 #: the options of an image MODEL (``load_model(image=)``'s keys) and their flags
 _IMAGE_FLAGS = {"smoothing": "--smoothing", "partial_volume": "--partial-volume", "spacing": "--voxel-size",
-                "origin": "--origin", "labels": "--labels"}
+                "origin": "--origin", "labels": "--labels", "array": "--array"}
 
 
 def _refuse_image_options(path: Path, image: dict | None) -> None:

@@ -5,6 +5,7 @@ the same models in the default run.)"""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -157,3 +158,41 @@ def test_image_flags_on_a_surface_mesh_file_are_refused(tmp_path, capsys, flags,
     assert main(["mesh", str(stl), "--h", "0.5", "-o", str(tmp_path / "x.inp"), *flags]) == 1
     assert f"{named} applies to images (.vti, .nii, .nii.gz, .tif, .zarr) only; ball.stl is not one" in capsys.readouterr().err
     assert not (tmp_path / "x.inp").exists()
+
+
+def test_an_image_with_several_arrays_is_read_by_the_one_named(scan, tmp_path, capsys):
+    # a .vti with two arrays and none active said "name one with array=", which the CLI had no flag for
+    grid = pv.read(scan)
+    two = pv.ImageData(dimensions=grid.dimensions, spacing=grid.spacing, origin=grid.origin)
+    two.point_data["CT"] = np.asarray(grid.point_data[grid.array_names[0]])
+    two.point_data["mask"] = (two.point_data["CT"] > 500).astype(np.uint8)
+    two.point_data.active_scalars_name = None
+    path = tmp_path / "two.vti"
+    two.save(path)
+    out = tmp_path / "two.stl"
+    assert main(["surface", str(path), "--level", "500", "-o", str(out), "--no-check"]) == 1
+    assert "none is active; name one with array= (fepre mesh and fepre surface: --array NAME)" in capsys.readouterr().err
+    assert main(["surface", str(path), "--level", "500", "--array", "CT", "-o", str(out), "--no-check"]) == 0
+    assert pv.read(out).volume == pytest.approx(TORUS_VOLUME, rel=0.01)
+
+
+def test_float_labels_say_what_to_pass(tmp_path, capsys):
+    grid = pv.ImageData(dimensions=(6, 6, 6))
+    grid["labels"] = np.linspace(0, 2.5, 216)
+    grid.save(tmp_path / "float.vti")
+    assert main(["mesh", str(tmp_path / "float.vti"), "--labels", "--h", "1", "-o", str(tmp_path / "x.inp")]) == 1
+    assert "round or cast them to integers, or mesh a grey image" in capsys.readouterr().err
+
+
+def test_the_header_names_the_volume_an_images_values_give(tmp_path, capsys):
+    # a new user's scan meshed without --partial-volume came out 5.1% short with no word; the
+    # header now names the volume its values give when the level set is more than 1% off it
+    coarse = partial_volume(TORUS, (-1, -1, -0.4), (1, 1, 0.4), 0.1, scale=1000.0)  # a tube 3 voxels in radius
+    coarse.save(tmp_path / "coarse.vti")
+    assert main(["surface", str(tmp_path / "coarse.vti"), "--level", "500", "-o", str(tmp_path / "c.stl"), "--no-check"]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"the level set holds 1\.05\d+, 1\.\d% less than the 1\.06\d+ its values give", err)
+    assert "(--partial-volume keeps that; not for a density)" in err
+    assert main(["surface", str(tmp_path / "coarse.vti"), "--level", "500", "--partial-volume", "-o",
+                 str(tmp_path / "c.stl"), "--no-check"]) == 0
+    assert "its values give" not in capsys.readouterr().err

@@ -449,3 +449,16 @@ def test_of_two_refused_choices_the_final_mesh_keeps_the_one_nearer_the_surface(
                         lambda model, state, previous, backend, h, mend_cracks: (tets if mend_cracks else mended, None))
     _, chosen, valid, _ = finalize._attempts(model, state, None, "gmsh", H, 0.001)
     assert not valid and len(chosen) == len(tets)
+
+
+@pytest.mark.filterwarnings("ignore::fepre.errors.FeatureWarning")
+def test_a_far_parts_refusal_names_places_in_the_users_coordinates(monkeypatch):
+    # a label image at x = -250 was refused with places in the local frame and a note saying
+    # they were in it; then with places in the user's frame and the same note (a new user's trial)
+    monkeypatch.setattr(finalize, "_choose", lambda model, state, tets, geps, h, values: (tets, np.zeros(0, np.int64)))
+    monkeypatch.setattr(finalize, "_drop_far_cells", lambda *args: None)
+    with pytest.raises(MeshingError) as refused:
+        fepre.distmesh(L_PART.translate((1e4, -5e3, 2e3)), 0.25)
+    place = re.search(r"\(at \(([-\d.e+]+), ([-\d.e+]+), ([-\d.e+]+)\)\)", str(refused.value))
+    assert place and np.allclose([float(v) for v in place.groups()], (1e4, -5e3, 2e3), atol=5.0)
+    assert any("the places named are in your coordinates" in note for note in refused.value.__notes__)

@@ -93,6 +93,9 @@ def image_arguments(parser: argparse.ArgumentParser, level: bool = True) -> None
     parser.add_argument("--smoothing", type=float,
                         help="for an image MODEL: Gaussian blur in voxels before the level is taken (noisy scans; "
                              "default 0, for --labels 0.5)")
+    parser.add_argument("--array", metavar="NAME",
+                        help="for an image MODEL with several arrays (a .vti) or a zarr group: the one to read "
+                             "(default its active scalars or its only array)")
     parser.add_argument("--partial-volume", action="store_true",
                         help="for an image MODEL whose values are partial volumes or a scan's blur of one material on "
                              "one background: move the level set (by a few hundredths of a voxel) so that the part "
@@ -150,7 +153,7 @@ def mesh_inside(args: argparse.Namespace) -> str:
 def image_options(args: argparse.Namespace) -> dict:
     """The options of ``sdf.image`` from the command line (the flags the command has)."""
     options = {"level": getattr(args, "level", None)}
-    for name in ("inside", "smoothing", "origin"):
+    for name in ("inside", "smoothing", "origin", "array"):
         if getattr(args, name, None) is not None:
             options[name] = getattr(args, name)
     if getattr(args, "partial_volume", False):
@@ -218,7 +221,7 @@ def load_part(args: argparse.Namespace):
             voxels = " x ".join(map(str, image.image.values.shape))
             say(f"{part.path}: {voxels} voxels of {voxel_size(image.image)}, level {image.level:g} ({image.inside}): "
                 f"{len(image.faces)} triangles" + ("; cut by the image's box" if image is not part.model else "")
-                + partial_volume_note(image))
+                + partial_volume_note(image, whole=image is part.model))
     elif part.regions and isinstance(next(iter(part.regions.values())), LabelModel):
         if not getattr(args, "quiet", False):
             first = next(iter(part.regions.values()))
@@ -236,11 +239,28 @@ def load_part(args: argparse.Namespace):
     return part
 
 
-def partial_volume_note(image) -> str:
-    """The header line's note on ``--partial-volume``: the phases, the volume and the shift."""
+#: images up to this many voxels get the header's hint on --partial-volume (it reads them whole)
+HINT_VOXELS = 20_000_000
+
+
+def partial_volume_note(image, whole: bool = True) -> str:
+    """The header line's note on ``--partial-volume``: the phases, the volume and the shift; or,
+    without it, for an image in memory and not cut by its box (``whole``), the volume its values
+    would give when the level set holds more than 1% less or more."""
     found = image.partial_volume
     if found is None:
-        return ""
+        values = image.image.values
+        if not whole or not isinstance(values, np.ndarray) or values.size > HINT_VOXELS:
+            return ""
+        from ..sdf.imagemodel.partial_volume import values_volume
+
+        given = values_volume(image.image, image.level, image.inside)
+        held = abs(float(image.volume))
+        if given is None or abs(held / given - 1.0) <= 0.01:
+            return ""
+        return (f"; the level set holds {held:.6g}, {100 * abs(held / given - 1.0):.1f}% "
+                f"{'less' if held < given else 'more'} than the {given:.6g} its values give if they are partial "
+                f"volumes or a scan's blur of one material (--partial-volume keeps that; not for a density)")
     return (f"; partial volumes (background {found.background:g}, material {found.material:g}): volume "
             f"{found.volume:.6g} at level {found.level:.6g}, the surface moved {found.shift / float(max(image.spacing)):+.3f} "
             f"voxel on average from {found.level_set_volume:.6g}")

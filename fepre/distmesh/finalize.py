@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshingError
+from ..placement import in_user_frame
 from ..quality import signed_volumes
 from .delaunay import sorted_cells, tetrahedralize
 from .topology import boundary_faces, check_topology, nonmanifold_items, repair_selection
@@ -563,13 +564,15 @@ def final_mesh(
         if report.nonmanifold_edges or report.pinched_vertices:
             edges, pinched = nonmanifold_items(report.boundary_faces, len(points_out))
             node = pinched[0] if len(pinched) else edges[0, 0]
-            where = (f", a pinch at ({', '.join(f'{v:.6g}' for v in points_out[node])}), where the cells chosen "
+            pinch = ", ".join(f"{v:.6g}" for v in in_user_frame(points_out[node]))
+            where = (f", a pinch at ({pinch}), where the cells chosen "
                      "meet along an edge or at a point: parts of the surface closer than h there, or a concave "
                      "region bridged")
         if off.any():  # a fixed node off the zero set is an interior node to the choice
             node = boundary[off][int(np.argmax(np.abs(model(points_out[boundary[off]]))))]
             kind = "a fixed node" if fixed_out[node] else "a node"
-            where += f", the farthest {kind} at ({', '.join(f'{v:.6g}' for v in points_out[node])})"
+            farthest = ", ".join(f"{v:.6g}" for v in in_user_frame(points_out[node]))
+            where += f", the farthest {kind} at ({farthest})"
         raise MeshingError(
             "DistMesh could not choose a valid solid from the final triangulation "
             f"({report.nonmanifold_edges} non-manifold edges, {report.pinched_vertices} pinched vertices, "

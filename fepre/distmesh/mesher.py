@@ -283,8 +283,8 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
                          _frame=offset, **rest)
     except (ValueError, MeshingError) as exc:
         if hasattr(exc, "add_note"):  # Python 3.11
-            exc.add_note(f"fepre meshed the part moved by {shown(tuple(0.0 - offset))} (fepre.placement): "
-                         "coordinates above are in that frame")
+            exc.add_note(f"fepre meshed the part moved by {shown(tuple(0.0 - offset))} (fepre.placement); the "
+                         "places named are in your coordinates")
         raise
     grid.points = np.asarray(grid.points) + offset
     if fixed is not None:

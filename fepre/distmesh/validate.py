@@ -79,8 +79,13 @@ class Defect:
 
 
 def defects_message(defects: list[Defect], offset: np.ndarray | None = None) -> str:
-    """One message naming each defect's check, cause and place (moved by ``offset``)."""
-    if offset is not None and np.any(offset):
+    """One message naming each defect's check, cause and place (moved by ``offset``; by default
+    into the user's frame, :func:`fepre.placement.in_user_frame`)."""
+    if offset is None:
+        from ..placement import in_user_frame
+
+        offset = in_user_frame(np.zeros(3))
+    if np.any(offset):
         defects = [Defect(d.check, d.count, tuple(np.add(d.place, offset).tolist()), d.cause) for d in defects]
     return "; ".join(str(d) for d in defects)
 

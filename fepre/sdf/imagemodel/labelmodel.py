@@ -253,7 +253,8 @@ def _cracks_handled(data: Image, values: np.ndarray, background: int, fill: bool
 
 
 def non_integer_message(name: str, dtype) -> str:
-    return f"{name} holds non-integer values ({dtype}); a label image holds integer labels"
+    return (f"{name} holds non-integer values ({dtype}); a label image holds integer labels: round or cast them to "
+            "integers, or mesh a grey image with fepre.sdf.image(..., level=...) (fepre mesh: --level instead of --labels)")
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ import numpy as np
 from ...arguments import shown
 from .read import Image, ImageInputError
 
-__all__ = ["PartialVolume", "volume_level", "DEPTH", "MAX_SHIFT"]
+__all__ = ["PartialVolume", "volume_level", "values_volume", "DEPTH", "MAX_SHIFT"]
 
 #: samples this many voxels or more inside (outside) the level set give the material's
 #: (background's) value (fewer where a side has none that deep); a scan blurred by a voxel
@@ -118,6 +118,18 @@ def _inside_box(vertices: np.ndarray, faces: np.ndarray, lower: np.ndarray, uppe
     centroids = vertices[faces].mean(axis=1)
     within = np.all((centroids > lower) & (centroids < upper), axis=1)
     return float(abs(clipped.volume)), within
+
+
+def values_volume(image: Image, level: float, inside: str) -> float | None:
+    """The volume the image's values give if they are partial volumes or a scan's blur of one
+    material on one background (:func:`volume_level`'s target), or None where a side has no
+    sample a voxel deep."""
+    values = np.asarray(image.values)
+    try:
+        background, material = _phase_values(values, level, inside, image.name)
+    except ImageInputError:
+        return None
+    return _shares_volume(values, level, inside, background, material, image.spacing)
 
 
 def volume_level(image: Image, level: float, inside: str, field: np.ndarray, spacing: np.ndarray, *, pad: bool,

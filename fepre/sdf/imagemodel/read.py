@@ -92,7 +92,7 @@ def _from_grid(grid: Any, name: str, array: str | None) -> Image:
         else:
             raise ImageInputError(
                 f"{name} has several arrays ({', '.join(map(repr, point_names + cell_names))}) and none is active; "
-                "name one with array="
+                "name one with array= (fepre mesh and fepre surface: --array NAME)"
             )
     dims = np.array(grid.dimensions)
     spacing, origin = np.array(grid.spacing, float), np.array(grid.origin, float)
