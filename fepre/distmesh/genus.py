@@ -14,63 +14,30 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..surface.check import surface_genus
+
 __all__ = ["surface_genus", "model_genus", "genus_message"]
-
-
-def surface_genus(faces: np.ndarray) -> int | None:
-    """The total genus of a closed surface of triangles (the sum over its pieces), or None when
-    an edge is not used by exactly two triangles.
-
-    Examples
-    --------
-    >>> import pyvista as pv
-    >>> surface_genus(pv.Sphere().triangulate().regular_faces), surface_genus(pv.ParametricTorus().triangulate().clean().regular_faces)
-    (0, 1)
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    faces = np.asarray(faces, dtype=np.int64)
-    if len(faces) == 0:
-        return 0
-    used, local = np.unique(faces, return_inverse=True)
-    local = local.reshape(faces.shape)
-    edges = np.sort(local[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, count = np.unique(edges, axis=0, return_counts=True)
-    if not np.all(count == 2):
-        return None
-    graph = coo_matrix((np.ones(len(unique)), (unique[:, 0], unique[:, 1])), shape=(len(used), len(used)))
-    pieces = connected_components(graph, directed=False)[0]
-    euler = len(used) - len(unique) + len(faces)
-    return int(pieces - euler // 2)
 
 
 def model_genus(model, grid) -> int | None:
     """The genus of the model's surface: a closed triangle-mesh model's own (through the moves
     of a part far from the origin), else its zero set on ``grid`` (the lost-material check's
     sampling, ``values``/``origin``/``step``), or None."""
-    from ..sdf.meshmodel import MeshModel
-    from ..sdf.transforms import Affine
+    from .lost_material import mesh_model_of
 
-    given = model
-    while isinstance(given, Affine):
-        given = given.children[0]
-    if isinstance(given, MeshModel) and given.inside == "closed" and given.repaired.closed:
+    given, _ = mesh_model_of(model)
+    if given is not None and given.inside == "closed" and given.repaired.closed:
         return surface_genus(given.faces)
     if grid is None:
         return None
     import pyvista as pv
 
-    from ..surface.extract import clean_triangles
-    from ..surface.flying_edges import flying_edges
+    from ..surface import isosurface
 
     nz, ny, nx = grid.values.shape
     image = pv.ImageData(dimensions=(nx, ny, nz), spacing=tuple(grid.step), origin=tuple(grid.origin))
     image.point_data["sdf"] = grid.values.ravel()
-    points, triangles = flying_edges(image, "sdf", 0.0)
-    _, triangles = clean_triangles(points, triangles, "flying_edges", bool((grid.values == 0).any()), grid.step,
-                                   grid.origin)
-    return surface_genus(triangles)
+    return surface_genus(isosurface(image).regular_faces)
 
 
 def genus_message(faces: np.ndarray, model, grid, lost: list, added: list, h: float | None) -> str | None:

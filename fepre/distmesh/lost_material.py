@@ -364,6 +364,19 @@ def finer_for_volume(h: float, error: float, power: float = 2.0) -> float:
     return h * float((VOLUME_AIM / abs(error)) ** (1.0 / power))
 
 
+def mesh_model_of(model):
+    """``(the triangle-mesh model under model's affine maps, the maps' volume factor)`` (a part far
+    from the origin is meshed as its translation), or ``(None, 1.0)``."""
+    from ..sdf.meshmodel import MeshModel
+    from ..sdf.transforms import Affine
+
+    factor = 1.0
+    while isinstance(model, Affine):
+        factor *= abs(float(np.linalg.det(model.matrix[:3, :3])))
+        model = model.children[0]
+    return (model, factor) if isinstance(model, MeshModel) else (None, 1.0)
+
+
 def mesh_model_volume(given, model, lower, upper, closed: bool = False) -> float | None:
     """The exact volume of ``given``, a triangle-mesh model or one seen through affine maps (a
     part placed far from the origin is meshed as its translation), when the domain box
@@ -371,14 +384,8 @@ def mesh_model_volume(given, model, lower, upper, closed: bool = False) -> float
     With ``closed``, only for a model whose repaired surface is closed (``inside="closed"``):
     the validation refuses a mesh by it, and the volume of ``inside="winding"``'s sheet and spans
     is good for a warning only."""
-    from ..sdf.meshmodel import MeshModel
-    from ..sdf.transforms import Affine
-
-    factor = 1.0
-    while isinstance(given, Affine):
-        factor *= abs(float(np.linalg.det(given.matrix[:3, :3])))
-        given = given.children[0]
-    if not isinstance(given, MeshModel) or model.bounds is None:
+    given, factor = mesh_model_of(given)
+    if given is None or model.bounds is None:
         return None
     if closed and (given.inside != "closed" or not given.repaired.closed):
         return None

@@ -176,6 +176,24 @@ def _topology(points: np.ndarray, faces: np.ndarray) -> _Topology:
     return _Topology(used, labels, watertight, manifold, oriented, components, euler, genus)
 
 
+def surface_genus(faces: np.ndarray) -> int | None:
+    """The total genus of a closed surface of triangles (the sum over its pieces; the same
+    count as :func:`check_surface`'s), or None unless it is closed, manifold and oriented.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> surface_genus(pv.Sphere().regular_faces), surface_genus(pv.ParametricTorus().triangulate().clean().regular_faces)
+    (0, 1)
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
+        return 0
+    used, local = np.unique(faces, return_inverse=True)
+    genus = _topology(np.empty((len(used), 3)), local.reshape(faces.shape)).genus
+    return None if genus is None else int(round(genus))
+
+
 def _geometry(points: np.ndarray, faces: np.ndarray) -> tuple[float, float, np.ndarray, int]:
     """Area, enclosed volume, the triangles' angles (degrees) and the degenerate triangles."""
     p = points[faces]

@@ -332,7 +332,9 @@ def label_regions(surface, data: Image, plan: LabelPlan, reaches: bool, values: 
             model.within = None if reaches else regions.part
     if values is None:  # read chunk by chunk: not counted
         return regions
-    border = np.unique(np.concatenate([values[[0, -1]].ravel(), values[:, [0, -1]].ravel(), values[:, :, [0, -1]].ravel()]))
+    from .levelset import border_values
+
+    border = np.unique(border_values(values))
     for name, label in regions.labels.items():
         if isinstance(regions[name], LabelModel):
             regions[name].inside_image = label not in border

@@ -21,7 +21,8 @@ import numpy as np
 from .bspline import SPLINE_HALO, certainly_one_side, refine_samples, refined_count
 from .read import Image
 
-__all__ = ["prepared_values", "level_surface", "needs_padding", "outside_value", "smoothing_radius", "AUTO_REFINE_POINTS", "BORDER_PAD"]
+__all__ = ["prepared_values", "level_surface", "needs_padding", "outside_value", "smoothing_radius", "border_values",
+           "AUTO_REFINE_POINTS", "BORDER_PAD"]
 
 #: nodes added beyond each face when the solid may reach it: a copy of the border, then an
 #: outside node
@@ -172,7 +173,7 @@ def level_surface(field: np.ndarray, spacing: np.ndarray, origin: np.ndarray, *,
     side: the first copies the border, the others are ``outside``, so that a solid reaching the
     border closes between one and two samples beyond it (the caller cuts it with the voxels' box).
     """
-    touches = bool((_border(field) < 0).any())
+    touches = bool((border_values(field) < 0).any())
     if pad or touches:
         field = np.pad(np.pad(field, 1, mode="edge"), BORDER_PAD - 1, constant_values=np.float32(outside))
         origin = origin - BORDER_PAD * spacing
@@ -180,7 +181,8 @@ def level_surface(field: np.ndarray, spacing: np.ndarray, origin: np.ndarray, *,
     return vertices, faces, touches
 
 
-def _border(field: np.ndarray) -> np.ndarray:
+def border_values(field: np.ndarray) -> np.ndarray:
+    """The values on the six faces of a 3D array, in one flat array."""
     return np.concatenate([
         field[[0, -1]].ravel(), field[:, [0, -1]].ravel(), field[:, :, [0, -1]].ravel(),
     ])
