@@ -101,6 +101,36 @@ def test_a_slot_narrower_than_h_that_the_mesh_bridges_is_named():
     assert float(mesh.field_data["distmesh_added_volume"][0]) == pytest.approx(sum(r.volume for r in regions))
 
 
+def test_a_groove_closing_to_an_edge_is_named_without_an_h_that_cannot_open_it():
+    """A V-groove's bottom is narrower than any element: a new user's angle_block.STL was told
+    "h <= 0.02" at D/25 and, meshed at 0.02, "h <= 0.0059". The walls' angle names it."""
+    half = np.radians(10.0)  # walls at 20 degrees, the groove's edge 1.5 under the top face
+    groove = (sdf.plane((np.cos(half), 0, -np.sin(half)), (0, 0, 0.5))
+              & sdf.plane((-np.cos(half), 0, -np.sin(half)), (0, 0, 0.5)))
+    part = sdf.box((8, 12, 4)) - groove
+    with pytest.warns(fepre.ResolutionWarning, match=r"adds about .* a groove [\d.]+ wide there, its walls at 20 deg "
+                      r"closing to an edge; a groove or corner that closes to an edge is filled") as caught:
+        mesh = fepre.distmesh(part, 1.0)
+    assert not any("h <=" in str(w.message) for w in caught if "adds about" in str(w.message))
+    (region,) = added_material(part, mesh.points, mesh.cells_dict[10], 1.0)
+    assert region.opening == pytest.approx(20.0, abs=1.0)
+    assert abs(region.center[0]) < 0.05 and 0.5 < region.center[2] < 2.0
+    # its width where filled is the groove's at that height: 2 (z - 0.5) tan 10 deg
+    assert region.thickness < 1.0
+
+
+def test_the_walls_of_a_gap_are_measured_across_it():
+    from fepre.distmesh.lost_material import gap_opening
+
+    slot = sdf.box((8, 4, 4)) - sdf.box((0.4, 6, 3), center=(0, 0, 1))
+    c, s = np.cos(np.radians(20.0)), np.sin(np.radians(20.0))  # walls at 40 degrees
+    wedge = sdf.box((8, 4, 4)) - (sdf.plane((c, 0, -s), (0, 0, 0)) & sdf.plane((-c, 0, -s), (0, 0, 0)))
+    corner = sdf.box((4, 4, 4)) | sdf.box((4, 4, 4), center=(4, 0, -4))  # a re-entrant edge at (2, y, -2)
+    assert gap_opening(slot, np.array([[0.1, 0.0, 1.0]]), 1.0) == pytest.approx([0.0], abs=0.5)
+    assert gap_opening(wedge, np.array([[0.1, 0.0, 1.0]]), 1.0) == pytest.approx([40.0], abs=0.5)
+    assert gap_opening(corner, np.array([[2.3, 0.0, -2.1]]), 1.0) == pytest.approx([180.0])
+
+
 def test_parts_touching_along_an_edge_are_joined_with_a_warning():
     """Two boxes sharing only an edge: a conforming mesh must either join them or cut them apart
     there; DistMesh joins them (+1.3% volume, one component) and now says so."""

@@ -56,11 +56,16 @@ class LostRegion:
         (along the gradient and 13 fixed directions), at least twice the node's depth.
     volume : float
         About how much of the model's volume is missing there (world units cubed).
+    opening : float
+        Of added material (a gap filled), the angle in degrees between the gap's two walls
+        across its deepest node: about 0 between parallel walls, more where the gap narrows to
+        an edge (a V-groove), which a finer mesh fills less of but never keeps open.
     """
 
     center: tuple[float, float, float]
     thickness: float
     volume: float
+    opening: float = 0.0
 
 
 def lost_material(model, points: np.ndarray, tets: np.ndarray, h: float, size=None) -> list[LostRegion]:
@@ -254,7 +259,17 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
     np.maximum.at(deepest, label, depth.ravel()[picked])
     keep = np.flatnonzero(deep_nodes >= least)
     thickness = 2.0 * deepest
-    if not outside and len(keep):
+    opening = np.zeros(count + 1)
+    if len(keep):
+        # of the deepest nodes (ties on a grid across a slab), the one nearest the region's centre
+        nodes_at = origin + np.column_stack([i, j, k]) * step
+        off_centre = np.linalg.norm(nodes_at - centre[label], axis=1)
+        order = np.lexsort((-off_centre, np.round(depth.ravel()[picked] / (1e-9 * h)), label))
+        last = order[np.searchsorted(label[order], keep, side="right") - 1]
+        at = nodes_at[last]
+    if outside and len(keep):
+        opening[keep] = gap_opening(model, at, h)
+    elif len(keep):
         # a grid of h / 4 misses the middle of a wall thinner than that: the chord through the
         # deepest node (a 0.8 rib sampled at 0.64 was "0.162 thick" from a node 0.081 deep). Not
         # for a gap: its deepest node sits where it opens out, and the chord there overstated
@@ -262,15 +277,46 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         # depth understates it where the grid misses the middle, and the advice still works
         from .thin_cells import chord_thickness
 
-        # of the deepest nodes (ties on a grid across a slab), the one nearest the region's centre
-        nodes_at = origin + np.column_stack([i, j, k]) * step
-        off_centre = np.linalg.norm(nodes_at - centre[label], axis=1)
-        order = np.lexsort((-off_centre, np.round(depth.ravel()[picked] / (1e-9 * h)), label))
-        last = order[np.searchsorted(label[order], keep, side="right") - 1]
-        at = nodes_at[last]
         chord = chord_thickness(model, at, deepest[keep], 4.0 * h, h / 64.0)
         thickness[keep] = np.where(np.isfinite(chord), chord, thickness[keep])
-    return [LostRegion(tuple(float(c) for c in centre[r]), float(thickness[r]), float(volume[r])) for r in keep]
+    return [LostRegion(tuple(float(c) for c in centre[r]), float(thickness[r]), float(volume[r]), float(opening[r]))
+            for r in keep]
+
+
+#: a gap whose walls across it are at more than this angle (degrees) narrows to an edge
+WEDGE_OPENING = 15.0
+
+
+def gap_opening(model, points: np.ndarray, h: float) -> np.ndarray:
+    """The angle (degrees) between the two walls of the gap at each of ``points`` (outside the
+    model): the nearest wall's normal against the facing wall's, met by a ray along the model's
+    gradient; 0 between parallel walls, 45 in a groove whose walls meet at 45 degrees, and 180
+    where no facing wall is met within ``4 h`` (a filled concave corner, open on one side, or
+    walls more than 60 degrees apart, which the ray meets too obliquely to count).
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> slot = sdf.box((4.0, 4.0, 2.0)) - sdf.box((0.4, 6.0, 1.0)).translate((0.0, 0.0, 0.6))
+    >>> float(np.round(gap_opening(slot, np.array([[0.1, 0.0, 0.6]]), 1.0), 1)[0])
+    0.0
+    """
+    from ..sizing.rays import ray_lengths
+    from .thin_cells import _unit_gradient
+
+    points = np.asarray(points, dtype=np.float64)
+    away, usable = _unit_gradient(model, points)
+    result = np.full(len(points), 180.0)
+    if not usable.any():
+        return result
+    length = ray_lengths(model, points[usable], away[usable], False, 4.0 * h, h / 64.0)
+    met = np.flatnonzero(usable)[np.isfinite(length)]
+    if len(met):
+        hit = points[met] + length[np.isfinite(length), None] * away[met]
+        facing, _ = _unit_gradient(model, hit)
+        cosine = np.clip(-np.einsum("ij,ij->i", away[met], facing), -1.0, 1.0)
+        result[met] = np.degrees(np.arccos(cosine))
+    return result
 
 
 def significant(regions: list[LostRegion], points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:
@@ -337,14 +383,34 @@ def lost_material_message(regions: list[LostRegion], h: float | None) -> str:
     )
 
 
+def _gap(region: LostRegion) -> str:
+    if region.opening <= WEDGE_OPENING:
+        return f"a gap {region.thickness:.3g} wide"
+    if region.opening >= 179.0:
+        return f"a concave corner filled {region.thickness:.3g} deep"
+    return f"a groove {region.thickness:.3g} wide there, its walls at {region.opening:.0f} deg closing to an edge"
+
+
 def added_material_message(regions: list[LostRegion], h: float | None) -> str:
-    """One line naming the largest regions of added material and the ``h`` that would keep them open."""
-    total, shown, fine = _summary(regions, "a gap {:.3g} wide")
+    """One line naming the largest regions of added material and the ``h`` that would keep them
+    open: half the narrowest of the shown gaps between parallel walls. A groove whose walls close
+    to an edge is filled where it is narrower than the elements at any ``h`` (angle_block.STL's
+    grooves: "h <= 0.02" at D/25, and at 0.02 "h <= 0.0059"); it is named as such, with no ``h``."""
+    total = sum(r.volume for r in regions)
+    shown = "; ".join(
+        f"about {r.volume:.3g} near ({', '.join(f'{c:.4g}' for c in r.center)}), {_gap(r)}" for r in regions[:3]
+    ) + (f" and {len(regions) - 3} more" if len(regions) > 3 else "")
+    gaps = [r.thickness for r in regions[:3] if r.opening <= WEDGE_OPENING]
+    advice = (f"mesh with h <= {0.5 * min(gaps):.2g} to keep a gap open (parts that only touch stay joined)" if gaps
+              else "")
+    if len(gaps) < min(len(regions), 3):
+        advice += ("; " if advice else "") + (
+            "a groove or corner that closes to an edge is filled where it is narrower than the elements "
+            "at any h (a finer h fills less of it)")
     return (
         f"the mesh adds about {total:.3g} (volume) outside the model, where its surfaces come closer "
         f"than {_resolving(h)} (a narrow gap, or parts touching along an edge or at a point): "
-        f"{shown}; mesh with h <= {fine:.2g} to keep a gap open (parts that only touch "
-        "stay joined)"
+        f"{shown}; {advice}"
     )
 
 
