@@ -75,3 +75,44 @@ def test_an_empty_file_is_named_as_empty(tmp_path):
     path.write_bytes(b"")
     with pytest.raises(sdf.MeshInputError, match=r"part\.stl is empty \(0 bytes\); give an STL, OBJ, PLY"):
         sdf.mesh(path)
+
+
+def test_an_obj_face_past_the_last_vertex_is_named(tmp_path):
+    """VTK's OBJ reader keeps a face's index past the last vertex: read as it was, it ended in
+    an IndexError deep in numpy."""
+    path = tmp_path / "badindex.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\nf 1 3 4\nf 2 3 4\n")
+    with pytest.raises(sdf.MeshInputError, match=r"badindex\.obj has 1 face corner\(s\) that refer to no vertex: it has "
+                                                  r"4 vertices, and a face refers to vertex index 98 \(counting from 0\)"):
+        sdf.mesh(path)
+
+
+def test_a_binary_stl_cut_short_is_named_as_damaged(tmp_path):
+    """A binary STL whose header counts 1000 triangles and holds 10 read as an open surface
+    ("has no inside, volume -0.0376")."""
+    import numpy as np
+    import pyvista as pv
+
+    whole = tmp_path / "whole.stl"
+    pv.Sphere(theta_resolution=40, phi_resolution=27).triangulate().save(whole, binary=True)
+    data = whole.read_bytes()
+    count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
+    assert len(data) == 84 + 50 * count and count > 1000
+    assert sdf.mesh(whole).repaired.closed  # the whole file reads
+    cut = tmp_path / "cut.stl"
+    cut.write_bytes(data[: 84 + 50 * 10])
+    with pytest.raises(sdf.MeshInputError, match=rf"cut\.stl is a damaged binary STL: its header counts {count} "
+                                                  rf"triangles \({84 + 50 * count} bytes\), but the file has 584 bytes "
+                                                  r"\(10 triangles\)"):
+        sdf.mesh(cut)
+
+
+def test_level_on_a_surface_mesh_file_is_refused(tmp_path, capsys):
+    """``--level`` is an image's grey value: given with an STL, it was ignored without a word."""
+    import pyvista as pv
+
+    path = tmp_path / "ball.stl"
+    pv.Sphere().save(path)
+    assert main(["mesh", str(path), "--level", "3", "-o", str(tmp_path / "x.vtu"), "--h", "0.2"]) == 1
+    assert "--level is the grey value of an image MODEL" in capsys.readouterr().err
+    assert not (tmp_path / "x.vtu").exists()

@@ -352,3 +352,13 @@ def test_the_exact_volume_of_a_winding_model_serves_the_warning_not_the_refusal(
     closed = sdf.mesh(ball)
     assert mesh_model_volume(closed, closed, *box, closed=True) == pytest.approx(closed.volume)
     assert mesh_model_volume(closed, closed, np.full(3, -0.5), np.full(3, 2.0)) is None  # the box cuts it
+
+
+def test_the_lost_material_message_says_what_h_resolves():
+    """A gear's 2.8 tooth at h = 2.78 was "2.8 thick" where "thinner than h = 2.77906 resolves"."""
+    from fepre.distmesh.lost_material import LostRegion, lost_material_message
+
+    message = lost_material_message([LostRegion((-23.11, 39.91, 5.02), 2.8, 103.0)], 2.77906)
+    assert message.startswith("the mesh leaves out about 103 (volume) of the model where it is thinner than two "
+                              "elements of h = 2.77906: about 103 near (-23.11, 39.91, 5.02), 2.8 thick; mesh with "
+                              "h <= 1.4, or with h=(1.4, 2.779)")

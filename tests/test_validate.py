@@ -462,3 +462,19 @@ def test_a_far_parts_refusal_names_places_in_the_users_coordinates(monkeypatch):
     place = re.search(r"\(at \(([-\d.e+]+), ([-\d.e+]+), ([-\d.e+]+)\)\)", str(refused.value))
     assert place and np.allclose([float(v) for v in place.groups()], (1e4, -5e3, 2e3), atol=5.0)
     assert any("the places named are in your coordinates" in note for note in refused.value.__notes__)
+
+
+def test_a_final_choice_refused_at_a_pinch_names_the_h_that_spans_it():
+    """A gmsh gear's STEP at D/25 (teeth 2.8 wide, h = 5.6) was refused with "try a smaller h";
+    the refusal now measures the wall or gap at the pinch along the normal. Its advice, h <= 2.43
+    and h=(2.43, 5.558), meshed that gear (the trial's own check)."""
+    from fepre.distmesh.finalize import _finer_at
+
+    plate = sdf.box((10.0, 10.0, 0.8))
+    assert _finer_at(plate, np.array([1.0, 2.0, 0.4]), 1.0) == (
+        "the part is 0.8 across there (wall or gap, along its normal): try h <= 0.4 (two elements across), "
+        "or h=(0.4, 1) (the automatic size field: that fine only where needed)")
+    slotted = sdf.box((10.0, 10.0, 4.0)) - sdf.box((0.5, 12.0, 3.0), center=(0.0, 0.0, 1.0))
+    assert "0.5 across there" in _finer_at(slotted, np.array([0.25, 0.0, 1.0]), 1.0)
+    # nothing within two elements: the advice stays general
+    assert _finer_at(sdf.sphere(5.0), np.array([5.0, 0.0, 0.0]), 1.0) == "try a smaller h"

@@ -207,6 +207,18 @@ def numbered_names(values: list[str], flag: str, example: str) -> dict:
     return names
 
 
+def _refuse_level(args: argparse.Namespace) -> None:
+    """``--level`` is an image's grey value, except in ``fepre surface`` (the level set to extract):
+    given with another model, it was ignored without a word."""
+    from ..modelfile import _is_image
+
+    if getattr(args, "level", None) is None or getattr(args, "command", None) == "surface":
+        return
+    if not _is_image(Path(args.model)):
+        raise ValueError(f"--level is the grey value of an image MODEL (.vti, .nii, .nii.gz, .tif, .zarr); "
+                         f"{args.model} is not one (got --level {args.level:g})")
+
+
 def load_part(args: argparse.Namespace):
     """The model file (or mesh file) of ``args.model``; for a mesh file, say what was read and
     repaired."""
@@ -214,6 +226,7 @@ def load_part(args: argparse.Namespace):
     from ..sdf import MeshModel
     from ..sdf.imagemodel import LabelModel
 
+    _refuse_level(args)
     part = load_model(args.model, image=image_options(args), inside=mesh_inside(args), solids=solid_options(args))
     image = image_of(part.model)
     if image is not None:

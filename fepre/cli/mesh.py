@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         common.check_edge_length(args, h, part)
     if args.hmax is not None:
         if h is None or not args.hmax > h:
-            raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h}")
+            raise ValueError(f"--hmax must be larger than --h; got --hmax {args.hmax:g} and --h {h:g}")
         h = (h, float(args.hmax))
     from ..export.formats import resolve_format
     from ..export.meshio_formats import require_module

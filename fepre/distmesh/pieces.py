@@ -50,7 +50,8 @@ def cut_off_pieces(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
     """The pieces (other than the largest) that the model joins to another piece: a boundary
     node of one within the local element size ``size`` (per point) of a boundary node of another,
     with the midpoint between them inside the model (material the mesh lost between them: a
-    rib's root thinner than an element). Pieces the model keeps apart (separate parts, a gap)
+    rib's root thinner than an element), or with the segment between them on the model's
+    surface all along (both on one face). Pieces the model keeps apart (separate parts, a gap)
     are not. ``size`` is an (N,) array over ``points``.
 
     Examples
@@ -65,6 +66,10 @@ def cut_off_pieces(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
     >>> cut_off_pieces(points, tets, labels, counts, sdf.box(5.0) - sdf.box((9, 9, 0.4), center=(0, 0, 1.25)),
     ...                np.full(8, 1.0)).tolist()                # a gap between them in the model
     []
+    >>> flat = np.array([[0, 0, 2.5], [1, 0, 2.5], [0, 1, 2.5], [0, 0, 1.5]])   # on the box's top face
+    >>> points = np.vstack([flat, flat + [1.5, 0, 0]])       # 0.5 apart on the face
+    >>> cut_off_pieces(points, tets, labels, counts, sdf.box(5.0), np.full(8, 1.0)).tolist()
+    [1]
     """
     from scipy.spatial import cKDTree
 
@@ -84,8 +89,14 @@ def cut_off_pieces(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
     first, second = nodes[first[keep]], nodes[second[keep]]
     if len(first) == 0:
         return np.zeros(0, np.int64)
-    middle = 0.5 * (points[first] + points[second])
-    inside = np.asarray(model(middle), float) < -1e-3 * size[first]
+    # inside along the segment, or on the surface all along it: nodes on one face of a part about
+    # an element thick (a gear's tooth tip cut off at h = its width: the nearest nodes lie on a
+    # flank, and no pair across the tooth is within the size)
+    along = np.stack([np.asarray(model(points[first] + t * (points[second] - points[first])), float)
+                      for t in np.arange(1, 8) / 8.0])
+    # (a gap between coplanar faces is found by a sample in it: narrower than h / 8, the mesh
+    # bridges it and the pieces are one)
+    inside = (along[3] < -1e-3 * size[first]) | (np.abs(along).max(axis=0) <= 1e-3 * size[first])
     found = piece[np.searchsorted(nodes, first[inside])]
     return np.unique(found)
 

@@ -333,11 +333,17 @@ def _check_not_flat(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
 
 
 def _check_solid(repaired: Repair, name: str) -> None:
-    """The repaired surface must enclose a solid."""
+    """The repaired surface must enclose a solid.
+
+    The holes' patches are measured against the input's own triangles that bound the solid (not
+    those dropped as inner walls). The repaired surface's area less all the patches, some of them
+    dropped too, was negative on truck.obj ("would add -892% of its area"): its patches add 150%
+    of the 15% of its area left once its holes are closed.
+    """
     if len(repaired.faces) == 0:
         raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
     _, areas = face_normals(repaired.vertices, repaired.faces)
-    given = float(areas.sum()) - repaired.hole_area  # the input's own area, without the patches
+    given = float(areas[~repaired.filled].sum())  # the input's own area, without the patches
     if repaired.holes and repaired.hole_area > MAX_HOLE_FRACTION * given:
         raise MeshInputError(
             f"{name} has no inside: it is an open surface, and closing its {repaired.holes} boundary loop(s) "

@@ -39,6 +39,8 @@ def _as_polydata(source: Any, name: str):
         own = _read_own_format(path)
         if own is not None:
             return own
+        if path.suffix.lower() == ".stl":
+            _check_binary_stl_length(path)
         with warnings.catch_warnings(record=True) as caught, vtk_messages_kept():
             warnings.simplefilter("always")
             try:
@@ -61,6 +63,26 @@ def _as_polydata(source: Any, name: str):
     if not isinstance(data, pv.PolyData):
         data = data.extract_surface(algorithm="dataset_surface")
     return data
+
+
+def _check_binary_stl_length(path: Path) -> None:
+    """A binary STL holds 84 bytes and then 50 per triangle, as many as its header counts; a file
+    of another length that is not ASCII STL (no ``facet`` near its start) was cut short or
+    padded. VTK's reader reads what is there without a word (a file cut after 10 of 1000
+    triangles read as an open surface: "has no inside, volume -0.0376")."""
+    size = path.stat().st_size
+    with open(path, "rb") as stream:
+        head = stream.read(1024)
+    if size < 84 or b"facet" in head.lower():
+        return
+    count = int(np.frombuffer(head[80:84], dtype="<u4")[0])
+    if size != 84 + 50 * count:
+        holds = (size - 84) / 50
+        raise MeshInputError(
+            f"mesh file {path} is a damaged binary STL: its header counts {count} triangles "
+            f"({84 + 50 * count} bytes), but the file has {size} bytes ({holds:.4g} triangles); "
+            "it was cut short or is not an STL file"
+        )
 
 
 def _read_own_format(path: Path):
@@ -143,6 +165,13 @@ def read_triangles(source: Any) -> tuple[np.ndarray, np.ndarray, str]:
         raise MeshInputError(f"{name} could not be triangulated")
     vertices = np.asarray(data.points, dtype=np.float64)
     triangles = faces[:, 1:].astype(np.int64)
+    if triangles.min() < 0 or triangles.max() >= len(vertices):
+        outside = triangles[(triangles < 0) | (triangles >= len(vertices))]
+        raise MeshInputError(
+            f"{name} has {len(np.unique(outside))} face corner(s) that refer to no vertex: it has "
+            f"{len(vertices)} vertices, and a face refers to vertex index {int(outside[0])} (counting from 0); "
+            "the file is damaged or truncated"
+        )
     used = np.unique(triangles)
     bad = ~np.isfinite(vertices[used]).all(axis=1)
     if bad.any():
