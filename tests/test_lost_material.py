@@ -362,3 +362,17 @@ def test_the_lost_material_message_says_what_h_resolves():
     assert message.startswith("the mesh leaves out about 103 (volume) of the model where it is thinner than two "
                               "elements of h = 2.77906: about 103 near (-23.11, 39.91, 5.02), 2.8 thick; mesh with "
                               "h <= 1.4, or with h=(1.4, 2.779)")
+
+
+@pytest.mark.slow
+def test_a_thin_rib_lost_with_the_boss_it_meets_is_named_by_the_rib():
+    """A new user's gmsh housing at D/25: a 1.2 rib lost with a strip of the floor or the 3.5 wall
+    of the boss it meets was named "9.17 thick" (coarse STL) and "3.11" (fine): the chords came
+    from the region's deepest node, at the junction or in the floor. The advice then left the
+    rib out."""
+    floor = sdf.box((80, 60, 2.5), center=(40, 30, 1.25))
+    rib = sdf.box((37.5, 1.2, 15), center=(21.25, 30, 10.0))
+    boss = sdf.cylinder(6.0, 25.0).translate((40, 30, 15.0)) - sdf.cylinder(2.5, 40.0).translate((40, 30, 20.0))
+    with pytest.warns(fepre.ResolutionWarning, match=r"leaves out about .*, 1\.2 thick; mesh with h <= 0\.6, or with "
+                                                     r"h=\(0\.6, 4\.3\)"):
+        fepre.distmesh(floor | rib | boss, 4.3)

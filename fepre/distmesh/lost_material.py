@@ -39,6 +39,8 @@ _MIN_SHARE = 0.01
 #: an acute wedge is lost everywhere less than 0.1 h deep (chord sag, also shallow, lies on
 #: material far thicker than h)
 _THIN = 1.0
+#: nodes of a lost region's deeper half whose chords along the normal give its thickness
+_CHORD_SAMPLES = 32
 #: largest number of grid nodes sampled; coarser spacing beyond it
 _MAX_NODES = 16_000_000
 
@@ -261,10 +263,13 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
     thickness = 2.0 * deepest
     opening = np.zeros(count + 1)
     if len(keep):
-        # of the deepest nodes (ties on a grid across a slab), the one nearest the region's centre
+        # of the deepest nodes (ties on a grid across a slab, to a tenth of its spacing), the one
+        # nearest the region's centre: a node 0.002 deeper where a 1.2 rib met a boss was taken,
+        # and the chords through it, along the rib's faces into the boss, read "9.17 thick"
         nodes_at = origin + np.column_stack([i, j, k]) * step
         off_centre = np.linalg.norm(nodes_at - centre[label], axis=1)
-        order = np.lexsort((-off_centre, np.round(depth.ravel()[picked] / (1e-9 * h)), label))
+        tied = depth.ravel()[picked] >= deepest[label] - 0.1 * spacing_mean
+        order = np.lexsort((-off_centre, tied, label))
         last = order[np.searchsorted(label[order], keep, side="right") - 1]
         at = nodes_at[last]
     if outside and len(keep):
@@ -279,8 +284,45 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
 
         chord = chord_thickness(model, at, deepest[keep], 4.0 * h, h / 64.0)
         thickness[keep] = np.where(np.isfinite(chord), chord, thickness[keep])
+        # a region that takes in some of what a thin wall stands on (a 1.2 rib lost with a strip
+        # of the 2.5 floor under it, or with a boss's 3.5 wall) has its deepest node there, "3.11
+        # thick": the thinnest chord along the normal through nodes of its deeper half says what
+        # was thin (along the normal: the shortest of 14 chords cuts a convex edge's corner)
+        region_depth = depth.ravel()[picked]
+        for r in keep:
+            members = np.flatnonzero(label == r)
+            deeper = members[region_depth[members] >= np.median(region_depth[members])]
+            sample = deeper[np.linspace(0, len(deeper) - 1, min(len(deeper), _CHORD_SAMPLES)).astype(int)]
+            chords = normal_chords(model, nodes_at[sample], h)
+            chords = chords[np.isfinite(chords)]
+            if len(chords):
+                thickness[r] = min(thickness[r], float(chords.min()))
     return [LostRegion(tuple(float(c) for c in centre[r]), float(thickness[r]), float(volume[r]), float(opening[r]))
             for r in keep]
+
+
+def normal_chords(model, points: np.ndarray, h: float) -> np.ndarray:
+    """The chord through each of ``points`` (inside the model) along the model's gradient: the
+    wall's thickness across it; ``inf`` past ``4 h`` either way.
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> rib = sdf.box((10.0, 1.2, 6.0))
+    >>> normal_chords(rib, np.array([[1.0, 0.1, 2.5], [-2.0, -0.3, 0.0]]), 1.0).round(3).tolist()
+    [1.2, 1.2]
+    """
+    from ..sizing.rays import ray_lengths
+    from .thin_cells import _unit_gradient
+
+    points = np.asarray(points, dtype=np.float64)
+    normal, usable = _unit_gradient(model, points)
+    result = np.full(len(points), np.inf)
+    if usable.any():
+        at, along = points[usable], normal[usable]
+        result[usable] = (ray_lengths(model, at, along, True, 4.0 * h, h / 64.0)
+                          + ray_lengths(model, at, -along, True, 4.0 * h, h / 64.0))
+    return result
 
 
 #: a gap whose walls across it are at more than this angle (degrees) narrows to an edge
