@@ -523,3 +523,17 @@ def test_a_model_file_sets_the_boundary_tolerance(tmp_path, capsys):
     (tmp_path / "bad.py").write_text(text + "boundary_tolerance = 0.5\n")
     assert main(["mesh", str(tmp_path / "bad.py"), "--h", "0.4", "-o", str(tmp_path / "bad.inp")]) == 1
     assert "`boundary_tolerance` must be in (0, 0.25]" in capsys.readouterr().err
+
+
+def test_the_header_of_shells_split_at_their_seams_counts_no_smooth_pieces(tmp_path, capsys):
+    """Two crossing boxes: their triangles are split into loose pieces where they cross, each a
+    smooth piece of its own (two touching boxes of 11,688 triangles read "18679 smooth pieces")."""
+    stl = tmp_path / "pair.stl"
+    (pv.Cube().triangulate() + pv.Cube(center=(0.37, 0.41, 0.29)).triangulate()).save(stl)
+    assert main(["surface", str(stl), "-o", str(tmp_path / "x.stl")]) == 0
+    header = [line for line in capsys.readouterr().err.splitlines() if "pair.stl:" in line]
+    assert header and "triangles; repaired:" in header[0] and "smooth pieces" not in header[0], header
+    single = tmp_path / "box.stl"
+    pv.Cube().triangulate().save(single)
+    assert main(["surface", str(single), "-o", str(tmp_path / "y.stl")]) == 0
+    assert "12 triangles, 6 smooth pieces; closed and consistently oriented" in capsys.readouterr().err

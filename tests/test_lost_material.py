@@ -298,6 +298,27 @@ def test_the_genus_of_surfaces_and_models():
     assert model_genus(sdf.torus(1.0, 0.3), grid) == 1
 
 
+def test_a_change_of_genus_is_named_only_with_the_regions_that_made_it():
+    """camelhead.off's zero set on the grid of h / 4 had genus 9 (perforated where the head is a
+    sheet that thin), its mesh 0, and only a lost wall was found: the warning said "a hole or a
+    gap ... bridged". A genus lower than the model's needs added regions, a higher one lost."""
+    import pyvista as pv
+
+    from fepre.distmesh.genus import genus_message
+    from fepre.distmesh.lost_material import LostRegion
+
+    torus = pv.ParametricTorus(ringradius=1.0, crosssectionradius=0.3).triangulate().clean()
+    ball = pv.Sphere().regular_faces  # genus 0 against the torus's 1
+    model = sdf.mesh(torus)
+    region = [LostRegion((1.0, 0.0, 0.0), 0.1, 0.01)]
+    assert genus_message(ball, model, None, region, [], 0.2) is None  # lost only: no hole bridged
+    message = genus_message(ball, model, None, [], region, 0.2)
+    assert message.startswith("the mesh's surface has genus 0 where the model's has 1 (a hole or a gap")
+    two = torus.merge(torus.translate((5, 0, 0))).regular_faces  # genus 2 against 1
+    assert genus_message(two, model, None, [], region, 0.2) is None  # added only: no wall punched
+    assert "genus 2 where the model's has 1 (a wall" in genus_message(two, model, None, region, [], 0.2)
+
+
 @pytest.mark.parametrize("h, punched", [(4.8168, True), (4.4, False)])
 def test_a_wall_punched_through_under_the_volume_floor_is_named_by_the_genus(monkeypatch, h, punched):
     # A 2.5 mm rib meshed at h = 4.82 (D/25) came out with a hole through it, 178 of volume,
