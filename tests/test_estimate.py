@@ -5,6 +5,7 @@ from __future__ import annotations
 import doctest
 import importlib
 import io
+import re
 
 import numpy as np
 import pytest
@@ -50,7 +51,9 @@ def test_stage_lines_say_what_is_left():
         log(stage, "done")
     lines = stream.getvalue().splitlines()
     assert [line.split(":")[1].strip() for line in lines] == list(AFTER_LOOP)
-    assert lines[0].endswith(f"about {seconds_after('final mesh', 0.1):.0f} s left")
+    # the stage's own seconds, not the run's so far (a new user read "1.93 s" after "4.55 s" as elapsed)
+    assert re.search(r"final mesh: done \(this stage \d+\.\d\d s, about \d+ s left\)$", lines[0])
+    assert lines[0].endswith(f"about {seconds_after('final mesh', 0.1):.0f} s left)")
     assert seconds_after("final mesh", 0.1) == pytest.approx(0.1 * (AFTER_LOOP["quality stage"] + AFTER_LOOP["checks and output"]))
     assert "left" not in lines[-1]
     silent = io.StringIO()

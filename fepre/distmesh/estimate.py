@@ -87,5 +87,5 @@ class StageLog:
         left = seconds_after(stage, self.force_seconds)
         tail = f", about {left:.0f} s left" if stage != list(AFTER_LOOP)[-1] else ""
         stream = self.stream if self.stream is not None else sys.stderr
-        stream.write(f"distmesh: {stage}: {detail}  {seconds:7.2f} s{tail}\n")
+        stream.write(f"distmesh: {stage}: {detail} (this stage {seconds:.2f} s{tail})\n")
         stream.flush()
