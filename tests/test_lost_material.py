@@ -304,19 +304,34 @@ def test_a_change_of_genus_is_named_only_with_the_regions_that_made_it():
     gap ... bridged". A genus lower than the model's needs added regions, a higher one lost."""
     import pyvista as pv
 
-    from fepre.distmesh.genus import genus_message
+    from fepre.distmesh.genus import genus_change
     from fepre.distmesh.lost_material import LostRegion
 
     torus = pv.ParametricTorus(ringradius=1.0, crosssectionradius=0.3).triangulate().clean()
     ball = pv.Sphere().regular_faces  # genus 0 against the torus's 1
     model = sdf.mesh(torus)
     region = [LostRegion((1.0, 0.0, 0.0), 0.1, 0.01)]
-    assert genus_message(ball, model, None, region, [], 0.2) is None  # lost only: no hole bridged
-    message = genus_message(ball, model, None, [], region, 0.2)
+    assert genus_change(ball, model, None, region, []) is None  # lost only: no hole bridged
+    message = genus_change(ball, model, None, [], region)
     assert message.startswith("the mesh's surface has genus 0 where the model's has 1 (a hole or a gap")
     two = torus.merge(torus.translate((5, 0, 0))).regular_faces  # genus 2 against 1
-    assert genus_message(two, model, None, [], region, 0.2) is None  # added only: no wall punched
-    assert "genus 2 where the model's has 1 (a wall" in genus_message(two, model, None, region, [], 0.2)
+    assert genus_change(two, model, None, [], region) is None  # added only: no wall punched
+    assert "genus 2 where the model's has 1 (a wall" in genus_change(two, model, None, region, [])
+
+
+def test_a_wall_lost_over_the_volume_floor_that_opens_a_hole_is_named_by_the_genus_too():
+    """A new user's hollow shaft at D/25: its keyway's floor was lost and the keyway opened into
+    the bore, named by its volume only ("leaves out about ..."). The genus is now compared
+    wherever regions are found: here a keyway down to a floor 0.3 thick in a tube."""
+    tube = sdf.cylinder(3.0, 8.0) - sdf.cylinder(2.0, 10.0)
+    part = tube - sdf.box((1.2, 4.0, 5.0), center=(0.0, 4.3, 0.0))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fepre.distmesh(part, 0.8)
+    messages = [str(w.message) for w in caught]
+    assert any(re.search(r"leaves out about .*, 0\.3 thick", m) for m in messages)
+    assert "distmesh: the mesh's surface has genus 2 where the model's has 1 (a wall thinner than the mesh resolves " \
+           "punched through, or a hole's rim cut), at the places named above" in messages
 
 
 @pytest.mark.parametrize("h, punched", [(4.8168, True), (4.4, False)])

@@ -261,8 +261,8 @@ def _off_surface(points: np.ndarray, corners: np.ndarray, model, h: float) -> np
 
 def knife_edge(points: np.ndarray, tets: np.ndarray, model, cell: int) -> tuple[float, np.ndarray] | None:
     """The angle at which the model's surfaces meet (degrees) where ``cell`` holds two boundary
-    faces, and where (the middle of their common edge), at the sharpest such pair; None when the
-    cell holds fewer than two boundary faces.
+    faces whose common edge lies on the surface, and where (the middle of that edge), at the
+    sharpest such pair; None when the cell holds no such pair.
 
     A cell with two faces on a convex edge of the part fills the wedge between them: its angle
     at that edge is at most the edge's, so no mesh that keeps a knife edge of 10 deg meets a 25
@@ -281,6 +281,14 @@ def knife_edge(points: np.ndarray, tets: np.ndarray, model, cell: int) -> tuple[
     >>> angle, where = knife_edge(points, np.array([[0, 1, 2, 3]]), wedge, 0)
     >>> round(angle, 1)
     10.0
+
+    A cell across a plate 0.2 thick: its faces on the plate's two sides meet at edges that cross
+    the plate, not on an edge of it (the pairs left meet on one side, at 180 deg):
+
+    >>> plate = sdf.box((4.0, 4.0, 0.2))
+    >>> across = np.array([[0.0, 0, 0.1], [1, 0, 0.1], [0.5, 0.2, -0.1], [0.5, -0.8, -0.1]])
+    >>> round(knife_edge(across, np.array([[0, 1, 2, 3]]), plate, 0)[0], 1)
+    180.0
     """
     n = points.shape[0]
     faces = faces_on_boundary(tets, face_neighbours(tets, n))
@@ -296,7 +304,13 @@ def knife_edge(points: np.ndarray, tets: np.ndarray, model, cell: int) -> tuple[
     for i in range(local.size):
         for j in range(i + 1, local.size):
             angle = 180.0 - float(np.degrees(np.arccos(np.clip(gradient[i] @ gradient[j], -1.0, 1.0))))
-            edge = np.setdiff1d(np.arange(4), local[[i, j]])
+            ends = points[corners[np.setdiff1d(np.arange(4), local[[i, j]])]]
+            middle = ends.mean(axis=0)
+            # an edge of the model holds the faces' common edge; across a wall thinner than the
+            # cell, the faces lie on its two sides and their edge crosses it (a 1 mm sheet's cell
+            # was "a knife edge ... where its surfaces meet at 0.0 deg")
+            if abs(float(model(middle[None])[0])) > 0.1 * float(np.linalg.norm(ends[1] - ends[0])):
+                continue
             if best is None or angle < best[0]:
-                best = (angle, points[corners[edge]].mean(axis=0))
+                best = (angle, middle)
     return best

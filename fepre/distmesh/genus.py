@@ -16,7 +16,7 @@ import numpy as np
 
 from ..surface.check import surface_genus
 
-__all__ = ["surface_genus", "model_genus", "genus_message"]
+__all__ = ["surface_genus", "model_genus", "genus_change"]
 
 
 def model_genus(model, grid) -> int | None:
@@ -40,11 +40,10 @@ def model_genus(model, grid) -> int | None:
     return surface_genus(isosurface(image).regular_faces)
 
 
-def genus_message(faces: np.ndarray, model, grid, lost: list, added: list, h: float | None) -> str | None:
-    """A line when the mesh's boundary ``faces`` have another genus than the model, naming the
-    regions ``lost`` and ``added`` (under the lost-material check's floor) where it changed."""
-    from .lost_material import added_material_message, lost_material_message
-
+def genus_change(faces: np.ndarray, model, grid, lost: list, added: list) -> str | None:
+    """"the mesh's surface has genus 3 where the model's has 2 (...)" when the mesh's boundary
+    ``faces`` have another genus than the model and the regions ``lost`` or ``added`` account
+    for it, else None."""
     meshed = surface_genus(faces)
     expected = model_genus(model, grid) if meshed is not None else None
     if expected is None or meshed == expected:
@@ -57,9 +56,4 @@ def genus_message(faces: np.ndarray, model, grid, lost: list, added: list, h: fl
         return None
     how = ("a wall thinner than the mesh resolves punched through, or a hole's rim cut" if meshed > expected
            else "a hole or a gap narrower than the mesh resolves bridged")
-    parts = [f"the mesh's surface has genus {meshed} where the model's has {expected} ({how})"]
-    if lost:
-        parts.append(lost_material_message(lost, h))
-    if added:
-        parts.append(added_material_message(added, h))
-    return "; ".join(parts)
+    return f"the mesh's surface has genus {meshed} where the model's has {expected} ({how})"

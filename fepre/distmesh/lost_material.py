@@ -289,8 +289,10 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         # thick": the thinnest chord along the normal through nodes of its deeper half says what
         # was thin (along the normal: the shortest of 14 chords cuts a convex edge's corner)
         region_depth = depth.ravel()[picked]
+        by_label = np.argsort(label, kind="stable")
+        starts = np.searchsorted(label[by_label], np.arange(count + 2))
         for r in keep:
-            members = np.flatnonzero(label == r)
+            members = by_label[starts[r]:starts[r + 1]]
             deeper = members[region_depth[members] >= np.median(region_depth[members])]
             sample = deeper[np.linspace(0, len(deeper) - 1, min(len(deeper), _CHORD_SAMPLES)).astype(int)]
             chords = normal_chords(model, nodes_at[sample], h)

@@ -298,6 +298,25 @@ def _material_candidates(job: MeshingJob) -> tuple[list, list, object]:
     return lost, added, grid
 
 
+def _warn_of_genus(job: MeshingJob, faces, grid, lost: list, added: list, small_lost: list, small_added: list) -> None:
+    """A warning when the regions lost or added change the genus of the mesh's surface: those
+    under the volume floor named with it (nothing else names them), the others named above by
+    their volume (a new user's hollow shaft at D/25, its keyway's floor lost and the keyway open
+    into the bore, was named by volume alone)."""
+    from .genus import genus_change
+    from .lost_material import added_material_message, lost_material_message
+
+    change = genus_change(faces, job.model, grid, lost, added)
+    if change is None:
+        return
+    h = None if job.absolute else job.h
+    parts = [change] + ([lost_material_message(small_lost, h)] if small_lost else []) + (
+        [added_material_message(small_added, h)] if small_added else [])
+    if len(parts) == 1:
+        parts[0] += ", at the places named above"
+    warn_user(f"distmesh: {'; '.join(parts)}", ResolutionWarning)
+
+
 def check_mesh(job: MeshingJob) -> None:
     """The resolution check (material lost or added), the history, the constraints' checks."""
     from .lost_material import added_material_message, lost_material_message, volume_message
@@ -320,12 +339,8 @@ def check_mesh(job: MeshingJob) -> None:
         from .topology import boundary_faces
 
         faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
-        if small_lost or small_added:  # under the volume floor: named where they change the topology
-            from .genus import genus_message
-
-            message = genus_message(faces, job.model, grid, small_lost, small_added, None if job.absolute else h)
-            if message:
-                warn_user(f"distmesh: {message}", ResolutionWarning)
+        if lost or added or small_lost or small_added:  # whether they change the topology
+            _warn_of_genus(job, faces, grid, lost + small_lost, added + small_added, small_lost, small_added)
         message = cavities_message(unmodelled_cavities(job.points, faces, job.model, h), job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)

@@ -202,8 +202,9 @@ class MeshModel(SDF):
 def mesh(source: Any, *, sign: str = "winding", features: float = 30.0, inside: str = "closed") -> MeshModel:
     """The solid enclosed by a triangle mesh, as a model.
 
-    Values are the exact Euclidean distance to the triangles (libigl's bounding-box tree, not a
-    grid), negative inside. The input is repaired first (see
+    Values are the exact Euclidean distance to the triangles (fepre's own bounding-volume
+    hierarchy, compiled, not a grid), negative inside; the sign comes from pseudonormals on a
+    closed surface, else from the generalised winding number (libigl's fast one). The input is repaired first (see
     :mod:`fepre.sdf.meshmodel.repair`): vertices merged, duplicate and degenerate triangles
     dropped, orientation made consistent, holes closed with fans, triangles that do not
     separate inside from outside (inner parts of overlapping shells) dropped. The model is
