@@ -412,3 +412,14 @@ def test_a_thin_rib_lost_with_the_boss_it_meets_is_named_by_the_rib():
     with pytest.warns(fepre.ResolutionWarning, match=r"leaves out about .*, 1\.2 thick; mesh with h <= 0\.6, or with "
                                                      r"h=\(0\.6, 4\.3\)"):
         fepre.distmesh(floor | rib | boss, 4.3)
+
+
+def test_a_lap_joints_clearance_is_named_as_the_gap_it_is():
+    """A new user's two 1 mm plates lapped with a 0.1 clearance, at h = 0.42: the region filled
+    takes in the clearance and the step where the upper plate ends, its deepest node in the step,
+    and it was "a concave corner filled 0.52 deep", no h. Its narrowest gap between parallel
+    walls names it."""
+    lower = sdf.box((5.0, 2.5, 1.0), center=(2.5, 0.0, 0.5))
+    upper = sdf.box((5.0, 2.5, 1.0), center=(5.5, 0.0, 1.6))  # 2 of overlap, 0.1 above
+    with pytest.warns(fepre.ResolutionWarning, match=r"adds about .* a gap 0\.1 wide; mesh with h <= 0\.05 to keep"):
+        fepre.distmesh(lower | upper, 0.42)

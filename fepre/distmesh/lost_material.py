@@ -274,6 +274,22 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         at = nodes_at[last]
     if outside and len(keep):
         opening[keep] = gap_opening(model, at, h)
+        # a region that takes in a gap between parallel walls and a concave corner beside it (a
+        # lap joint's 0.1 clearance and the step where the upper plate ends) has its deepest
+        # node in the corner: "a concave corner filled 0.52 deep", no h. The narrowest gap
+        # between parallel walls among its nodes names it
+        region_depth = depth.ravel()[picked]
+        by_label = np.argsort(label, kind="stable")
+        starts = np.searchsorted(label[by_label], np.arange(count + 2))
+        for r in keep:
+            members = by_label[starts[r]:starts[r + 1]]
+            sample = members[np.linspace(0, len(members) - 1, min(len(members), _CHORD_SAMPLES)).astype(int)]
+            length, angle = gap_walls(model, nodes_at[sample], h)
+            width = region_depth[sample] + length
+            parallel = np.isfinite(width) & (angle <= WEDGE_OPENING)
+            if parallel.any() and float(width[parallel].min()) < thickness[r]:
+                narrowest = np.flatnonzero(parallel)[np.argmin(width[parallel])]
+                thickness[r], opening[r] = float(width[narrowest]), float(angle[narrowest])
     elif len(keep):
         # a grid of h / 4 misses the middle of a wall thinner than that: the chord through the
         # deepest node (a 0.8 rib sampled at 0.64 was "0.162 thick" from a node 0.081 deep). Not
@@ -345,22 +361,30 @@ def gap_opening(model, points: np.ndarray, h: float) -> np.ndarray:
     >>> float(np.round(gap_opening(slot, np.array([[0.1, 0.0, 0.6]]), 1.0), 1)[0])
     0.0
     """
+    return gap_walls(model, points, h)[1]
+
+
+def gap_walls(model, points: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each of ``points`` outside the model, how far the facing wall is along the model's
+    gradient (``inf`` where none is met within ``4 h``) and the angle between the two walls
+    (:func:`gap_opening`); the point's distance plus the first is the gap's width there."""
     from ..sizing.rays import ray_lengths
     from .thin_cells import _unit_gradient
 
     points = np.asarray(points, dtype=np.float64)
     away, usable = _unit_gradient(model, points)
-    result = np.full(len(points), 180.0)
+    length = np.full(len(points), np.inf)
+    angle = np.full(len(points), 180.0)
     if not usable.any():
-        return result
-    length = ray_lengths(model, points[usable], away[usable], False, 4.0 * h, h / 64.0)
-    met = np.flatnonzero(usable)[np.isfinite(length)]
+        return length, angle
+    length[usable] = ray_lengths(model, points[usable], away[usable], False, 4.0 * h, h / 64.0)
+    met = np.flatnonzero(np.isfinite(length))
     if len(met):
-        hit = points[met] + length[np.isfinite(length), None] * away[met]
+        hit = points[met] + length[met, None] * away[met]
         facing, _ = _unit_gradient(model, hit)
         cosine = np.clip(-np.einsum("ij,ij->i", away[met], facing), -1.0, 1.0)
-        result[met] = np.degrees(np.arccos(cosine))
-    return result
+        angle[met] = np.degrees(np.arccos(cosine))
+    return length, angle
 
 
 def significant(regions: list[LostRegion], points: np.ndarray, tets: np.ndarray, h: float) -> list[LostRegion]:

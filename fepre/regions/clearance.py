@@ -145,5 +145,6 @@ def check_clearances(regions: RegionSet, model, lower, upper, h: float) -> None:
         f"regions face each other, apart, across gaps narrower than {CLEARANCE} h = {CLEARANCE * h:.4g} (a clearance, "
         f"or a thin wedge where two regions part): "
         f"{listed}{more}. A conformal mesh at h={h:.4g} would bridge them (it has no interface there). Close the gaps "
-        f"in the model so that the solids share their faces, mesh the part without regions (CLI: without --solids), "
+        f"in the model so that the solids share their faces, mesh the part without regions (CLI: without --solids; its "
+        f"cells then fill the gaps and join the solids there), "
         f"or give h below {narrowest / CLEARANCE:.3g} (the narrowest gap / {CLEARANCE})")
