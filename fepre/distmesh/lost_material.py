@@ -267,8 +267,9 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         # nearest the region's centre: a node 0.002 deeper where a 1.2 rib met a boss was taken,
         # and the chords through it, along the rib's faces into the boss, read "9.17 thick"
         nodes_at = origin + np.column_stack([i, j, k]) * step
+        region_depth = depth.ravel()[picked]
         off_centre = np.linalg.norm(nodes_at - centre[label], axis=1)
-        tied = depth.ravel()[picked] >= deepest[label] - 0.1 * spacing_mean
+        tied = region_depth >= deepest[label] - 0.1 * spacing_mean
         order = np.lexsort((-off_centre, tied, label))
         last = order[np.searchsorted(label[order], keep, side="right") - 1]
         at = nodes_at[last]
@@ -278,18 +279,13 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         # lap joint's 0.1 clearance and the step where the upper plate ends) has its deepest
         # node in the corner: "a concave corner filled 0.52 deep", no h. The narrowest gap
         # between parallel walls among its nodes names it
-        region_depth = depth.ravel()[picked]
-        by_label = np.argsort(label, kind="stable")
-        starts = np.searchsorted(label[by_label], np.arange(count + 2))
-        for r in keep:
-            members = by_label[starts[r]:starts[r + 1]]
-            sample = members[np.linspace(0, len(members) - 1, min(len(members), _CHORD_SAMPLES)).astype(int)]
-            length, angle = gap_walls(model, nodes_at[sample], h)
-            width = region_depth[sample] + length
-            parallel = np.isfinite(width) & (angle <= WEDGE_OPENING)
-            if parallel.any() and float(width[parallel].min()) < thickness[r]:
-                narrowest = np.flatnonzero(parallel)[np.argmin(width[parallel])]
-                thickness[r], opening[r] = float(width[narrowest]), float(angle[narrowest])
+        sample, owner = _region_samples(label, keep, region_depth, deeper_half=False)
+        length, angle = gap_walls(model, nodes_at[sample], h)
+        width = np.where(np.isfinite(length) & (angle <= WEDGE_OPENING), region_depth[sample] + length, np.inf)
+        narrowest = np.full(count + 1, np.inf)
+        np.minimum.at(narrowest, owner, width)
+        better = np.flatnonzero((width < thickness[owner]) & (width == narrowest[owner]))
+        thickness[owner[better]], opening[owner[better]] = width[better], angle[better]
     elif len(keep):
         # a grid of h / 4 misses the middle of a wall thinner than that: the chord through the
         # deepest node (a 0.8 rib sampled at 0.64 was "0.162 thick" from a node 0.081 deep). Not
@@ -304,19 +300,26 @@ def _candidate_regions(model, h: float, outside: bool, size, sampled: _Sampled) 
         # of the 2.5 floor under it, or with a boss's 3.5 wall) has its deepest node there, "3.11
         # thick": the thinnest chord along the normal through nodes of its deeper half says what
         # was thin (along the normal: the shortest of 14 chords cuts a convex edge's corner)
-        region_depth = depth.ravel()[picked]
-        by_label = np.argsort(label, kind="stable")
-        starts = np.searchsorted(label[by_label], np.arange(count + 2))
-        for r in keep:
-            members = by_label[starts[r]:starts[r + 1]]
-            deeper = members[region_depth[members] >= np.median(region_depth[members])]
-            sample = deeper[np.linspace(0, len(deeper) - 1, min(len(deeper), _CHORD_SAMPLES)).astype(int)]
-            chords = normal_chords(model, nodes_at[sample], h)
-            chords = chords[np.isfinite(chords)]
-            if len(chords):
-                thickness[r] = min(thickness[r], float(chords.min()))
+        sample, owner = _region_samples(label, keep, region_depth, deeper_half=True)
+        np.minimum.at(thickness, owner, normal_chords(model, nodes_at[sample], h))
     return [LostRegion(tuple(float(c) for c in centre[r]), float(thickness[r]), float(volume[r]), float(opening[r]))
             for r in keep]
+
+
+def _region_samples(label: np.ndarray, keep: np.ndarray, depth: np.ndarray, deeper_half: bool):
+    """Up to ``_CHORD_SAMPLES`` nodes of each region in ``keep`` (of its deeper half, with
+    ``deeper_half``), spread through its nodes: their indices and their regions."""
+    by_label = np.argsort(label, kind="stable")
+    starts = np.searchsorted(label[by_label], np.concatenate([keep, keep + 1]))
+    picked, owner = [], []
+    for r, a, b in zip(keep, starts[:len(keep)], starts[len(keep):]):
+        members = by_label[a:b]
+        if deeper_half:
+            members = members[depth[members] >= np.median(depth[members])]
+        chosen = members[np.linspace(0, len(members) - 1, min(len(members), _CHORD_SAMPLES)).astype(int)]
+        picked.append(chosen)
+        owner.append(np.full(len(chosen), r))
+    return np.concatenate(picked), np.concatenate(owner)
 
 
 def normal_chords(model, points: np.ndarray, h: float) -> np.ndarray:
