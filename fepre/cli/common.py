@@ -401,10 +401,12 @@ def resolve_lengths(args: argparse.Namespace, part) -> None:
     for name in ("h", "hmax"):
         value = getattr(args, name, None)
         if isinstance(value, str):
+            from ..arguments import diagonal_lengths
+
             lower, upper = part.domain_bounds()
-            diagonal = float(np.linalg.norm(np.subtract(upper, lower)))
-            setattr(args, name, diagonal / float(value[2:]))
+            setattr(args, name, diagonal_lengths(value, lower, upper, f"--{name}"))
             if not getattr(args, "quiet", False):
+                diagonal = float(np.linalg.norm(np.subtract(upper, lower)))
                 say(f"--{name} {value}: {getattr(args, name):.6g} (the part's box has a diagonal of {diagonal:.6g})")
 
 
