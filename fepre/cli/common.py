@@ -376,14 +376,14 @@ def periods(values: list[float] | None):
 def length(text: str) -> float | str:
     """An argparse type for an edge length: a number, or ``D/N`` (the part's bounding-box
     diagonal over N, resolved once the part is read: :func:`resolve_lengths`)."""
+    from ..arguments import diagonal_lengths
+
     text = text.strip()
     if text[:2].upper() == "D/":
         try:
-            count = float(text[2:])
+            return f"D/{1.0 / diagonal_lengths(text, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0)):g}"  # N, checked
         except ValueError:
-            count = float("nan")
-        if math.isfinite(count) and count > 0:
-            return f"D/{count:g}"
+            pass
         raise argparse.ArgumentTypeError(f"D/N needs a number N > 0 (D/50: 50 elements along the part's diagonal); "
                                          f"got {text!r}")
     try:
