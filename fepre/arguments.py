@@ -202,6 +202,34 @@ def domain_bounds(model: Any, bounds: Any) -> tuple[tuple[float, ...], tuple[flo
     return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
 
 
+def diagonal_lengths(h: Any, lower: Any, upper: Any, name: str = "h") -> Any:
+    """``h`` with every ``"D/N"`` in it (alone or in a pair) made the diagonal of the box
+    ``lower``-``upper`` over N; other values are returned as given.
+
+    Examples
+    --------
+    >>> diagonal_lengths("D/50", (0, 0, 0), (3, 4, 0))
+    0.1
+    >>> diagonal_lengths(("D/100", "D/10"), (0, 0, 0), (3, 4, 0))
+    (0.05, 0.5)
+    """
+    if isinstance(h, (tuple, list)):
+        return type(h)(diagonal_lengths(value, lower, upper, name) for value in h)
+    if not isinstance(h, str):
+        return h
+    text = h.strip()
+    count = float("nan")
+    if text[:2].upper() == "D/":
+        try:
+            count = float(text[2:])
+        except ValueError:
+            pass
+    if not (math.isfinite(count) and count > 0):
+        raise ValueError(f"{name} must be a length, or 'D/N' for the part's bounding-box diagonal over N > 0 "
+                         f"(e.g. 0.5 or 'D/50'); got {h!r}")
+    return float(np.linalg.norm(np.subtract(upper, lower, dtype=np.float64))) / count
+
+
 def choice(value: Any, name: str, accepted: tuple) -> Any:
     """Return ``value`` if it is one of ``accepted``."""
     if value not in accepted:

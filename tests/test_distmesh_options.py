@@ -242,11 +242,29 @@ def test_cospherical_cubic_lattice_is_handled():
         ({"h": 0.3, "maxiter": 0}, ValueError, "maxiter must be a positive integer"),
         ({"h": 0.3, "nonlinear": "yes"}, TypeError, "nonlinear must be True or False"),
         ({"h": 0.3, "options": {"deltat": 0.1}}, TypeError, "options must be a fepre.DistMeshOptions"),
+        ({"h": "D/0"}, ValueError, "h must be a length, or 'D/N' .* got 'D/0'"),
+        ({"h": "0.3"}, ValueError, "h must be a length, or 'D/N' .* got '0.3'"),
+        ({"h": ("D/40", "D/x")}, ValueError, "got 'D/x'"),
     ],
 )
 def test_bad_input_names_the_parameter(kwargs, error, match):
     with pytest.raises(error, match=match):
         fepre.distmesh(BALL, **kwargs)
+
+
+def test_h_as_a_share_of_the_diagonal_as_on_the_command_line():
+    # "D/N" is the diagonal of the domain's box over N, as --h D/50 is; the mesh is the one of
+    # the length it stands for, alone or in a pair, and wherever the part is placed
+    box = sdf.box((2.0, 1.0, 1.0))
+    diagonal = float(np.sqrt(6.0))
+    named, given = fepre.distmesh(box, h="D/10"), fepre.distmesh(box, h=diagonal / 10)
+    assert named.n_cells == given.n_cells > 0
+    np.testing.assert_array_equal(named.points, given.points)
+    far = box.translate((1e4, 0.0, 0.0))
+    graded = fepre.distmesh(far, h=("D/30", "D/8"))
+    assert graded.n_cells == fepre.distmesh(far, h=(diagonal / 30, diagonal / 8)).n_cells
+    roomy = ((-2.0, -1.0, -1.0), (2.0, 1.0, 1.0))  # the box given, not the model's
+    assert fepre.distmesh(box, h="d/20", bounds=roomy).n_cells == fepre.distmesh(box, h=np.sqrt(24.0) / 20, bounds=roomy).n_cells
 
 
 def test_empty_domain_and_unbounded_model():

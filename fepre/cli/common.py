@@ -376,14 +376,14 @@ def periods(values: list[float] | None):
 def length(text: str) -> float | str:
     """An argparse type for an edge length: a number, or ``D/N`` (the part's bounding-box
     diagonal over N, resolved once the part is read: :func:`resolve_lengths`)."""
+    from ..arguments import diagonal_lengths
+
     text = text.strip()
     if text[:2].upper() == "D/":
         try:
-            count = float(text[2:])
+            return f"D/{1.0 / diagonal_lengths(text, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0)):g}"  # N, checked
         except ValueError:
-            count = float("nan")
-        if math.isfinite(count) and count > 0:
-            return f"D/{count:g}"
+            pass
         raise argparse.ArgumentTypeError(f"D/N needs a number N > 0 (D/50: 50 elements along the part's diagonal); "
                                          f"got {text!r}")
     try:
@@ -401,10 +401,12 @@ def resolve_lengths(args: argparse.Namespace, part) -> None:
     for name in ("h", "hmax"):
         value = getattr(args, name, None)
         if isinstance(value, str):
+            from ..arguments import diagonal_lengths
+
             lower, upper = part.domain_bounds()
-            diagonal = float(np.linalg.norm(np.subtract(upper, lower)))
-            setattr(args, name, diagonal / float(value[2:]))
+            setattr(args, name, diagonal_lengths(value, lower, upper, f"--{name}"))
             if not getattr(args, "quiet", False):
+                diagonal = float(np.linalg.norm(np.subtract(upper, lower)))
                 say(f"--{name} {value}: {getattr(args, name):.6g} (the part's box has a diagonal of {diagonal:.6g})")
 
 

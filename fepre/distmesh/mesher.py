@@ -6,7 +6,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..arguments import domain_bounds, positive_float, shown
+from ..arguments import diagonal_lengths, domain_bounds, positive_float, shown
 from ..constraint_keywords import constraint_for
 from ..errors import MeshingError
 from ..sdf.core import SDF
@@ -102,8 +102,10 @@ def distmesh(
     ----------
     model : fepre.sdf.SDF
         The solid (negative inside).
-    h : float or (hmin, hmax)
-        Target edge length (where ``size`` is smallest, for graded meshes); a pair meshes with
+    h : float, str or (hmin, hmax)
+        Target edge length (where ``size`` is smallest, for graded meshes), or ``"D/N"``: the
+        diagonal of the domain's box (``bounds``, else the model's) over N, as in the command
+        line's ``--h D/50``; a pair (of lengths or ``"D/N"``) meshes with
         the automatic size field :func:`fepre.size_field` ``(model, hmin, hmax)`` (fine at thin
         walls, gaps, small holes and curvature, up to ``hmax`` elsewhere). ``hmin`` is the
         smallest size that field gives: walls thinner than three ``hmin``, gaps narrower than
@@ -201,6 +203,7 @@ def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: A
     if size is not None and not callable(size) and not _is_dataset(size):
         raise TypeError(f"size must be a callable (N, 3) -> (N,), a fepre.SizeField, a background mesh or None; got {type(size).__name__}")
     keyword_constraints = [constraint_for(key, value, job) for key, value in job.keywords.items() if value is not None]
+    h = diagonal_lengths(h, *domain_bounds(model, job.bounds)) if _names_diagonal(h) else h
     job.h, job.size, job.absolute = _resolve_sizes(model, h, size, job.bounds, regions)
     for constraint in keyword_constraints:
         constraint.restrict_domain(job)
@@ -220,6 +223,11 @@ def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: A
     if _frame is not None:
         job.frame_offset = np.asarray(_frame, np.float64)
     return run_pipeline(job)
+
+
+def _names_diagonal(h: Any) -> bool:
+    """True when ``h`` (or one of a pair) is a string: ``"D/N"``, or a mistake to name."""
+    return isinstance(h, str) or (isinstance(h, (tuple, list)) and any(isinstance(value, str) for value in h))
 
 
 def _frame_offset(model: SDF, bounds: Any) -> np.ndarray:
