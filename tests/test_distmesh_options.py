@@ -267,6 +267,27 @@ def test_h_as_a_share_of_the_diagonal_as_on_the_command_line():
     assert fepre.distmesh(box, h="d/20", bounds=roomy).n_cells == fepre.distmesh(box, h=np.sqrt(24.0) / 20, bounds=roomy).n_cells
 
 
+def test_bounds_that_cut_the_solid_mesh_the_part_inside_them():
+    # an unbounded gyroid given bounds (as the "bounds is required" message asks) was refused
+    # after the loop as "cells outside the part; try a smaller h"; now the bounds cut it, as
+    # the model & box the user would otherwise write
+    lattice = sdf.gyroid(1.0, 0.3)
+    cell = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    given = fepre.distmesh(lattice, 0.1, bounds=cell)
+    written = fepre.distmesh(lattice & sdf.box((1.0, 1.0, 1.0), center=(0.5, 0.5, 0.5)), 0.1, bounds=cell)
+    assert given.n_cells == written.n_cells > 1000
+    np.testing.assert_array_equal(given.points, written.points)
+    assert given["min_dihedral_angle"].min() >= 25.0
+    # half a ball: its volume, every node in the box
+    half = fepre.distmesh(BALL, 0.15, bounds=((-1.2, -1.2, -1.2), (0.0, 1.2, 1.2)))
+    assert abs(half.volume / (2.0 * np.pi / 3.0) - 1.0) < 0.02
+    assert np.asarray(half.points)[:, 0].max() <= 1e-9
+    # a box that holds the solid leaves the model as it is
+    from fepre.distmesh.mesher import _cut_by_bounds
+
+    assert _cut_by_bounds(BALL, np.full(3, -1.5), np.full(3, 1.5), 0.1) is BALL
+
+
 def test_empty_domain_and_unbounded_model():
     with pytest.raises(fepre.MeshingError, match="misses the bounds"):
         fepre.distmesh(BALL, 0.3, bounds=((2, 2, 2), (3, 3, 3)))

@@ -115,7 +115,9 @@ def distmesh(
         With ``regions``, the field is the smallest of the part's and each region's (a
         region's thin walls get their sizes even where the part is thick).
     bounds : ((xmin, ymin, zmin), (xmax, ymax, zmax)), optional
-        Box holding the solid; defaults to ``model.bounds``.
+        Box holding the solid; defaults to ``model.bounds``. Where the solid reaches through
+        the box (an unbounded lattice, or part of a part), the part inside it is meshed:
+        ``model & sdf.box(...)`` of the box.
     size : callable, fepre.SizeField or pyvista.DataSet, optional
         A callable ``size(points (N, 3)) -> (N,)`` gives relative edge lengths (the reference's
         ``fh``): edges are about ``h * size(x) / min(size)``. A :class:`fepre.SizeField`, or a
@@ -211,6 +213,8 @@ def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: A
     extent = float((job.upper - job.lower).max())
     if job.h >= extent:
         raise ValueError(f"h={shown(job.h)} must be smaller than the domain's largest extent {extent:g}")
+    if bounds is not None and not keyword_constraints:
+        job.model = _cut_by_bounds(job.model, job.lower, job.upper, job.h)
     for constraint in keyword_constraints:
         constraint.check_domain(job)
     if callback is not None and not callable(callback):
@@ -228,6 +232,27 @@ def _mesh(model: SDF, h: Any, *, bounds: Any, size: Any, fixed: Any, periodic: A
 def _names_diagonal(h: Any) -> bool:
     """True when ``h`` (or one of a pair) is a string: ``"D/N"``, or a mistake to name."""
     return isinstance(h, str) or (isinstance(h, (tuple, list)) and any(isinstance(value, str) for value in h))
+
+
+#: faces of the bounds are sampled this many times per h (at most CUT_SAMPLES along a side)
+CUT_DENSITY = 2.0
+CUT_SAMPLES = 256
+
+
+def _cut_by_bounds(model: SDF, lower: np.ndarray, upper: np.ndarray, h: float) -> SDF:
+    """``model`` cut by the box ``lower``-``upper`` when its solid reaches through a face of
+    the box, else ``model`` itself: the bounds given to an unbounded lattice, or a box round part
+    of a part, mesh what lies inside them (the lattice's cells there were refused as "cells
+    outside the part; try a smaller h", since its solid went on past the box)."""
+    from ..sdf import box
+
+    counts = np.clip(np.ceil((upper - lower) * CUT_DENSITY / h).astype(int) + 1, 2, CUT_SAMPLES)
+    for axis in range(3):
+        axes = [np.linspace(lower[k], upper[k], counts[k]) for k in range(3)]
+        axes[axis] = np.array([lower[axis], upper[axis]])
+        if float(model.values_on_axes(*axes, dtype=np.float64).min()) < -1e-3 * h:
+            return model & box(tuple(upper - lower), center=tuple(0.5 * (lower + upper)))
+    return model
 
 
 def _frame_offset(model: SDF, bounds: Any) -> np.ndarray:
