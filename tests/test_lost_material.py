@@ -371,7 +371,10 @@ def test_a_mesh_over_its_triangle_models_volume_is_explained_by_bridged_gaps():
     octahedron = 1.5 * unit  # 4.5 against the ball's 4.18
     line = volume_message(ball, ball, octahedron, cells, (-2, -2, -2), (2, 2, 2), 1.0, False)
     assert line.startswith("the mesh's volume is 7.7% over the model's (4.5 against 4.179)")
-    assert "gaps, pockets or holes narrower than h are bridged" in line and "chords' sag" not in line
+    assert "gaps, pockets or holes narrower than h are bridged" in line and "lose their chords' sag" not in line
+    # a hole's chords cut into its void: a perforated plate that kept its 135 holes was told
+    # they were bridged
+    assert "a hole's wall or a concave surface curved at the scale of h gains its chords' sag" in line
 
 
 def test_the_exact_volume_of_a_winding_model_serves_the_warning_not_the_refusal():
