@@ -69,3 +69,26 @@ def test_an_undone_split_comes_after_the_other_choices():
 def _edges(cells):
     pairs = cells[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
     return set(map(tuple, np.sort(pairs, axis=1).tolist()))
+
+
+def test_a_round_better_by_a_hair_with_more_bad_cells_does_not_replace_the_best():
+    # ur3_upperarm.stl at D/50 (with rounds on 76 bad cells): a round whose worst cell scored a
+    # hair above the stage's, both about 0, but with 128 bad cells was kept, and the trim that
+    # starts from the rounds' best ended at 4.5 deg instead of 16.7
+    from fepre.distmesh.insertion_stage import TIE, _improves
+
+    targets = ShapeTargets()
+    regular = np.array([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1.0]])
+    flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 0.02]])
+    points = np.concatenate([regular, flat, flat + 5.0])
+    tets = np.array([[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]])
+    tets = _positive(points, tets)
+    best_tets = tets[:2]  # one bad cell
+    worst = float(targets.score(points[best_tets]).min())
+    best = (worst, points, best_tets)
+    more_bad = np.full(3, 60.0)
+    more_bad[1:] = worst + 0.1  # a hair better, two bad cells
+    assert not _improves(more_bad, best, targets)
+    assert _improves(np.array([60.0, worst + 0.1]), best, targets)  # a hair better, one bad cell
+    assert _improves(np.array([60.0, worst + TIE + 0.1, worst + TIE + 0.1]), best, targets)  # clearly better
+    assert not _improves(np.array([60.0, worst]), best, targets)  # no better
