@@ -45,6 +45,18 @@ def _non_blank(path) -> float:
     return float(np.any(image < 235, axis=2).mean())
 
 
+def test_mesh_says_when_the_mesh_is_in_separate_pieces(folder, capsys):
+    # a STEP file's two separate bodies were meshed into two pieces without a word; each needs
+    # holding in a solver
+    (folder / "two.py").write_text("from fepre import sdf\nmodel = sdf.sphere(1.0) | sdf.sphere(0.8).translate((3, 0, 0))\n")
+    assert main(["mesh", str(folder / "two.py"), "-o", str(folder / "two.vtu"), "--h", "0.4"]) == 0
+    line = next(text for text in capsys.readouterr().err.splitlines() if "tetrahedra, " in text)
+    counts = [int(c.replace(",", "")) for c in re.search(r"in 2 pieces not joined through faces \(([\d,]+), ([\d,]+) cells", line).groups()]
+    assert sum(counts) == pv.read(folder / "two.vtu").n_cells and counts[0] > counts[1] > 0
+    assert main(["mesh", str(folder / "ball.py"), "-o", str(folder / "one.vtu")]) == 0
+    assert "pieces" not in next(text for text in capsys.readouterr().err.splitlines() if "tetrahedra, " in text)
+
+
 def test_surface_writes_a_closed_stl_with_the_right_volume(folder, capsys):
     out = folder / "ball.stl"
     assert main(["surface", str(folder / "ball.py"), "-o", str(out), "--spacing", "0.04"]) == 0

@@ -139,7 +139,8 @@ def run(args: argparse.Namespace) -> int:
                 f"worst dihedral {float(mesh['min_dihedral_angle'][chosen].min()):.1f} deg")
     if period is not None:
         say(f"fepre mesh: periodic cell: {len(fepre.periodic_nodes(mesh))} nodes tied to their partners one period away")
-    say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes in {time.perf_counter() - start:.1f} s; writing ...")
+    say(f"fepre mesh: {mesh.n_cells} tetrahedra, {mesh.n_points} nodes{_pieces_note(mesh)} in "
+        f"{time.perf_counter() - start:.1f} s; writing ...")
     if not args.quiet:
         print(summary(mesh))
     if part.boundaries:
@@ -247,3 +248,16 @@ def _size_file(path: str):
         return SizeField.from_image(data) if isinstance(data, pv.ImageData) else data
     except ValueError as exc:
         raise ValueError(f"--size {path}: {exc}") from None
+
+
+def _pieces_note(mesh) -> str:
+    """``", in N pieces ..."`` when the mesh is in more than one piece not joined through faces
+    (a STEP file's two separate bodies meshed without a word: each needs holding in a solver),
+    else ``""``. Pieces the mesher cut off or found small are also named in its warning."""
+    from ..distmesh.pieces import mesh_pieces
+
+    counts = mesh_pieces(np.asarray(mesh.cells_dict[10]), mesh.n_points)[1] if 10 in mesh.cells_dict else []
+    if len(counts) < 2:
+        return ""
+    return f", in {len(counts)} pieces not joined through faces ({', '.join(f'{c:,}' for c in counts[:4])}" + (
+        " ..." if len(counts) > 4 else "") + " cells: a solver needs each one held)"
