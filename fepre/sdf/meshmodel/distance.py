@@ -148,11 +148,16 @@ class TriangleDistance:
         single-precision winding number is noise there (on libigl's halftunnel.off, points 1e-8
         h inside read 0, and the gradient of 198 of 10k boundary faces' centroids pointed in)."""
         distance = np.linalg.norm(offset, axis=1)
-        near = (distance > 0) & (distance < self._near)
+        inside = np.zeros(len(points), bool)
+        # on the surface the distance is 0 on either side: no winding number is asked there
+        # (the quality stage's boundary nodes, 39% of the queries on ur3_base.stl at 10 us each)
+        off = np.flatnonzero(distance > 0)
+        points, offset, distance = points[off], offset[off], distance[off]  # copies
+        near = distance < self._near
         if near.any():
-            points = points.copy()
             points[near] += offset[near] * ((self._near - distance[near]) / distance[near])[:, None]
-        return self.winding_numbers(points) > 0.5
+        inside[off] = self.winding_numbers(points) > 0.5
+        return inside
 
     def _query(self, points: np.ndarray):
         points = np.ascontiguousarray(points, dtype=np.float64)
