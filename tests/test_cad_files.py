@@ -166,3 +166,31 @@ def test_a_bore_set_on_a_tessellated_step_part_takes_the_bore(tmp_path):
         faces = tag_boundaries(mesh, bore)
     area = float(faces.extract_cells(np.flatnonzero(faces["boundary_id"] == 0)).area)
     assert area == pytest.approx(2 * np.pi * 5.0 * 10.0, rel=0.01)
+
+
+def test_a_perforated_plate_is_tessellated_by_its_holes_curvature_not_its_faces_edges(tmp_path):
+    # a plate with 135 holes 3 across was 1.08M triangles and 27 s of tessellation, the holes'
+    # fine edges carried into its two flat faces; its flat faces now take few triangles and the
+    # holes keep their 64 segments per turn
+    import gmsh
+
+    from fepre.sdf.meshmodel.cad_files import read_cad_surface
+
+    path = tmp_path / "perforated.step"
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        plate = occ.addBox(0, 0, 0, 50, 50, 2)
+        holes = [(3, occ.addCylinder(5 + 10 * i, 5 + 10 * j, -1, 0, 0, 4, 1.5)) for i in range(5) for j in range(5)]
+        occ.cut([(3, plate)], holes)
+        occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    surface = read_cad_surface(path)
+    volume = 50 * 50 * 2 - 25 * np.pi * 1.5**2 * 2
+    assert surface.volume == pytest.approx(volume, rel=2e-4)
+    # the holes' walls, 64 segments per turn, are most of the 58k triangles; with the holes'
+    # edges spread over the flat faces they were 316k
+    assert surface.n_cells < 100_000
