@@ -307,6 +307,30 @@ def test_points_on_the_surface_ask_no_winding_number(monkeypatch):
     assert np.array_equal(values[3000:][clear] < 0, union[clear] < 0)
 
 
+def test_the_gradient_on_a_long_thin_facet_is_its_normal_not_rounding_noise():
+    # trimesh's plate_holes.STL: a seed on the plate's flat top (z = 12.7) lay 7.4e-10 off a
+    # 120-long facet in rounding alone; the direction to its closest point made the gradient
+    # tilt into the face, and the size field named a knife edge in the middle of the plate.
+    # These are the facets round it, as read from the file
+    from fepre.sdf.meshmodel.distance import TriangleDistance
+
+    xy = np.array([[43.117645263671875, 251.4495849609375], [44.4511833190918, 252.4728546142578],
+                   [45.474449157714844, 253.80638122558594], [46.117698669433594, 255.3593292236328],
+                   [97.67113494873047, 158.40960693359375], [98.82186889648438, 159.29258728027344],
+                   [100.16193389892578, 159.84765625], [101.5999984741211, 160.03700256347656],
+                   [103.0380630493164, 159.84765625], [104.37812805175781, 159.29258728027344],
+                   [105.52886199951172, 158.40960693359375], [106.41184997558594, 157.2588653564453],
+                   [106.96692657470703, 155.91880798339844], [132.00958251953125, 304.8000183105469]])
+    vertices = np.column_stack([xy, np.full(len(xy), 12.699999809265137)])
+    faces = np.array([[2, 1, 11], [12, 13, 11], [11, 13, 3], [11, 3, 2], [4, 5, 1], [0, 4, 1], [5, 6, 1], [1, 6, 7],
+                      [1, 7, 8], [8, 9, 1], [1, 9, 10], [1, 10, 11]])
+    seed = np.array([[51.31617451, 241.91910841, 12.69999981]])
+    for tree in (TriangleDistance(vertices, faces, pseudonormal=True), TriangleDistance(vertices, faces, pseudonormal=False, face_sign=True)):
+        distance, _, _, direction = tree.signed(seed)
+        assert 0 < abs(distance[0]) < 1e-9
+        np.testing.assert_allclose(direction[0], [0.0, 0.0, 1.0], atol=1e-12)
+
+
 def test_non_manifold_edge():
     a = pv.Cube(center=(0, 0, 0))
     b = pv.Cube(center=(1, 1, 0))  # shares the edge x = y = 0.5

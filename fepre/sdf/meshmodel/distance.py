@@ -26,6 +26,9 @@ __all__ = ["TriangleDistance", "NEAR_WINDING"]
 #: a point that far off it along the same normal: libigl's fast winding number is single
 #: precision (float32's 6e-8 relative, times the coordinates).
 NEAR_WINDING = 1e-5
+#: points this close to the surface, times the largest coordinate, are on it: their gradient is
+#: the surface's normal, not the direction to the closest point
+ON_SURFACE = 1e-9
 
 
 class TriangleDistance:
@@ -57,8 +60,12 @@ class TriangleDistance:
         radius = float(np.abs(self.vertices - self._centre).max()) if len(self.vertices) else 0.0
         self._near = NEAR_WINDING * radius
         # what counts as on the surface, relative to the coordinates (taken once: on a surface of
-        # millions of vertices the largest coordinate cost more than the query it scaled)
-        self._on_surface = 1e-12 * max(float(np.abs(self.vertices).max()) if len(self.vertices) else 0.0, 1e-300)
+        # millions of vertices the largest coordinate cost more than the query it scaled); the
+        # closest point on a long thin facet is that far off in rounding alone (trimesh's
+        # plate_holes.STL: 7.4e-10 off a 120-long facet of its top face at coordinates of 300,
+        # whose direction made the gradient lie in the face and the size field name a knife edge
+        # in the middle of a 12.7 plate)
+        self._on_surface = ON_SURFACE * max(float(np.abs(self.vertices).max()) if len(self.vertices) else 0.0, 1e-300)
         self._lock = threading.Lock()
         self._tree = tree
         self._winding = None
