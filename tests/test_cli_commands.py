@@ -462,6 +462,21 @@ def test_materials_need_an_inp_and_regions_must_split_the_part(tmp_path, capsys)
     assert not list(tmp_path.glob("*.inp")) and not list(tmp_path.glob("*.msh"))
 
 
+def test_a_one_region_model_file_s_materials_are_written(tmp_path, capsys):
+    # a model file's `materials` for its one region ("volume") was dropped when it had no
+    # `regions`: the .inp had no *MATERIAL and CalculiX stopped with "no material was assigned"
+    (tmp_path / "bar.py").write_text('from fepre import sdf\nmodel = sdf.box((10, 2, 2))\nmaterials = {"volume": (210e3, 0.3)}\n')
+    assert main(["mesh", str(tmp_path / "bar.py"), "-o", str(tmp_path / "bar.inp"), "--h", "0.8", "--quiet"]) == 0
+    deck = (tmp_path / "bar.inp").read_text()
+    assert "*MATERIAL, NAME=volume" in deck and "*SOLID SECTION, ELSET=volume, MATERIAL=volume" in deck
+    young, poisson = deck[deck.index("*ELASTIC"):].splitlines()[1].split(",")
+    assert float(young) == 210e3 and float(poisson) == 0.3
+    (tmp_path / "wrong.py").write_text('from fepre import sdf\nmodel = sdf.box((10, 2, 2))\nmaterials = {"steel": (210e3, 0.3)}\n')
+    assert main(["mesh", str(tmp_path / "wrong.py"), "-o", str(tmp_path / "wrong.inp"), "--h", "0.8"]) == 1
+    assert "names steel, not a region of the mesh (regions: volume)" in capsys.readouterr().err
+    assert not (tmp_path / "wrong.inp").exists()
+
+
 def test_mesh_xdmf_names_every_file_and_info_reads_the_facet_tags(folder, tmp_path, capsys):
     """XDMF is four files (cells and facets, each with its .h5): `fepre mesh` says so, and `fepre
     info` reads the facets companion and reports its tags."""

@@ -32,6 +32,11 @@ def test_a_small_detached_piece_is_named_with_its_place():
     assert len(messages) == 1 and "the mesh is in 2 pieces" in messages[0]
     x, y, z = map(float, re.search(r"cell\(s\) at \(([^)]*)\)", messages[0]).group(1).split(", "))
     assert np.hypot(x - 0.9, np.hypot(y, z)) < 0.05  # the ball's centre
+    # the ball stands apart from the box (0.28 of a gap): no h joins it, and the line says so (a
+    # new user's gyroid in a box, two corners of the lattice its own pieces, was told a smaller h
+    # would join them; followed twice, it did not)
+    assert "smaller h" not in messages[0]
+    assert "no part of the model within an element joins them to the rest: the model's own pieces" in messages[0]
 
 
 def test_one_piece_is_not_named():
@@ -56,6 +61,7 @@ def test_a_large_piece_cut_off_where_the_model_joins_it_is_named():
     assert len(counts) == 2 and counts[1] > 0.4 * counts.sum()
     messages = [str(w.message) for w in caught if "pieces" in str(w.message)]
     assert len(messages) == 1 and "(the model joins it to the rest)" in messages[0]
+    assert "a smaller h (or hmin) keeps them joined" in messages[0]
     x = float(re.search(r"cell\(s\) at \(([^,]*),", messages[0]).group(1))
     assert abs(abs(x) - 0.56) < 0.05  # one of the blocks' centres
 

@@ -60,8 +60,8 @@ def _materials(args: argparse.Namespace, part, regions: dict, format_name: str) 
             except ValueError:
                 raise ValueError(f"--material {region} {young} {poisson}: E and NU must be numbers") from None
         source = "--material"
-    elif not regions or format_name != "abaqus":
-        return None  # the model file's materials are for its regions, written to .inp files only
+    elif format_name != "abaqus":
+        return None  # the model file's materials are written to .inp files only
     else:
         materials, source = dict(part.materials), f"`materials` in {part.path}"
     if not materials:

@@ -122,6 +122,11 @@ def pieces_message(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
         where = " (the model joins it to the rest)" if cut[piece] else ""
         places.append(f"{counts[piece]:,} cell(s) at ({', '.join(f'{v:.6g}' for v in centre)}){where}")
     more = f" and {len(named) - 3} more" if len(named) > 3 else ""
+    if cut_off is not None and not cut[named].any():
+        # a gyroid's corners in a box are pieces of the model itself: no h joins them
+        why = ("no part of the model within an element joins them to the rest: the model's own pieces (or "
+               "joined farther off by a part thinner than the mesh's sizes)")
+    else:
+        why = "where a part of the model thinner than the mesh's sizes cut them off, a smaller h (or hmin) keeps them joined"
     return (f"the mesh is in {len(counts)} pieces not joined through faces: beside the largest ({counts[0]:,} cells), "
-            f"{len(named)} piece(s): {'; '.join(places)}{more}; where a part of the model thinner than the mesh's "
-            "sizes cut them off, a smaller h (or hmin) keeps them joined; a solver needs every piece held")
+            f"{len(named)} piece(s): {'; '.join(places)}{more}; {why}; a solver needs every piece held")
