@@ -3,6 +3,7 @@ by ``sdf.mesh`` (tessellated in a child process) and meshed, against OpenCASCADE
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -194,3 +195,40 @@ def test_a_perforated_plate_is_tessellated_by_its_holes_curvature_not_its_faces_
     # the holes' walls, 64 segments per turn, are most of the 58k triangles; with the holes'
     # edges spread over the flat faces they were 316k
     assert surface.n_cells < 100_000
+
+
+@pytest.mark.slow
+def test_a_thin_walled_enclosure_refused_at_a_coarse_h_is_told_the_h_that_meshes_it(tmp_path):
+    # a new user's enclosure (walls 2 thick, ribs 1.5, bosses) at D/25: the closed choice kept
+    # cells over its open top, refused with "try a smaller h"; h = 4.5 and 4 failed the same way.
+    # The refusal now measures the part where the cells outside are, and the graded h it names
+    # meshes the enclosure to the targets
+    import gmsh
+
+    path = tmp_path / "enclosure.step"
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        shell, _ = occ.cut([(3, occ.addBox(0, 0, 0, 100, 60, 40))], [(3, occ.addBox(2, 2, 2, 96, 56, 40))])
+        parts = [(3, occ.addBox(33, 2, 2, 1.5, 56, 20)), (3, occ.addBox(66, 2, 2, 1.5, 56, 20))]
+        bosses = []
+        for x, y in [(10, 10), (90, 10), (10, 50), (90, 50)]:
+            parts.append((3, occ.addCylinder(x, y, 2, 0, 0, 25, 4)))
+            bosses.append((3, occ.addCylinder(x, y, 8, 0, 0, 25, 1.5)))
+        body, _ = occ.fuse(shell, parts)
+        occ.cut(body, bosses)
+        occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    part = sdf.mesh(path)
+    with pytest.raises(fepre.MeshingError) as refused:
+        fepre.distmesh(part, h="D/25")
+    found = re.search(r"the part is ([\d.]+) across there .*: try h <= [\d.]+ \(two elements across\), or h=\(([\d.]+), "
+                      r"([\d.]+)\)", str(refused.value))
+    assert found, str(refused.value)
+    across, hmin, hmax = map(float, found.groups())
+    assert 1.9 <= across <= 3.0  # the walls are 2 thick
+    mesh = fepre.distmesh(part, h=(hmin, hmax))
+    assert mesh["min_dihedral_angle"].min() >= 25.0

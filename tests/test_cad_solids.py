@@ -152,7 +152,7 @@ def test_bad_input(tmp_path, assembly):
         sdf.cad_solids(tmp_path / "part.stl")
     with pytest.raises(MeshInputError, match="does not exist"):
         sdf.cad_solids(tmp_path / "missing.step")
-    with pytest.raises(MeshInputError, match=r"names gives solids \[4\]; the file holds solids 1 to 3"):
+    with pytest.raises(MeshInputError, match=r"names \(fepre mesh --solid NUMBER=NAME\) gives solids \[4\]; the file holds solids 1 to 3"):
         sdf.cad_solids(assembly, names={4: "bolt"})
     with pytest.raises(MeshInputError, match="two solids would share a region name"):
         sdf.cad_solids(assembly, names={1: "steel", 2: "steel"})

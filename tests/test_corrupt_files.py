@@ -107,6 +107,24 @@ def test_a_binary_stl_cut_short_is_named_as_damaged(tmp_path):
         sdf.mesh(cut)
 
 
+def test_an_ascii_stl_cut_short_and_an_empty_step_are_named_as_such(tmp_path):
+    """A new user's ASCII STL cut mid-facet was only "not a valid .stl file?", and an empty STEP
+    file was told to give "an STL, OBJ, PLY or other surface file"."""
+    import pyvista as pv
+
+    whole = tmp_path / "whole.stl"
+    pv.Sphere(theta_resolution=12, phi_resolution=8).triangulate().save(whole, binary=False)
+    text = whole.read_text()
+    cut = tmp_path / "cut.stl"
+    cut.write_text(text[: len(text) // 2])
+    with pytest.raises(sdf.MeshInputError, match=r"cut\.stl could not be read .*an ASCII STL with no 'endsolid' line "
+                                                  r"at its end: cut short"):
+        sdf.mesh(cut)
+    (tmp_path / "empty.step").write_bytes(b"")
+    with pytest.raises(sdf.MeshInputError, match=r"empty\.step is empty \(0 bytes\); give a STEP or BREP file"):
+        sdf.mesh(tmp_path / "empty.step")
+
+
 def test_level_on_a_surface_mesh_file_is_refused(tmp_path, capsys):
     """``--level`` is an image's grey value: given with an STL, it was ignored without a word."""
     import pyvista as pv

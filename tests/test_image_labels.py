@@ -273,7 +273,7 @@ def test_surface_nets_on_one_voxel():
         (np.ones((4, 4, 4), np.int16), {}, "holds 1 label besides the background 0 (values [1]); regions need at least two"),
         (np.zeros((4, 4, 4), np.int16), {}, "holds 0 labels besides the background 0"),
         (np.full((4, 4, 4), 0.5), {}, "holds non-integer values"),
-        (np.arange(64).reshape(4, 4, 4) % 3, {"names": {5: "x"}}, "names gives labels [5] that the image does not hold"),
+        (np.arange(64).reshape(4, 4, 4) % 3, {"names": {5: "x"}}, "gives labels [5] that the image does not hold"),
         (np.arange(64).reshape(4, 4, 4) % 3, {"names": {1: "a b"}}, "names"),
         (np.arange(16).reshape(4, 4) % 3, {}, "not a 3D image"),
         (np.ones((4, 4, 4), np.int16), {}, "(fepre mesh: --level 0.5 instead of --labels)"),

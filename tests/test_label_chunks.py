@@ -157,7 +157,7 @@ def _store(path, values):
     ("one", "holds 1 label besides the background 0 (values [0, 3])"),
     ("float", "holds non-integer values (float32); a label image holds integer labels"),
     ("flat", "is not a 3D image (shape (16, 16))"),
-    ("names", "names gives labels [7] that the image does not hold"),
+    ("names", "gives labels [7] that the image does not hold"),
 ])
 def test_bad_label_stores(tmp_path, kind, message, capsys):
     values = np.zeros((16, 16, 16), np.uint8)

@@ -138,6 +138,10 @@ def test_the_message_names_flat_places_and_the_thinnest_measured_one():
     assert "h=(0.05, 1)" in text  # two elements across the thinnest measured place
     flat = trimmed_message(Trimmed(1, 1e-4, np.zeros((1, 3)), np.zeros(1), np.ones(1)), 1.0, 1.0)
     assert "flat on the surface" in flat and "h=(" not in flat
+    # no material of the model in them (a new user's shaft at D/50: cells across its groove's
+    # mouth, 1.3 outside the part, were "thinner than an element ... left out")
+    assert flat.startswith("1 flat cell(s) on the surface in 1 place(s) were removed") and "thinner" not in flat
+    assert "with no material of the model in it" in flat
     assert trimmed_message(Trimmed.none(), 1.0, 1.0) is None
     assert TOTAL_SHARE == pytest.approx(0.01)
 

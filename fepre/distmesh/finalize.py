@@ -545,9 +545,12 @@ def final_mesh(
         if not far:
             break
         if release == _RELEASE_ROUNDS or len(held) == 0:
+            # the cells outside close over a part the points were too sparse for: a thin-walled
+            # enclosure at D/25 (walls 2 thick, h = 4.9) was told "try a smaller h" three times
+            surface = model.project(np.asarray([far[0].place], dtype=np.float64), warn=False)[0]
             raise MeshingError(
                 "DistMesh could not choose a valid solid from the final triangulation: the closed "
-                f"choice keeps cells outside the part ({defects_message(far)}); try a smaller h")
+                f"choice keeps cells outside the part ({defects_message(far)}); {_finer_at(model, surface, h)}")
         # the interior nodes whose stars hold the pinches go onto the zero set (or, when deep, go)
         # and the points are triangulated again
         state, previous = trial, None

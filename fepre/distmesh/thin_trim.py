@@ -348,13 +348,15 @@ def trimmed_message(trimmed: Trimmed, total_volume: float, h: float | None, offs
     measured = order[trimmed.thickness[order] > 0]
     shown = "; ".join(place(i) for i in (measured if len(measured) else order)[:3])
     more = f" and {len(order) - min(3, len(measured) or len(order))} more" if len(order) > 3 else ""
-    if len(measured):
-        fine = 0.5 * float(trimmed.thickness[measured[0]])
-        keep = (f"mesh with h=({fine:.2g}, {h:.4g}) (the automatic size field) to keep them" if h is not None
-                else f"mesh with a smaller hmin (about {fine:.2g}) to keep them")
-    else:
-        keep = "they were flat cells on the surface"
     share = 100.0 * trimmed.volume / total_volume if total_volume > 0 else 0.0
+    if not len(measured):  # a shaft's groove: cells across its mouth, outside the part
+        return (f"{trimmed.cells} flat cell(s) on the surface in {len(order)} place(s) were removed so that the cells "
+                f"there meet the quality targets, {trimmed.volume:.3g} of volume ({share:.3g}% of the mesh) with no "
+                f"material of the model in it (cells lying on a face or across a groove's mouth): {shown}{more}; "
+                "thin_parts='keep' (fepre mesh --keep-thin) keeps them")
+    fine = 0.5 * float(trimmed.thickness[measured[0]])
+    keep = (f"mesh with h=({fine:.2g}, {h:.4g}) (the automatic size field) to keep them" if h is not None
+            else f"mesh with a smaller hmin (about {fine:.2g}) to keep them")
     return (f"{trimmed.cells} cell(s) in {len(order)} place(s) thinner than an element were left out so that the "
             f"cells there meet the quality targets, {trimmed.volume:.3g} of volume ({share:.3g}% of the mesh): "
             f"{shown}{more}; {keep}, or pass thin_parts='keep' (fepre mesh --keep-thin) to keep them with flat cells")

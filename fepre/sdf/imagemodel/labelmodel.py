@@ -121,8 +121,8 @@ def _names(values: np.ndarray, names: Any, image: Image, background: int) -> dic
     unknown = [k for k in names if k not in found]
     if unknown:
         raise ImageInputError(
-            f"{image.name}: names gives labels {shown(unknown)} that the image does not hold (it holds "
-            f"{shown(sorted(found))})"
+            f"{image.name}: names (fepre mesh --label VALUE=NAME) gives labels {shown(unknown)} that the image does "
+            f"not hold (it holds {shown(sorted(found))})"
         )
     return {int(v): str(names.get(int(v), default[int(v)])) for v in values}
 

@@ -120,7 +120,8 @@ def _region_names(path: Path, file_names: list[str], names: dict | None) -> list
         chosen = [f"{name}_{number}" if chosen.count(name) > 1 else name for number, name in enumerate(chosen, start=1)]
     unknown = [k for k in (names or {}) if not isinstance(k, (int, np.integer)) or not 1 <= k <= len(chosen)]
     if unknown:
-        raise MeshInputError(f"{path}: names gives solids {unknown}; the file holds solids 1 to {len(chosen)}")
+        raise MeshInputError(f"{path}: names (fepre mesh --solid NUMBER=NAME) gives solids {unknown}; the file "
+                             f"holds solids 1 to {len(chosen)}")
     for number, name in (names or {}).items():
         chosen[number - 1] = str(name)
     if len(set(chosen)) < len(chosen):

@@ -30,8 +30,11 @@ def _as_polydata(source: Any, name: str):
         if path.is_dir():
             raise MeshInputError(f"mesh file {path} is a directory; give an STL, OBJ, PLY or other surface file")
         if path.stat().st_size == 0:
-            raise MeshInputError(f"mesh file {path} is empty (0 bytes); give an STL, OBJ, PLY or other surface file "
-                                 "that holds the part's triangles")
+            from .cad_files import CAD_SUFFIXES
+
+            kind = ("a STEP or BREP file that holds the part's solids" if path.suffix.lower() in CAD_SUFFIXES else
+                    "an STL, OBJ, PLY or other surface file that holds the part's triangles")
+            raise MeshInputError(f"mesh file {path} is empty (0 bytes); give {kind}")
         import warnings
 
         from ...vtk_messages import vtk_messages_kept
@@ -51,7 +54,8 @@ def _as_polydata(source: Any, name: str):
         if (data is None or (failed and data.n_points == 0)) and path.suffix.lower() == ".obj":
             data = _read_obj(path)
         if data is None or (failed and data.n_points == 0):
-            raise MeshInputError(f"mesh file {path} could not be read (the reader failed: not a valid {path.suffix} file?)")
+            raise MeshInputError(f"mesh file {path} could not be read (the reader failed: not a valid {path.suffix} "
+                                 f"file?{_ascii_stl_cut_short(path)})")
     elif isinstance(source, pv.DataSet):
         data = source
     else:
@@ -83,6 +87,19 @@ def _check_binary_stl_length(path: Path) -> None:
             f"({84 + 50 * count} bytes), but the file has {size} bytes ({holds:.4g} triangles); "
             "it was cut short or is not an STL file"
         )
+
+
+def _ascii_stl_cut_short(path: Path) -> str:
+    """``"; ..."`` naming an ASCII STL that ends before its ``endsolid`` line (cut short), else ''."""
+    if path.suffix.lower() != ".stl":
+        return ""
+    with open(path, "rb") as stream:
+        head = stream.read(1024).lower()
+        stream.seek(max(0, path.stat().st_size - 1024))
+        tail = stream.read().lower()
+    if head.lstrip().startswith(b"solid") and b"facet" in head and b"endsolid" not in tail:
+        return "; it is an ASCII STL with no 'endsolid' line at its end: cut short"
+    return ""
 
 
 def _read_own_format(path: Path):
