@@ -3,7 +3,8 @@
 A model file defines ``model`` (an :class:`fepre.sdf.SDF`) and may define ``h`` (target edge
 length), ``bounds`` (meshing box), ``boundaries`` (name -> SDF for named boundary sets),
 ``regions`` (name -> SDF: material regions that split the part, meshed conformally) and
-``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files) and ``boundary_areas``
+``materials`` (region name -> ``(E, nu)``, written to ``.inp`` files; a part without ``regions``
+is the one region ``volume``) and ``boundary_areas``
 (boundary name -> the exact area the user knows, printed beside the set's by ``fepre mesh``)
 and ``boundary_tolerance`` (how far a set's nodes may lie from its surface, in local edge
 lengths: :func:`fepre.export`'s, for a model whose surface only comes near a set's).
