@@ -14,6 +14,7 @@ import pyvista as pv
 import fepre
 from fepre import sdf
 from fepre.sdf.meshmodel import MeshInputError
+from test_cad_solids import _write_solids
 
 
 def write_cad(path, overlapping_boxes: bool = False) -> float:
@@ -39,20 +40,6 @@ def write_cad(path, overlapping_boxes: bool = False) -> float:
     finally:
         gmsh.finalize()
     return volume
-
-
-def occ_file(path, build) -> None:
-    """``build(gmsh.model.occ)`` in a fresh gmsh session, its solids written to ``path``."""
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        build(gmsh.model.occ)
-        gmsh.model.occ.synchronize()
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
 
 
 @pytest.mark.parametrize("name", ["plate.step", "plate.brep"])
@@ -194,7 +181,7 @@ def test_a_perforated_plate_is_tessellated_by_its_holes_curvature_not_its_faces_
         occ.cut([(3, occ.addBox(0, 0, 0, 50, 50, 2))], holes)
 
     path = tmp_path / "perforated.step"
-    occ_file(path, plate)
+    _write_solids(path, plate)
     surface = read_cad_surface(path)
     volume = 50 * 50 * 2 - 25 * np.pi * 1.5**2 * 2
     assert surface.volume == pytest.approx(volume, rel=2e-4)
@@ -220,7 +207,7 @@ def test_a_thin_walled_enclosure_refused_at_a_coarse_h_is_told_the_h_that_meshes
         occ.cut(body, bosses)
 
     path = tmp_path / "enclosure.step"
-    occ_file(path, enclosure)
+    _write_solids(path, enclosure)
     part = sdf.mesh(path)
     with pytest.raises(fepre.MeshingError) as refused:
         fepre.distmesh(part, h="D/25")
