@@ -14,6 +14,7 @@ import pyvista as pv
 import fepre
 from fepre import sdf
 from fepre.sdf.meshmodel import MeshInputError
+from test_cad_solids import _write_solids
 
 
 def write_cad(path, overlapping_boxes: bool = False) -> float:
@@ -173,22 +174,14 @@ def test_a_perforated_plate_is_tessellated_by_its_holes_curvature_not_its_faces_
     # a plate with 135 holes 3 across was 1.08M triangles and 27 s of tessellation, the holes'
     # fine edges carried into its two flat faces; its flat faces now take few triangles and the
     # holes keep their 64 segments per turn
-    import gmsh
-
     from fepre.sdf.meshmodel.cad_files import read_cad_surface
 
-    path = tmp_path / "perforated.step"
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
-        plate = occ.addBox(0, 0, 0, 50, 50, 2)
+    def plate(occ):
         holes = [(3, occ.addCylinder(5 + 10 * i, 5 + 10 * j, -1, 0, 0, 4, 1.5)) for i in range(5) for j in range(5)]
-        occ.cut([(3, plate)], holes)
-        occ.synchronize()
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        occ.cut([(3, occ.addBox(0, 0, 0, 50, 50, 2))], holes)
+
+    path = tmp_path / "perforated.step"
+    _write_solids(path, plate)
     surface = read_cad_surface(path)
     volume = 50 * 50 * 2 - 25 * np.pi * 1.5**2 * 2
     assert surface.volume == pytest.approx(volume, rel=2e-4)
@@ -203,13 +196,7 @@ def test_a_thin_walled_enclosure_refused_at_a_coarse_h_is_told_the_h_that_meshes
     # cells over its open top, refused with "try a smaller h"; h = 4.5 and 4 failed the same way.
     # The refusal now measures the part where the cells outside are, and the graded h it names
     # meshes the enclosure to the targets
-    import gmsh
-
-    path = tmp_path / "enclosure.step"
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
+    def enclosure(occ):
         shell, _ = occ.cut([(3, occ.addBox(0, 0, 0, 100, 60, 40))], [(3, occ.addBox(2, 2, 2, 96, 56, 40))])
         parts = [(3, occ.addBox(33, 2, 2, 1.5, 56, 20)), (3, occ.addBox(66, 2, 2, 1.5, 56, 20))]
         bosses = []
@@ -218,10 +205,9 @@ def test_a_thin_walled_enclosure_refused_at_a_coarse_h_is_told_the_h_that_meshes
             bosses.append((3, occ.addCylinder(x, y, 8, 0, 0, 25, 1.5)))
         body, _ = occ.fuse(shell, parts)
         occ.cut(body, bosses)
-        occ.synchronize()
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+
+    path = tmp_path / "enclosure.step"
+    _write_solids(path, enclosure)
     part = sdf.mesh(path)
     with pytest.raises(fepre.MeshingError) as refused:
         fepre.distmesh(part, h="D/25")
