@@ -19,7 +19,7 @@ def test_a_missing_inner_cell_is_a_cavity_and_a_hollow_part_has_none():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         mesh = fepre.distmesh(hollow, 0.25)
-    assert not any("cavit" in str(w.message) for w in caught)
+    assert not any("cavit" in str(w.message) or "of the model's outside" in str(w.message) for w in caught)
     points, tets = np.asarray(mesh.points), mesh.cells_dict[10]
     assert unmodelled_cavities(points, boundary_faces(tets), hollow, 0.25) == []
     # two cells deep in the shell (no face on its surfaces), taken out: two cavities of 4 faces
@@ -49,3 +49,25 @@ def test_a_void_whose_middle_is_in_the_material_is_the_model_s_own():
     points, tets = np.asarray(mesh.points), mesh.cells_dict[10]
     assert ringed(np.zeros((1, 3)))[0] < 0  # the void's middle is material
     assert unmodelled_cavities(points, boundary_faces(tets), ringed, 0.25) == []
+
+
+def test_a_void_of_the_model_s_outside_sealed_by_the_mesh_is_named():
+    # a new user's two cubes sharing an edge, at h = 0.2: the mesh held the four faces of a cell
+    # missing in the wedge beside the edge, outside the model, and nothing said so
+    import pyvista as pv
+
+    cubes = pv.Box(bounds=(0, 1, 0, 1, 0, 1)).triangulate() + pv.Box(bounds=(1, 2, 1, 2, 0, 1)).triangulate()
+    model = sdf.mesh(cubes)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(model, 0.2)
+    messages = [str(w.message) for w in caught if "of the model's outside" in str(w.message)]
+    assert len(messages) == 1 and "1 void of the model's outside (4 faces" in messages[0]
+    from fepre.distmesh.cavities import sealed_pockets
+
+    points, tets = np.asarray(mesh.points), np.asarray(mesh.cells_dict[10])
+    found = sealed_pockets(points, boundary_faces(tets), model, 0.2, (0, 0, 0), (2, 2, 1))
+    assert len(found) == 1
+    middle, faces, volume = found[0]
+    assert faces == 4 and float(model(middle[None])[0]) > 0  # outside both cubes
+    assert np.hypot(middle[0] - 1.0, middle[1] - 1.0) < 0.2  # beside the shared edge
