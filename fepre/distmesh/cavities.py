@@ -137,28 +137,29 @@ def _voids(points: np.ndarray, faces: np.ndarray, h: float):
         yield chosen, corners[chosen].reshape(-1, 3).mean(axis=0), float(-enclosed[label]), probes[chosen], areas[chosen]
 
 
+def _listed(found: list, offset) -> str:
+    """The first three voids of ``found`` (middle, faces, volume), their middles moved by
+    ``offset``, and how many more."""
+    offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
+    shown = "; ".join(f"{faces} faces, volume {volume:.3g}, near ({', '.join(f'{c:.4g}' for c in middle + offset)})"
+                      for middle, faces, volume in found[:3])
+    return shown + (f" and {len(found) - 3} more" if len(found) > 3 else "")
+
+
 def cavities_message(found: list, offset=None) -> str | None:
     """One line naming the cavities (most three), or None when there are none."""
     if not found:
         return None
-    offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
-    shown = "; ".join(f"{faces} faces, volume {volume:.3g}, near ({', '.join(f'{c:.4g}' for c in middle + offset)})"
-                      for middle, faces, volume in found[:3])
-    more = f" and {len(found) - 3} more" if len(found) > 3 else ""
     return (f"the mesh has {len(found)} closed cavit{'y' if len(found) == 1 else 'ies'} where the model is material "
-            f"({shown}{more}): missing cells, whose faces are on the mesh's boundary (and in its boundary sets); "
-            "a smaller h usually closes them")
+            f"({_listed(found, offset)}): missing cells, whose faces are on the mesh's boundary (and in its boundary "
+            "sets); a smaller h usually closes them")
 
 
 def pockets_message(found: list, offset=None) -> str | None:
     """One line naming the pockets of the model's outside the mesh sealed (most three), or None."""
     if not found:
         return None
-    offset = np.zeros(3) if offset is None else np.asarray(offset, dtype=float)
-    shown = "; ".join(f"{faces} faces, volume {volume:.3g}, near ({', '.join(f'{c:.4g}' for c in middle + offset)})"
-                      for middle, faces, volume in found[:3])
-    more = f" and {len(found) - 3} more" if len(found) > 3 else ""
-    return (f"the mesh encloses {len(found)} void{'' if len(found) == 1 else 's'} of the model's outside ({shown}{more}), "
-            "sealed off where its surfaces come closer than the elements (parts touching along an edge or at a "
-            "point, a narrow gap): an inner surface on the mesh's boundary (and in its boundary sets) that the "
-            "model does not have")
+    return (f"the mesh encloses {len(found)} void{'' if len(found) == 1 else 's'} of the model's outside "
+            f"({_listed(found, offset)}), sealed off where its surfaces come closer than the elements (parts "
+            "touching along an edge or at a point, a narrow gap): an inner surface on the mesh's boundary (and in "
+            "its boundary sets) that the model does not have")
