@@ -15,15 +15,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["unmodelled_cavities", "sealed_pockets", "cavities_message", "pockets_message", "CAVITY_DEPTH"]
+__all__ = ["inner_voids", "unmodelled_cavities", "sealed_pockets", "cavities_message", "pockets_message", "CAVITY_DEPTH"]
 
 #: a cavity counts when the model's value at its middle is below this many h (inside material)
 CAVITY_DEPTH = 0.05
 
 
-def unmodelled_cavities(points: np.ndarray, faces: np.ndarray, model, h: float) -> list[tuple[np.ndarray, int, float]]:
+def unmodelled_cavities(points: np.ndarray, faces: np.ndarray, model, h: float,
+                        voids: list | None = None) -> list[tuple[np.ndarray, int, float]]:
     """The cavities of a mesh whose boundary faces (outward, (F, 3)) are ``faces`` where
-    ``model`` is material: each as (middle, faces, volume).
+    ``model`` is material: each as (middle, faces, volume). ``voids``: :func:`inner_voids` of
+    the mesh, when already found.
 
     Examples
     --------
@@ -38,7 +40,7 @@ def unmodelled_cavities(points: np.ndarray, faces: np.ndarray, model, h: float) 
     (1, 4)
     """
     found = []
-    for chosen, middle, volume, probes, areas in _voids(points, faces, h):
+    for chosen, middle, volume, probes, areas in inner_voids(points, faces, h) if voids is None else voids:
         if float(np.asarray(model(middle[None]), dtype=float)[0]) >= -CAVITY_DEPTH * h:
             continue
         inside = np.asarray(model(probes), dtype=float) < 0
@@ -47,13 +49,15 @@ def unmodelled_cavities(points: np.ndarray, faces: np.ndarray, model, h: float) 
     return found
 
 
-def sealed_pockets(points: np.ndarray, faces: np.ndarray, model, h: float, lower, upper) -> list[tuple[np.ndarray, int, float]]:
+def sealed_pockets(points: np.ndarray, faces: np.ndarray, model, h: float, lower, upper,
+                   voids: list | None = None) -> list[tuple[np.ndarray, int, float]]:
     """The cavities of a mesh (boundary faces ``faces``) that hold the model's outside: their
     middle is outside the model, and a ray from it reaches past the box ``lower``-``upper``
     through the model's outside (:func:`_reaches_out`), so the model has no void there. Each as
     (middle, faces, volume). Two cubes sharing an edge at h = 0.2 (a new user's) held one, the
     four faces of a cell missing in the wedge beside the edge, and nothing said so; a hollow
-    part's own void is not one (its rays all end in material).
+    part's own void is not one (its rays all end in material). ``voids``: :func:`inner_voids` of
+    the mesh, when already found.
 
     Examples
     --------
@@ -67,7 +71,7 @@ def sealed_pockets(points: np.ndarray, faces: np.ndarray, model, h: float, lower
     []
     """
     found = []
-    for chosen, middle, volume, probes, areas in _voids(points, faces, h):
+    for chosen, middle, volume, probes, areas in inner_voids(points, faces, h) if voids is None else voids:
         if float(np.asarray(model(middle[None]), dtype=float)[0]) <= CAVITY_DEPTH * h:
             continue
         outside = np.asarray(model(probes), dtype=float) > 0
@@ -103,7 +107,7 @@ def _reaches_out(model, start: np.ndarray, lower, upper, h: float) -> bool:
     return False
 
 
-def _voids(points: np.ndarray, faces: np.ndarray, h: float):
+def inner_voids(points: np.ndarray, faces: np.ndarray, h: float) -> list[tuple]:
     """The closed inner pieces of a mesh's boundary (faces joined through edges, enclosing a
     negative volume: they face into a void): for each, a mask of its faces, its middle, its
     volume, a probe a little into the void from each face and the faces' areas."""
@@ -111,7 +115,7 @@ def _voids(points: np.ndarray, faces: np.ndarray, h: float):
     from scipy.sparse.csgraph import connected_components
 
     if len(faces) == 0:
-        return
+        return []
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
     _, key = np.unique(edges, axis=0, return_inverse=True)
     key = key.ravel()
@@ -122,7 +126,7 @@ def _voids(points: np.ndarray, faces: np.ndarray, h: float):
     graph = coo_matrix((np.ones(len(same)), (owner[order[same]], owner[order[same + 1]])), shape=(n, n))
     count, labels = connected_components(graph, directed=False)
     if count < 2:
-        return
+        return []
     corners = points[faces]
     signed = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) / 6.0
     enclosed = np.bincount(labels, weights=signed, minlength=count)
@@ -132,9 +136,12 @@ def _voids(points: np.ndarray, faces: np.ndarray, h: float):
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     areas = np.linalg.norm(normals, axis=1)
     probes = corners.mean(axis=1) + CAVITY_DEPTH * h * normals / np.maximum(areas, 1e-300)[:, None]
+    voids = []
     for label in np.flatnonzero(enclosed < 0):
         chosen = labels == label
-        yield chosen, corners[chosen].reshape(-1, 3).mean(axis=0), float(-enclosed[label]), probes[chosen], areas[chosen]
+        voids.append((chosen, corners[chosen].reshape(-1, 3).mean(axis=0), float(-enclosed[label]), probes[chosen],
+                      areas[chosen]))
+    return voids
 
 
 def _listed(found: list, offset) -> str:

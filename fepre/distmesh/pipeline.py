@@ -334,17 +334,19 @@ def check_mesh(job: MeshingJob) -> None:
     if added:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
     if o.check_resolution:
-        from .cavities import cavities_message, pockets_message, sealed_pockets, unmodelled_cavities
+        from .cavities import cavities_message, inner_voids, pockets_message, sealed_pockets, unmodelled_cavities
         from .pieces import cut_off_pieces, mesh_pieces, pieces_message
         from .topology import boundary_faces
 
         faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
         if lost or added or small_lost or small_added:  # whether they change the topology
             _warn_of_genus(job, faces, grid, lost + small_lost, added + small_added, small_lost, small_added)
-        message = cavities_message(unmodelled_cavities(job.points, faces, job.model, h), job.frame_offset)
+        voids = inner_voids(job.points, faces, h)
+        message = cavities_message(unmodelled_cavities(job.points, faces, job.model, h, voids), job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
-        message = pockets_message(sealed_pockets(job.points, faces, job.model, h, job.lower, job.upper), job.frame_offset)
+        message = pockets_message(sealed_pockets(job.points, faces, job.model, h, job.lower, job.upper, voids),
+                                  job.frame_offset)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
 
