@@ -19,7 +19,7 @@ from ...triangle_crossings import FLAT, segment_crosses_triangle
 from ._bvh_kernel import _STACK
 from .bvh import TriangleTree
 
-__all__ = ["crossing_triangles"]
+__all__ = ["crossing_triangles", "crossing_partners"]
 
 
 @njit(cache=True, inline="always")
@@ -71,6 +71,82 @@ def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start
                     found = True
                     break
         flags[i] = found
+
+
+@njit(cache=True, parallel=True)
+def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start, subset, starts, out):  # pragma: no cover - compiled
+    """For each ``subset`` triangle (tree order), the triangles sharing no vertex with it that
+    it crosses: counted into ``starts[k + 1]`` when ``out`` is empty, else written from
+    ``starts[k]``."""
+    for k in prange(subset.shape[0]):
+        i = subset[k]
+        tri = triangles[i]
+        lo0, lo1, lo2 = min(tri[0, 0], tri[1, 0], tri[2, 0]), min(tri[0, 1], tri[1, 1], tri[2, 1]), min(tri[0, 2], tri[1, 2], tri[2, 2])
+        up0, up1, up2 = max(tri[0, 0], tri[1, 0], tri[2, 0]), max(tri[0, 1], tri[1, 1], tri[2, 1]), max(tri[0, 2], tri[1, 2], tri[2, 2])
+        stack = np.empty(_STACK, dtype=np.int64)
+        stack[0] = 1
+        top = 1
+        found = 0
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if (lower[node, 0] > up0 or upper[node, 0] < lo0 or lower[node, 1] > up1 or upper[node, 1] < lo1
+                    or lower[node, 2] > up2 or upper[node, 2] < lo2):
+                continue
+            if node < width:
+                stack[top] = 2 * node
+                stack[top + 1] = 2 * node + 1
+                top += 2
+                continue
+            for t in range(leaf_start[node - width], leaf_start[node - width + 1]):
+                if t == i:
+                    continue
+                shared = False
+                for a in range(3):
+                    for b in range(3):
+                        if corners[i, a] == corners[t, b]:
+                            shared = True
+                if shared:
+                    continue
+                size = spheres[i, 3] + spheres[t, 3]
+                if _cross(tri, triangles[t], FLAT * size * size * size):
+                    if out.shape[0]:
+                        out[starts[k] + found] = t
+                    found += 1
+        if not out.shape[0]:
+            starts[k + 1] = found
+
+
+def crossing_partners(vertices: np.ndarray, faces: np.ndarray, subset: np.ndarray,
+                      tree: TriangleTree | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles that each of ``subset`` crosses (sharing no vertex with it), as a
+    compressed list: partners of ``subset[k]`` are ``partners[starts[k]:starts[k + 1]]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> vertices = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0]], float)
+    >>> starts, partners = crossing_partners(vertices, np.array([[0, 1, 2], [3, 4, 5]]), np.array([0]))
+    >>> starts.tolist(), partners.tolist()
+    ([0, 1], [1])
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    subset = np.asarray(subset, dtype=np.int64)
+    starts = np.zeros(len(subset) + 1, np.int64)
+    if len(faces) < 2 or len(subset) == 0:
+        return starts, np.zeros(0, np.int64)
+    tree = TriangleTree(vertices, faces) if tree is None else tree
+    rank = np.empty(len(faces), np.int64)
+    rank[tree.order] = np.arange(len(faces))
+    arguments = (tree.box_lower, tree.box_upper, tree.triangles, tree.spheres, np.ascontiguousarray(faces[tree.order]),
+                 tree.width, tree.leaf_start, np.ascontiguousarray(rank[subset]), starts)
+    with kernel_threads(len(subset), 2e-7):
+        _partner_search(*arguments, np.zeros(0, np.int64))
+        np.cumsum(starts, out=starts)
+        found = np.zeros(int(starts[-1]), np.int64)
+        _partner_search(*arguments, found)
+    return starts, tree.order[found]
 
 
 def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTree | None = None, *,
