@@ -163,7 +163,8 @@ def distmesh(
         ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``features_seconds``,
         ``feature_nodes``, ``converged``, ``split_edges``, ``inserted_nodes``, and
         ``trimmed_cells``/``trimmed_volume``: the cells in places thinner than an element left
-        out so that the cells there meet the quality targets, see ``thin_parts``).
+        out so that the cells there meet the quality targets, ``dropped_cells``/``dropped_volume``:
+        the small pieces such places cut off from the rest, see ``thin_parts``).
 
     Warns
     -----
