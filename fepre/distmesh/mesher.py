@@ -9,7 +9,7 @@ import numpy as np
 from ..arguments import diagonal_lengths, domain_bounds, positive_float, shown
 from ..constraint_keywords import constraint_for
 from ..errors import MeshingError
-from ..sdf.core import SDF
+from ..sdf.core import SDF, require_solid_model
 from .constraints import FeatureNodes, FixedPoints
 from .initial_points import evaluate_size
 from .loop import DistMeshState
@@ -187,8 +187,7 @@ def distmesh(
     >>> bool((mesh["volume"] > 0).all()), 3.5 < mesh.volume < 4.19
     (True, True)
     """
-    if not isinstance(model, SDF) or model.dim != 3:
-        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    require_solid_model(model)
     offset = _frame_offset(model, bounds)
     if offset.any():
         return _in_local_frame(offset, model, h, bounds=bounds, size=size, fixed=fixed, periodic=periodic,
