@@ -144,7 +144,10 @@ def distmesh(
         kept); every cell lies in one region, cell data ``region_id`` indexes field data
         ``region_names``, and point data ``interface`` marks the interface nodes.
         :func:`fepre.export` writes one element set per region and each interface as a named
-        face set (``interface_<a>_<b>``).
+        face set (``interface_<a>_<b>``). ``region_names`` is a string array: ``mesh.save``
+        writes it to a VTU that ParaView and PyVista read but meshio cannot (it reads no string
+        arrays); ``fepre.export(mesh, "part.vtu")`` writes the names as integer field data that
+        meshio reads.
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
