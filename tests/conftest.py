@@ -36,3 +36,13 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         config.hook.pytest_deselected(items=slow)
         chosen = set(map(id, slow))
         items[:] = [item for item in items if id(item) not in chosen]
+
+
+@pytest.fixture(autouse=True)
+def _nothing_written_in_the_working_folder():
+    """A test writes under its ``tmp_path``, never into the folder pytest runs in (pytetwild's
+    ``__tracked_surface.stl`` was left in a clone's root)."""
+    before = set(Path.cwd().iterdir())
+    yield
+    written = sorted(str(path.name) for path in set(Path.cwd().iterdir()) - before)
+    assert not written, f"the test wrote {written} into the working folder {Path.cwd()}"

@@ -237,6 +237,9 @@ def test_missing_files_and_bad_usage(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["mesh", "ball.py"])  # -o is required
     assert exit_.value.code == 2
+    with pytest.raises(SystemExit) as exit_:  # named by its flag, before the model is read
+        main(["mesh", str(tmp_path / "nope.py"), "-o", str(tmp_path / "x.inp"), "--seed", "-3"])
+    assert exit_.value.code == 2 and "argument --seed: expected a non-negative integer; got '-3'" in capsys.readouterr().err
 
 
 def test_features_prints_and_writes_the_rim_of_the_cut_ball(folder, capsys):

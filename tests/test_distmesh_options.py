@@ -297,6 +297,11 @@ def test_empty_domain_and_unbounded_model():
         fepre.distmesh(sdf.plane((0, 0, 1)), 0.3)
     with pytest.raises(TypeError, match="model must be a 3D"):
         fepre.distmesh(lambda p: p[:, 0], 0.3)
+    # a file's name (a new user's first try): told to read it
+    for call in (lambda: fepre.distmesh("cube.off", h=0.3), lambda: fepre.size_field("cube.off", 0.1, 1.0),
+                 lambda: fepre.features("cube.off", h=0.3)):
+        with pytest.raises(TypeError, match=r"got the str 'cube.off': read a file first with fepre.sdf.mesh\('cube.off'\)"):
+            call()
 
 
 def test_no_bars_push_nothing_and_warn_nothing():

@@ -111,6 +111,19 @@ def test_a_base_cut_across_steep_walls_closes_straight_across():
     assert model([[0.0, 0.0, 1.0]])[0] == pytest.approx(-0.99, abs=0.01)
 
 
+def test_a_cut_farther_from_its_plane_closes_straight_across_where_a_patch_would_leave_the_box():
+    # a base 0.12 of its width out of plane (libigl's camelhead.off: a neck cut 0.117 out of
+    # plane): before, a faired dome under it, past the input's box (camelhead: +6.8%, 0.09 past)
+    drum = _open_bottomed_drum(wave=0.12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fepre.RepairWarning)
+        model = sdf.mesh(drum)
+    assert model.repaired.flat_holes == 1 and model.repaired.cut_holes == 1 and model.repaired.hole_bulge == 0
+    polygon_area = 32.0 * np.sin(2.0 * np.pi / 64.0)
+    assert model.volume == pytest.approx(2.0 * polygon_area, rel=2e-3)
+    assert model.bounds[0][2] >= -0.12 - 1e-9
+
+
 def test_a_hole_in_a_gently_curved_surface_is_not_a_cut():
     # a wavy rim whose surface meets its plane at a shallow angle: a cap missing from a dome, faired
     sphere = pv.Sphere(radius=1.0, theta_resolution=80, phi_resolution=80)

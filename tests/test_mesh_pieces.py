@@ -72,3 +72,26 @@ def test_separate_parts_of_comparable_size_are_not_named():
         mesh = fepre.distmesh(_blocks(), h=0.15)
     assert len(mesh_pieces(mesh.cells_dict[10], mesh.n_points)[1]) == 2
     assert not [w for w in caught if "pieces" in str(w.message)]
+
+
+def test_a_small_piece_cut_off_where_the_model_joins_it_is_dropped_and_named():
+    # a 0.15 cube held by a plate 0.03 thick 0.12 off a unit block, at h = 0.15: the plate is
+    # lost and the cube was written as a piece of 6 cells that nothing holds (libigl's armadillo at
+    # D/25: a lone cell by a claw, written with exit 0); it is dropped, and its volume said
+    part = sdf.union(sdf.box((1, 1, 1)), sdf.box((0.15, 0.15, 0.15), center=(0.695, 0, 0)),
+                     sdf.box((0.16, 0.1, 0.03), center=(0.56, 0, 0)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = fepre.distmesh(part, h=0.15)
+    assert len(mesh_pieces(mesh.cells_dict[10], mesh.n_points)[1]) == 1
+    dropped, volume = mesh.field_data["distmesh_dropped_cells"][0], mesh.field_data["distmesh_dropped_volume"][0]
+    assert 1 <= dropped <= 20 and volume == pytest.approx(0.15**3, rel=0.2)
+    assert mesh.volume + volume == pytest.approx(1.0 + 0.15**3, rel=0.01)
+    messages = [str(w.message) for w in caught if "were dropped" in str(w.message)]
+    assert len(messages) == 1 and f"{dropped} cell(s)" in messages[0] and "a smaller h (or hmin) keeps them" in messages[0]
+    x, y, z = map(float, re.search(r"cell\(s\) at \(([^)]*)\)", messages[0]).group(1).split(", "))
+    assert abs(x - 0.695) < 0.05 and abs(y) < 0.05 and abs(z) < 0.05
+    assert not [w for w in caught if "pieces not joined" in str(w.message)]
+    kept = fepre.distmesh(part, h=0.15, thin_parts="keep")  # as it was: the piece kept, and named
+    assert len(mesh_pieces(kept.cells_dict[10], kept.n_points)[1]) == 2
+    assert kept.n_cells == mesh.n_cells + dropped and kept.field_data["distmesh_dropped_cells"][0] == 0

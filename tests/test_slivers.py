@@ -139,8 +139,9 @@ def test_fixed_nodes_never_move_and_seed_reproduces(sphere_raw):
     np.testing.assert_array_equal(again_tets, new_tets)
 
 
-def test_improves_a_pytetwild_mesh():
+def test_improves_a_pytetwild_mesh(tmp_path, monkeypatch):
     pytetwild = pytest.importorskip("pytetwild")
+    monkeypatch.chdir(tmp_path)  # fTetWild writes __tracked_surface.stl into the working folder
     ball = sdf.sphere(1.0)
     surface = pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=24).triangulate().clean()
     with warnings.catch_warnings():

@@ -450,7 +450,17 @@ def check_edge_length(args: argparse.Namespace, h: float, part) -> None:
                          f"--h {extent / 20:.2g} puts about 20 elements across it")
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer; got {text!r}")
+    return value
+
+
 def seed_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--seed", type=int, default=0,
+    parser.add_argument("--seed", type=_seed, default=0,
                         help="seed of DistMesh's random choices (lattice jitter, size rejection); the same seed "
                              "gives the same mesh (default 0)")

@@ -43,7 +43,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep-thin", action="store_true",
                         help="keep parts thinner than an element (knife edges, fin tips) with flat cells; by default the "
                              "few such places that leave cells below the quality targets are left out (at most 1%% of "
-                             "the volume), named in a warning with the --h that keeps them")
+                             "the volume), named in a warning with the --h that keeps them, and so are small pieces they cut off from "
+                             "the rest (nothing would hold them in a solver)")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
 
 

@@ -22,6 +22,12 @@ def _no_trim():
     return Trimmed.none()
 
 
+def _no_fragments():
+    from .pieces import Fragments
+
+    return Fragments.none()
+
+
 @dataclass
 class MeshingJob:
     """The state the stages pass on: the run's arguments, the constraints, the mesh so far.
@@ -72,6 +78,8 @@ class MeshingJob:
         Nodes inserted at the cells the quality stage left below its targets, before running again.
     trimmed : fepre.distmesh.thin_trim.Trimmed
         The cells in parts thinner than an element that the quality stage gave up.
+    fragments : fepre.distmesh.pieces.Fragments
+        The small pieces cut off from the rest that were dropped.
     """
 
     model: SDF
@@ -106,6 +114,7 @@ class MeshingJob:
     crease_flips: int = 0  # boundary edges across a concave crease flipped onto it
     inserted_nodes: int = 0  # nodes inserted at the cells the quality stage left below its targets
     trimmed: Any = field(default_factory=lambda: _no_trim())
+    fragments: Any = field(default_factory=lambda: _no_fragments())
     frame_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     started: float = field(default_factory=time.perf_counter)
 

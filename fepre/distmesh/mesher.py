@@ -9,7 +9,7 @@ import numpy as np
 from ..arguments import diagonal_lengths, domain_bounds, positive_float, shown
 from ..constraint_keywords import constraint_for
 from ..errors import MeshingError
-from ..sdf.core import SDF
+from ..sdf.core import SDF, require_solid_model
 from .constraints import FeatureNodes, FixedPoints
 from .initial_points import evaluate_size
 from .loop import DistMeshState
@@ -144,7 +144,10 @@ def distmesh(
         kept); every cell lies in one region, cell data ``region_id`` indexes field data
         ``region_names``, and point data ``interface`` marks the interface nodes.
         :func:`fepre.export` writes one element set per region and each interface as a named
-        face set (``interface_<a>_<b>``).
+        face set (``interface_<a>_<b>``). ``region_names`` is a string array: ``mesh.save``
+        writes it to a VTU that ParaView and PyVista read but meshio cannot (it reads no string
+        arrays); ``fepre.export(mesh, "part.vtu")`` writes the names as integer field data that
+        meshio reads.
     options : fepre.DistMeshOptions, optional
         Parameters of the algorithm; keyword ``overrides`` (e.g. ``deltat=0.05``) apply on top.
     progress : bool
@@ -163,7 +166,8 @@ def distmesh(
         ``seconds``, ``loop_seconds``, ``slivers_seconds``, ``features_seconds``,
         ``feature_nodes``, ``converged``, ``split_edges``, ``inserted_nodes``, and
         ``trimmed_cells``/``trimmed_volume``: the cells in places thinner than an element left
-        out so that the cells there meet the quality targets, see ``thin_parts``).
+        out so that the cells there meet the quality targets, ``dropped_cells``/``dropped_volume``:
+        the small pieces such places cut off from the rest, see ``thin_parts``).
 
     Warns
     -----
@@ -186,8 +190,7 @@ def distmesh(
     >>> bool((mesh["volume"] > 0).all()), 3.5 < mesh.volume < 4.19
     (True, True)
     """
-    if not isinstance(model, SDF) or model.dim != 3:
-        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    require_solid_model(model)
     offset = _frame_offset(model, bounds)
     if offset.any():
         return _in_local_frame(offset, model, h, bounds=bounds, size=size, fixed=fixed, periodic=periodic,

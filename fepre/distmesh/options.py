@@ -104,8 +104,9 @@ class DistMeshOptions:
         element (a knife edge, a fin's tip, the sliver a box leaves of a lattice's wall), where
         no cell of size ``h`` fits: ``"trim"`` leaves such places out, a little at a time and at
         most 1% of the volume, so that every cell meets the targets (a ResolutionWarning names
-        them, their volume and the ``hmin`` that keeps them); ``"keep"`` keeps them with flat
-        cells.
+        them, their volume and the ``hmin`` that keeps them), and drops a piece of under 1% of
+        the cells that such a place cut off from the rest (nothing would hold it in a solver;
+        a ResolutionWarning names it); ``"keep"`` keeps them with flat cells, and the pieces.
     features : bool, default True
         Keep the model's sharp edges and corners (:func:`fepre.features`): corners and nodes
         about ``h`` apart along every feature curve become fixed points, other points are kept

@@ -2,14 +2,19 @@
 
 A part thinner than ``h`` somewhere along a limb can leave the limb's tip as a piece of its own
 (cow.obj's ear tips at D/50: pieces of 1 to 55 cells beside 27,000). A solver sees such a piece
-as a body with nothing holding it (a singular stiffness matrix), so the mesher names them.
+as a body with nothing holding it (a singular stiffness matrix), so the mesher names them, and a
+plain mesh drops those under ``SMALL_PIECE`` of the cells that the model joins to the rest
+(:func:`cut_off_fragments`: libigl's armadillo at D/25 was written with a lone cell by a claw).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["mesh_pieces", "cut_off_pieces", "pieces_message", "SMALL_PIECE"]
+__all__ = ["mesh_pieces", "cut_off_pieces", "cut_off_fragments", "fragments_message", "Fragments", "pieces_message",
+           "SMALL_PIECE"]
 
 #: Pieces with fewer than this fraction of the cells (beside a larger one) are named.
 SMALL_PIECE = 0.01
@@ -130,3 +135,73 @@ def pieces_message(points: np.ndarray, tets: np.ndarray, labels: np.ndarray, cou
         why = "where a part of the model thinner than the mesh's sizes cut them off, a smaller h (or hmin) keeps them joined"
     return (f"the mesh is in {len(counts)} pieces not joined through faces: beside the largest ({counts[0]:,} cells), "
             f"{len(named)} piece(s): {'; '.join(places)}{more}; {why}; a solver needs every piece held")
+
+
+@dataclass(frozen=True)
+class Fragments:
+    """Pieces dropped from a mesh (:func:`cut_off_fragments`): their cells, volume and each one's
+    centre and cell count."""
+
+    cells: int
+    volume: float
+    centres: np.ndarray
+    counts: np.ndarray
+
+    @staticmethod
+    def none() -> "Fragments":
+        return Fragments(0, 0.0, np.zeros((0, 3)), np.zeros(0, np.int64))
+
+
+def cut_off_fragments(points: np.ndarray, tets: np.ndarray, model, size: np.ndarray,
+                      keep: np.ndarray | None = None) -> tuple[np.ndarray, Fragments]:
+    """Mask (M,) of the cells to keep and the :class:`Fragments` dropped: the pieces with fewer
+    than ``SMALL_PIECE`` of the cells that the model joins to another piece
+    (:func:`cut_off_pieces`), unless one holds a node of ``keep`` (N,) (a user's fixed point).
+
+    Examples
+    --------
+    >>> from fepre import sdf
+    >>> from scipy.spatial import Delaunay
+    >>> grid = np.stack(np.meshgrid(*[np.arange(5.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    >>> block = Delaunay(grid).simplices                                  # hundreds of cells
+    >>> cell = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float) + [1, 1, 4.5]
+    >>> points, tets = np.vstack([grid, cell]), np.vstack([block, [[125, 126, 127, 128]]])
+    >>> kept, dropped = cut_off_fragments(points, tets, sdf.box(20.0), np.full(len(points), 1.0))
+    >>> int((~kept).sum()), dropped.cells, dropped.counts.tolist(), round(dropped.volume, 4)
+    (1, 1, [1], 0.1667)
+    >>> kept, dropped = cut_off_fragments(points, tets, sdf.box(20.0) - sdf.box((9, 9, 0.2), center=(0, 0, 4.25)),
+    ...                                   np.full(len(points), 1.0))       # a gap between them in the model
+    >>> dropped.cells
+    0
+    """
+    from ..quality import signed_volumes
+
+    labels, counts = mesh_pieces(tets, len(points))
+    if len(counts) < 2:
+        return np.ones(len(tets), bool), Fragments.none()
+    cut = cut_off_pieces(points, tets, labels, counts, model, size)
+    cut = cut[counts[cut] < SMALL_PIECE * counts.sum()]
+    if keep is not None and len(cut):
+        held = np.zeros(len(counts), bool)
+        held[labels[keep[tets].any(axis=1)]] = True
+        cut = cut[~held[cut]]
+    if len(cut) == 0:
+        return np.ones(len(tets), bool), Fragments.none()
+    dropped = np.isin(labels, cut)
+    centroids = points[tets[dropped]].mean(axis=1)
+    centres = np.stack([centroids[labels[dropped] == piece].mean(axis=0) for piece in cut])
+    return ~dropped, Fragments(int(dropped.sum()), float(signed_volumes(points, tets[dropped]).sum()), centres, counts[cut])
+
+
+def fragments_message(fragments: Fragments, offset: np.ndarray | None = None) -> str | None:
+    """A line naming the pieces :func:`cut_off_fragments` dropped, or None."""
+    if fragments.cells == 0:
+        return None
+    shift = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
+    places = "; ".join(f"{count:,} cell(s) at ({', '.join(f'{v:.6g}' for v in centre + shift)})"
+                       for count, centre in zip(fragments.counts[:3], fragments.centres[:3]))
+    more = f" and {len(fragments.counts) - 3} more" if len(fragments.counts) > 3 else ""
+    return (f"{len(fragments.counts)} piece(s) of the mesh, {fragments.cells} cell(s) and {fragments.volume:.3g} of volume, "
+            f"were cut off from the rest where the model joins them (a part thinner than the mesh's sizes between) and "
+            f"were dropped, as a solver cannot hold them: {places}{more}; a smaller h (or hmin) keeps them joined, "
+            "thin_parts='keep' (fepre mesh --keep-thin) keeps them as they are")

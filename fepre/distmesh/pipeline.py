@@ -259,6 +259,33 @@ def validate_mesh(job: MeshingJob) -> None:
     job.seconds["validate"] = time.perf_counter() - started
 
 
+def drop_fragments(job: MeshingJob) -> None:
+    """Pieces of a plain mesh under ``SMALL_PIECE`` of its cells that the model joins to the rest
+    dropped (:func:`~fepre.distmesh.pieces.cut_off_fragments`), unless ``thin_parts="keep"``;
+    ``check_mesh`` names them."""
+    from .constraints import FeatureNodes, FixedPoints
+
+    o = job.options
+    if not o.check_resolution or o.thin_parts == "keep" or not all(isinstance(c, (FixedPoints, FeatureNodes))
+                                                                    for c in job.constraints):
+        return
+    from .pieces import cut_off_fragments
+    from .thin_cells import sizes_at
+
+    keep = None
+    if job.user_fixed is not None and len(job.user_fixed):
+        from scipy.spatial import cKDTree
+
+        distance, nearest = cKDTree(job.points).query(np.asarray(job.user_fixed, float) - job.frame_offset)
+        keep = np.zeros(len(job.points), bool)
+        keep[nearest[distance <= 1e-6 * job.h]] = True
+    kept, job.fragments = cut_off_fragments(job.points, job.tets, job.model, sizes_at(job.points, job.h, local_size(job)),
+                                            keep)
+    if job.fragments.cells:
+        job.tets = job.tets[kept]
+        _drop_unused_nodes(job)
+
+
 def _smaller_h(job: MeshingJob, found: list) -> str:
     """What to try when the mesh is refused: where the volume is off, the parts thinner than
     ``h`` that the mesh left out and the gaps narrower than ``h`` that it filled, the larger
@@ -335,7 +362,7 @@ def check_mesh(job: MeshingJob) -> None:
         warn_user(f"distmesh: {added_material_message(added, None if job.absolute else h)}", ResolutionWarning)
     if o.check_resolution:
         from .cavities import cavities_message, inner_voids, pockets_message, sealed_pockets, unmodelled_cavities
-        from .pieces import cut_off_pieces, mesh_pieces, pieces_message
+        from .pieces import cut_off_pieces, fragments_message, mesh_pieces, pieces_message
         from .topology import boundary_faces
 
         faces = job.boundary[1] if job.boundary is not None and job.boundary[0] is job.tets else boundary_faces(job.tets)
@@ -350,6 +377,9 @@ def check_mesh(job: MeshingJob) -> None:
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
 
+        message = fragments_message(job.fragments, job.frame_offset)
+        if message:
+            warn_user(f"distmesh: {message}", ResolutionWarning)
         labels, counts = mesh_pieces(job.tets, len(job.points))
         cut_off = None
         if len(counts) > 1:
@@ -395,6 +425,8 @@ def check_mesh(job: MeshingJob) -> None:
         inserted_nodes=np.array([job.inserted_nodes]),
         trimmed_cells=np.array([job.trimmed.cells]),
         trimmed_volume=np.array([job.trimmed.volume]),
+        dropped_cells=np.array([job.fragments.cells]),
+        dropped_volume=np.array([job.fragments.volume]),
         lost_volume=np.array([sum(region.volume for region in lost) if o.check_resolution else np.nan]),
         added_volume=np.array([sum(region.volume for region in added) if o.check_resolution else np.nan]),
         seconds=np.array([time.perf_counter() - job.started]),
@@ -422,8 +454,8 @@ def output_grid(job: MeshingJob):
 
 
 #: the stages in order; each takes the job and leaves its result in it (the last returns the grid)
-STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_stage, validate_mesh, check_mesh,
-          output_grid)
+STAGES = (constraint_nodes, starting_points, run_loop, make_final_mesh, quality_stage, validate_mesh, drop_fragments,
+          check_mesh, output_grid)
 
 
 def run_pipeline(job: MeshingJob):

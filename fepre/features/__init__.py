@@ -26,7 +26,7 @@ from ..callable_package import make_callable
 from ..arguments import domain_bounds, evaluate_size, finite_float, positive_float
 from ..errors import FeatureWarning, warn_user
 from ..placement import local_offset, moved_features, moved_size
-from ..sdf.core import SDF
+from ..sdf.core import SDF, require_solid_model
 from .conflicts import resolve_conflicts
 from .curves import FeatureCurve, build_curves
 from .detect import find_creases
@@ -103,8 +103,7 @@ def features(
     >>> bool(fepre.features(sdf.sphere(1.0), h=0.2))   # a sphere has no features
     False
     """
-    if not isinstance(model, SDF) or model.dim != 3:
-        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    require_solid_model(model)
     h = positive_float(h, "h")
     angle = finite_float(angle, "angle")
     if not 0.0 < angle < 180.0:

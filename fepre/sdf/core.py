@@ -560,3 +560,25 @@ class SDF:
 
         visit(self, "", True, True)
         return "\n".join(lines)
+
+
+def require_solid_model(model: Any, name: str = "model") -> None:
+    """TypeError unless ``model`` is a 3D :class:`SDF`; a file name is told to read the file first.
+
+    Examples
+    --------
+    >>> require_solid_model("part.stl")
+    Traceback (most recent call last):
+    ...
+    TypeError: model must be a 3D fepre.sdf.SDF; got the str 'part.stl': read a file first with fepre.sdf.mesh('part.stl') (triangle meshes, STEP) or fepre.sdf.image (images)
+    """
+    if isinstance(model, SDF) and model.dim == 3:
+        return
+    import os
+
+    if isinstance(model, (str, os.PathLike)):
+        path = os.fspath(model)
+        raise TypeError(f"{name} must be a 3D fepre.sdf.SDF; got the {type(model).__name__} {path!r}: read a file first "
+                        f"with fepre.sdf.mesh({path!r}) (triangle meshes, STEP) or fepre.sdf.image (images)")
+    got = f"a {model.dim}D SDF" if isinstance(model, SDF) else type(model).__name__
+    raise TypeError(f"{name} must be a 3D fepre.sdf.SDF; got {got}")

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..arguments import domain_bounds, finite_float, positive_float
-from ..sdf.core import SDF
+from ..sdf.core import SDF, require_solid_model
 from ..placement import local_offset, user_frame
 from .curvature import max_curvature
 from .field import MAX_NODES, SizeField
@@ -147,8 +147,7 @@ def size_field(
     0.2
     """
     start = time.perf_counter()
-    if not isinstance(model, SDF) or model.dim != 3:
-        raise TypeError(f"model must be a 3D fepre.sdf.SDF; got {type(model).__name__}")
+    require_solid_model(model)
     hmin, hmax, elements_across, chord_tolerance, gradation = _check(hmin, hmax, elements_across, chord_tolerance, gradation)
     if not isinstance(features, bool):
         raise TypeError(f"features must be True or False; got {features!r}")
