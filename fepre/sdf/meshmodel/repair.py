@@ -563,7 +563,7 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     keep = separating & ~straddle
     kept_faces = np.where(backwards[:, None], faces[:, ::-1], faces)[keep]
     pieces, parent = _seam_pieces(vertices, faces, np.flatnonzero(straddle))
-    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], _longest_side(pieces), winding)
+    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], sizes[parent], winding)
     piece_keep = piece_front != piece_back
     pieces = np.where((piece_front & ~piece_back)[:, None, None], pieces[:, ::-1], pieces)[piece_keep]
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
