@@ -34,11 +34,14 @@ def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_
     assert kept["min_dihedral_angle"].min() < 25.0  # the slivers' cells (19.3-21.2 deg)
     assert trimmed["min_dihedral_angle"].min() >= 25.0
     assert trimmed["max_dihedral_angle"].max() <= 150.0 and trimmed["radius_ratio"].min() >= 0.25
-    # a few cells of the slivers, not the walls: the volume moves by less than 0.01%
-    assert 0 < kept.n_cells - trimmed.n_cells <= 12
+    # a few cells of the slivers, not the walls: the volume moves by less than 0.01% (beside a
+    # piece of the lattice's corner that a neck 0.012 thick joins, dropped when trimmed)
+    dropped = trimmed.field_data["distmesh_dropped_cells"][0]
+    assert 0 < kept.n_cells - trimmed.n_cells - dropped <= 12
     assert trimmed.field_data["distmesh_trimmed_cells"][0] >= 1 and kept.field_data["distmesh_trimmed_cells"][0] == 0
     assert 0 < trimmed.field_data["distmesh_trimmed_volume"][0] < 1e-4
-    assert trimmed["volume"].sum() == pytest.approx(kept["volume"].sum(), rel=1e-4)
+    assert trimmed["volume"].sum() + trimmed.field_data["distmesh_dropped_volume"][0] == pytest.approx(
+        kept["volume"].sum(), rel=1e-4)
     named = [text for text in said if "left out so that" in text]
     assert len(named) == 1
     count, places = (int(v) for v in re.search(r"(\d+) cell\(s\) in (\d+) place", named[0]).groups())
