@@ -151,7 +151,7 @@ def test_a_rib_punched_through_at_d_over_25_is_named(tmp_path):
     assert surface_genus(boundary_faces(mesh.cells_dict[10])) == 3
     [named] = [str(w.message) for w in caught if "genus" in str(w.message)]
     assert named.startswith("distmesh: the mesh's surface has genus 3 where the model's has 2")
-    assert re.search(r"about 1\d\d near \(8\d\.\d+, 29\.\d+, 1\d\.\d+\), 2\.5 thick", named)
+    assert re.search(r"about 1\d\d near \(8\d\.\d+, 29\.\d+, 1\d(\.\d+)?\), 2\.5 thick", named)  # z = 15 is "15"
 
 
 def test_a_bore_set_on_a_tessellated_step_part_takes_the_bore(tmp_path):
