@@ -33,50 +33,11 @@ def _cross(a, b, tol):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True)
-def _crossing_flags(lower, upper, triangles, spheres, corners, width, leaf_start, both, flags):  # pragma: no cover - compiled
-    """``flags[i]``: triangle ``i`` (tree order) crosses a later triangle sharing no vertex (any
-    other triangle with ``both``)."""
-    for i in prange(triangles.shape[0]):
-        tri = triangles[i]
-        lo0, lo1, lo2 = min(tri[0, 0], tri[1, 0], tri[2, 0]), min(tri[0, 1], tri[1, 1], tri[2, 1]), min(tri[0, 2], tri[1, 2], tri[2, 2])
-        up0, up1, up2 = max(tri[0, 0], tri[1, 0], tri[2, 0]), max(tri[0, 1], tri[1, 1], tri[2, 1]), max(tri[0, 2], tri[1, 2], tri[2, 2])
-        stack = np.empty(_STACK, dtype=np.int64)
-        stack[0] = 1
-        top = 1
-        found = False
-        while top > 0 and not found:
-            top -= 1
-            node = stack[top]
-            if (lower[node, 0] > up0 or upper[node, 0] < lo0 or lower[node, 1] > up1 or upper[node, 1] < lo1
-                    or lower[node, 2] > up2 or upper[node, 2] < lo2):
-                continue
-            if node < width:
-                stack[top] = 2 * node
-                stack[top + 1] = 2 * node + 1
-                top += 2
-                continue
-            for t in range(leaf_start[node - width] if both else max(leaf_start[node - width], i + 1),
-                           leaf_start[node - width + 1]):
-                if t == i:
-                    continue
-                shared = False
-                for a in range(3):
-                    for b in range(3):
-                        if corners[i, a] == corners[t, b]:
-                            shared = True
-                if shared:
-                    continue
-                size = spheres[i, 3] + spheres[t, 3]
-                if _cross(tri, triangles[t], FLAT * size * size * size):
-                    found = True
-                    break
-        flags[i] = found
-
-
-@njit(cache=True, parallel=True)
-def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start, subset, starts, out):  # pragma: no cover - compiled
+def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start, subset, later, first, starts,
+                    out):  # pragma: no cover - compiled
     """For each ``subset`` triangle (tree order), the triangles sharing no vertex with it that
-    it crosses: counted into ``starts[k + 1]`` when ``out`` is empty, else written from
+    it crosses (only those after it in tree order with ``later``; the first found only with
+    ``first``): counted into ``starts[k + 1]`` when ``out`` is empty, else written from
     ``starts[k]``."""
     for k in prange(subset.shape[0]):
         i = subset[k]
@@ -87,7 +48,7 @@ def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start
         stack[0] = 1
         top = 1
         found = 0
-        while top > 0:
+        while top > 0 and not (first and found):
             top -= 1
             node = stack[top]
             if (lower[node, 0] > up0 or upper[node, 0] < lo0 or lower[node, 1] > up1 or upper[node, 1] < lo1
@@ -98,7 +59,8 @@ def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start
                 stack[top + 1] = 2 * node + 1
                 top += 2
                 continue
-            for t in range(leaf_start[node - width], leaf_start[node - width + 1]):
+            for t in range(max(leaf_start[node - width], i + 1) if later else leaf_start[node - width],
+                           leaf_start[node - width + 1]):
                 if t == i:
                     continue
                 shared = False
@@ -113,6 +75,8 @@ def _partner_search(lower, upper, triangles, spheres, corners, width, leaf_start
                     if out.shape[0]:
                         out[starts[k] + found] = t
                     found += 1
+                    if first:
+                        break
         if not out.shape[0]:
             starts[k + 1] = found
 
@@ -140,7 +104,7 @@ def crossing_partners(vertices: np.ndarray, faces: np.ndarray, subset: np.ndarra
     rank = np.empty(len(faces), np.int64)
     rank[tree.order] = np.arange(len(faces))
     arguments = (tree.box_lower, tree.box_upper, tree.triangles, tree.spheres, np.ascontiguousarray(faces[tree.order]),
-                 tree.width, tree.leaf_start, np.ascontiguousarray(rank[subset]), starts)
+                 tree.width, tree.leaf_start, np.ascontiguousarray(rank[subset]), False, False, starts)
     with kernel_threads(len(subset), 2e-7):
         _partner_search(*arguments, np.zeros(0, np.int64))
         np.cumsum(starts, out=starts)
@@ -185,8 +149,8 @@ def crossing_triangles(vertices: np.ndarray, faces: np.ndarray, tree: TriangleTr
     if len(faces) < 2:
         return np.zeros(0, np.int64)
     tree = TriangleTree(vertices, faces) if tree is None else tree
-    flags = np.zeros(len(faces), np.bool_)
+    counts = np.zeros(len(faces) + 1, np.int64)
     with kernel_threads(len(faces), 2e-7):
-        _crossing_flags(tree.box_lower, tree.box_upper, tree.triangles, tree.spheres, np.ascontiguousarray(faces[tree.order]),
-                        tree.width, tree.leaf_start, bool(both), flags)
-    return np.sort(tree.order[flags])
+        _partner_search(tree.box_lower, tree.box_upper, tree.triangles, tree.spheres, np.ascontiguousarray(faces[tree.order]),
+                        tree.width, tree.leaf_start, np.arange(len(faces)), not both, True, counts, np.zeros(0, np.int64))
+    return np.sort(tree.order[counts[1:] > 0])
