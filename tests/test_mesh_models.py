@@ -223,30 +223,6 @@ def test_overlapping_shells_that_meet_along_shared_edges_are_united_exactly():
     assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.25, abs=1e-12)
 
 
-def test_overlapping_shells_are_split_only_where_the_other_shell_crosses_them():
-    """A triangle crossing the other ball is split only where a triangle of that ball crosses
-    it (a piece that none crosses lies on one side): a third of the triangles of splitting every
-    such triangle 256 ways, the pieces only at the seam, and the same solid as the input's
-    winding number (libigl's exact one) at points everywhere."""
-    import igl
-
-    ball = lambda x: pv.Sphere(radius=1.0, center=(x, 0, 0), theta_resolution=64, phi_resolution=64)
-    surface = ball(0.0) + ball(1.0)  # the seam is the circle x = 0.5, r = 0.866
-    model = sdf.mesh(surface)
-    vertices, faces = model.vertices, model.faces
-    assert model.repaired.internal > 3000 and len(faces) < 30_000  # 65,849 with 256 pieces each
-    corners = vertices[faces]
-    size = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-    centroid = corners.mean(axis=1)
-    seam = np.hypot(centroid[:, 0] - 0.5, np.hypot(centroid[:, 1], centroid[:, 2]) - np.sqrt(0.75))
-    pieces = size < 0.3 * np.median(size)
-    assert pieces.sum() > 5000 and seam[pieces].max() < 0.03
-    points = np.random.default_rng(0).uniform([-1.1, -1.1, -1.1], [2.1, 1.1, 1.1], (10_000, 3))
-    raw_vertices, raw_faces = arrays(surface)
-    inside = np.asarray(igl.winding_number(raw_vertices, raw_faces, points)) > 0.5
-    assert np.array_equal(np.asarray(igl.winding_number(vertices, faces, points)) > 0.5, inside)
-
-
 def test_an_assembly_s_winding_number_summed_body_by_body_is_the_whole_s():
     """Ten overlapping boxes, two touching along an edge (four triangles there) and an open
     sheet: asked piece by piece, each closed body only inside its box, the winding number is the
@@ -319,7 +295,7 @@ def test_points_on_the_surface_ask_no_winding_number(monkeypatch):
     points = np.concatenate([on, off])
     _, _, closest, _ = tree._query(points)
     exact = np.flatnonzero((points == closest).all(axis=1))
-    assert len(exact) > 500  # points the query finds on the surface exactly
+    assert len(exact) > 1000  # points the query finds on the surface exactly
     asked = []
     winding = tree.winding_numbers
     monkeypatch.setattr(tree, "winding_numbers", lambda p: asked.append(len(p)) or winding(p))

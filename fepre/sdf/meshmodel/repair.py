@@ -398,10 +398,9 @@ def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
 EXACT_RECHECK = 1000
 
 
-#: Triangles that cross another shell (their corners on different sides of it) are split up to
-#: this many times (4 pieces each time, only where another triangle crosses: :func:`_seam_pieces`)
-#: and the pieces inside dropped: the kept surface then pokes into the solid by at most 1/16 of
-#: a triangle along the seams of overlapping shells.
+#: Triangles that cross another shell (their corners on different sides of it) are split this
+#: many times (4 pieces each time) and the pieces inside dropped: the kept surface then pokes
+#: into the solid by at most 1/16 of a triangle along the seams of overlapping shells.
 SEAM_LEVELS = 4
 
 
@@ -490,56 +489,6 @@ def _split(corners: np.ndarray, levels: int) -> np.ndarray:
     return corners
 
 
-def _crossed_pieces(vertices: np.ndarray, faces: np.ndarray, pieces: np.ndarray, owner: np.ndarray,
-                    starts: np.ndarray, partners: np.ndarray) -> np.ndarray:
-    """Mask of the ``pieces`` (P, 3, 3) that a partner of their triangle ``owner`` (P,) crosses
-    (partners of triangle ``k`` are ``partners[starts[k]:starts[k + 1]]``)."""
-    from ...triangle_crossings import pairs_cross
-
-    counts = starts[owner + 1] - starts[owner]
-    piece = np.repeat(np.arange(len(pieces)), counts)
-    within = np.arange(len(piece)) - np.repeat(np.cumsum(counts) - counts, counts)
-    partner = partners[starts[owner][piece] + within]
-    points = np.concatenate([pieces.reshape(-1, 3), vertices])
-    own = np.arange(3 * len(pieces)).reshape(-1, 3)
-    pair_faces = np.concatenate([own, faces[partner] + 3 * len(pieces)])
-    pairs = np.column_stack([piece, len(pieces) + np.arange(len(partner))])
-    hit = np.zeros(len(pieces), bool)
-    hit[piece[pairs_cross(points, pair_faces, pairs)]] = True
-    return hit
-
-
-def _seam_pieces(vertices: np.ndarray, faces: np.ndarray, parents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The ``parents`` triangles split for the seams they straddle: pieces (m, 3, 3) and the
-    triangle each comes from.
-
-    On a closed surface the winding number steps only across triangles, so a piece that no
-    other triangle crosses lies wholly on one side and needs no further split: a triangle
-    crossed by others is split only where they cross it, down to ``SEAM_LEVELS`` (ur3's
-    upper arm: 195k triangles from 10k when all were split). One that no triangle crosses
-    (its corners disagree because an open surface's winding number varies between its
-    triangles) is split ``SEAM_LEVELS`` times all over.
-    """
-    from .self_crossing import crossing_partners
-
-    starts, partners = crossing_partners(vertices, faces, parents)
-    crossed = np.diff(starts) > 0
-    whole = parents[~crossed]
-    kept, kept_parent = [_split(vertices[faces[whole]], SEAM_LEVELS)], [np.repeat(whole, 4**SEAM_LEVELS)]
-    owner = np.flatnonzero(crossed)
-    pieces = vertices[faces[parents[owner]]]
-    for level in range(1, SEAM_LEVELS + 1):
-        pieces, owner = _split(pieces, 1), np.repeat(owner, 4)
-        split = (_crossed_pieces(vertices, faces, pieces, owner, starts, partners) if level < SEAM_LEVELS
-                 else np.zeros(len(pieces), bool))
-        kept.append(pieces[~split])
-        kept_parent.append(parents[owner[~split]])
-        pieces, owner = pieces[split], owner[split]
-    parent = np.concatenate(kept_parent)
-    order = np.argsort(parent, kind="stable")
-    return np.concatenate(kept)[order], parent[order]
-
-
 def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
     """Drop triangles with the same side of the solid in front and behind (split those crossing
     a seam first); turn over those with the solid in front. Also returns the input triangle each
@@ -562,8 +511,9 @@ def _drop_internal(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     straddle = (corner_separating != separating[:, None]).any(axis=1) & (areas > 0)
     keep = separating & ~straddle
     kept_faces = np.where(backwards[:, None], faces[:, ::-1], faces)[keep]
-    pieces, parent = _seam_pieces(vertices, faces, np.flatnonzero(straddle))
-    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], sizes[parent], winding)
+    pieces = _split(corners[straddle], SEAM_LEVELS)
+    parent = np.repeat(np.flatnonzero(straddle), 4**SEAM_LEVELS)
+    piece_front, piece_back = _sides(vertices, faces, pieces.mean(axis=1), normals[parent], _longest_side(pieces), winding)
     piece_keep = piece_front != piece_back
     pieces = np.where((piece_front & ~piece_back)[:, None, None], pieces[:, ::-1], pieces)[piece_keep]
     piece_faces = len(vertices) + np.arange(3 * len(pieces)).reshape(-1, 3)
