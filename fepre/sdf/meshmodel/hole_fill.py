@@ -276,7 +276,7 @@ def fill_holes(vertices: np.ndarray, faces: np.ndarray) -> FilledHoles:
     planes = [_rim_plane(vertices, faces, rim, along) for rim, along in zip(loops, rim_faces)]
     patched = _patched(vertices, faces, loops, planes, open_edges)
     lower, upper, wider = vertices.min(axis=0), vertices.max(axis=0), False
-    for (_, start, count), k in zip(patched.faired, patched.faired_loops):
+    for k, start, count in patched.faired:
         if _past_box(patched.holes.vertices, patched.holes.faces[start:start + count], lower, upper):
             plane = _rim_plane(vertices, faces, loops[k], rim_faces[k], CUT_FLATNESS_AT_BOX)
             if plane[0] is not None:
@@ -294,22 +294,20 @@ def _past_box(vertices: np.ndarray, patch: np.ndarray, lower: np.ndarray, upper:
 @dataclass(frozen=True)
 class _Patched:
     holes: FilledHoles
-    faired: list  # (rim, first patch triangle in faces, count) of each faired patch
-    faired_loops: list  # the loop of each
+    faired: list  # (loop, first patch triangle in faces, count) of each faired patch
 
 
 def _patched(vertices: np.ndarray, faces: np.ndarray, loops: list[np.ndarray], planes: list, open_edges: int) -> _Patched:
     """The ``loops`` closed: flat in the plane of ``planes[k] = (normal, cut)``, faired where the
     normal is None."""
-    new_points, new_faces, free, faired, faired_loops, cuts = [], [], [], [], [], 0
+    new_points, new_faces, free, faired, cuts = [], [], [], [], 0
     first, placed = len(vertices), len(faces)  # next new vertex, next patch triangle
     for k, (rim, (normal, cut)) in enumerate(zip(loops, planes)):  # one patch per hole, built with array operations
         cuts += cut
         if normal is None:
             points, triangles = _ring_patch(vertices, rim, first)
             free.append(np.arange(first, first + len(points)))
-            faired.append((rim, placed, len(triangles)))
-            faired_loops.append(k)
+            faired.append((k, placed, len(triangles)))
         else:
             points, triangles = _flat_patch(vertices, rim, normal, first)
         new_points.append(points)
@@ -322,7 +320,7 @@ def _patched(vertices: np.ndarray, faces: np.ndarray, loops: list[np.ndarray], p
     bulge = 0.0
     if free:
         vertices = _fair(vertices, faces, np.concatenate(free))
-        bulge = sum(_bulge(vertices, rim, faces[start : start + count]) for rim, start, count in faired)
+        bulge = sum(_bulge(vertices, loops[k], faces[start : start + count]) for k, start, count in faired)
     area = float(face_normals(vertices, patches)[1].sum())
     return _Patched(FilledHoles(vertices, faces, len(loops), len(loops) - len(faired), area, bulge, open_edges, cuts),
-                    faired, faired_loops)
+                    faired)
