@@ -32,6 +32,10 @@ __all__ = ["fill_pits"]
 FLAT = 1e-9
 #: a fill must raise the worst score of the cells at its vertex by at least this (degrees)
 MIN_GAIN = 1e-3
+#: the new cell's centroid lies at most this far outside the model (local sizes): a pit is a
+#: crevice narrower than the elements, not the open space of a concave corner (two cubes sharing
+#: an edge at h = 0.2: cells of 0.1-0.38 h^3 with their centroids 0.2-0.8 h out, the mesh +1.1%)
+PIT_DEPTH = 0.1
 
 
 def _cells_at(starts: np.ndarray, cells: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -170,59 +174,13 @@ def fill_pits(
     n = points.shape[0]
     unchanged = (tets, quality, np.zeros(n, dtype=bool), boundary_face_keys, boundary_edges, np.zeros(n, dtype=bool))
     unchanged += () if labels is None else (labels,)
-    bad = np.flatnonzero(quality < threshold)
-    candidates = np.unique(tets[bad])
-    keep = on_boundary[candidates] & movable[candidates]
-    if locked is not None:
-        keep &= ~locked[candidates]
-    candidates = candidates[keep]
-    if candidates.size == 0:
-        return unchanged
     starts, cells = vertex_stars(tets, n)
-    vertex, fans = _pit_faces(tets, candidates, boundary_face_keys, starts, cells, n)
-    if vertex.size == 0:
-        return unchanged
-    rim = fans[:, :, 1]  # x and y of each face; the new cell is v, x, y of the first face and the third rim vertex
-    first = fans[:, 0]
-    third = np.where((rim != first[:, 1:2]) & (rim != first[:, 2:3]), rim, -1).max(axis=1)
-    new = np.column_stack([first, third])
-    size = np.linalg.norm(points[new] - points[new].mean(axis=1, keepdims=True), axis=2).max(axis=1)
-    positive = signed_volume(points[new]) > FLAT * size**3
-    vertex, fans, new = vertex[positive], fans[positive], new[positive]
-    if vertex.size == 0:
-        return unchanged
-    new_quality = targets.score(points[new])
-    star, owner = _cells_at(starts, cells, vertex)
-    worst = np.full(n, np.inf)
-    np.minimum.at(worst, owner, quality[star])
-    better = new_quality > worst[vertex] + MIN_GAIN
-    vertex, fans, new, new_quality = vertex[better], fans[better], new[better], new_quality[better]
-    if vertex.size == 0:
-        return unchanged
+    vertex, fans, new, new_quality, worst = _pits(points, tets, quality, threshold, on_boundary & movable, locked,
+                                                  boundary_face_keys, targets, guard, starts, cells)
     rim_keys = face_keys(new[:, 1:], n)
     closes_void = in_sorted(rim_keys, boundary_face_keys)
-    tree = cKDTree(points)
-    reach = float(np.linalg.norm(points[tets[:, 0]] - points[tets[:, 1]], axis=1).max()) * 2.0
-    used = np.zeros(n, dtype=bool)
-    chosen = []
-    for k in np.argsort(worst[vertex], kind="stable"):
-        cell = new[k]
-        if used[cell].any():
-            continue
-        region = None
-        if labels is not None:
-            around = np.unique(labels[cells[starts[vertex[k]]:starts[vertex[k] + 1]]])
-            if around.size != 1:
-                continue
-            region = around[0]
-        if _face_in_use(tets, cell[1:], starts, cells) and not closes_void[k]:
-            continue
-        if not closes_void[k] and not guard.replacements_allowed(points[fans[k]][None], points[cell[1:]][None, None])[0]:
-            continue
-        if _overlaps(points, tets, cell, tree, reach, starts, cells):
-            continue
-        used[cell] = True
-        chosen.append((k, region))
+    chosen = _chosen(points, tets, vertex, fans, new, closes_void, np.argsort(worst, kind="stable"), guard, labels,
+                     starts, cells)
     if not chosen:
         return unchanged
     index = np.array([k for k, _ in chosen])
@@ -233,8 +191,6 @@ def fill_pits(
     spokes = np.stack([np.repeat(added[:, 0], 3), added[:, 1:].ravel()], axis=1)
     rim_edges = np.stack([added[void][:, [1, 2, 3]].ravel(), added[void][:, [2, 3, 1]].ravel()], axis=1)
     boundary_edges = np.setdiff1d(boundary_edges, edge_keys(np.concatenate([spokes, rim_edges]), n))
-    tets = np.concatenate([tets, added])
-    quality = np.concatenate([quality, new_quality[index]])
     filled = np.zeros(n, dtype=bool)
     filled[added[:, 0]] = True
     on_boundary[added[:, 0]] = False
@@ -243,10 +199,65 @@ def fill_pits(
         on_boundary[rims] = _on_edges(rims, boundary_edges, n)
     touched = np.zeros(n, dtype=bool)
     touched[added.ravel()] = True
-    result = (tets, quality, filled, boundary_face_keys, boundary_edges, touched)
+    result = (np.concatenate([tets, added]), np.concatenate([quality, new_quality[index]]), filled, boundary_face_keys,
+              boundary_edges, touched)
     if labels is not None:
         result += (np.concatenate([labels, np.array([region for _, region in chosen], dtype=labels.dtype)]),)
     return result
+
+
+def _pits(points, tets, quality, threshold, free, locked, boundary_face_keys, targets: ShapeTargets,
+          guard: SurfaceGuard, starts, cells) -> tuple:
+    """The pits at the ``free`` vertices of the cells under ``threshold`` whose new cell passes the
+    tests of one cell: its vertex (K,), faces (K, 3, 3), new cell (K, 4) and its score, and the
+    worst score at the vertex."""
+    n = points.shape[0]
+    candidates = np.unique(tets[quality < threshold])
+    keep = free[candidates] if locked is None else free[candidates] & ~locked[candidates]
+    vertex, fans = _pit_faces(tets, candidates[keep], boundary_face_keys, starts, cells, n)
+    rim = fans[:, :, 1]  # x and y of each face; the new cell is v, x, y of the first face and the third rim vertex
+    first = fans[:, 0]
+    third = np.where((rim != first[:, 1:2]) & (rim != first[:, 2:3]), rim, -1).max(axis=1, initial=-1)
+    new = np.column_stack([first, third]).astype(tets.dtype)
+    size = np.linalg.norm(points[new] - points[new].mean(axis=1, keepdims=True), axis=2).max(axis=1, initial=0.0)
+    new_quality = targets.score(points[new]) if len(new) else np.zeros(0)
+    star, owner = _cells_at(starts, cells, vertex)
+    worst = np.full(n, np.inf)
+    np.minimum.at(worst, owner, quality[star])
+    centroids = points[new].mean(axis=1)
+    keep = (signed_volume(points[new]) > FLAT * size**3) & (new_quality > worst[vertex] + MIN_GAIN)
+    if keep.any():
+        keep[keep] = np.asarray(guard.model(centroids[keep]), dtype=float) <= PIT_DEPTH * guard.length(centroids[keep])
+    return vertex[keep], fans[keep], new[keep], new_quality[keep], worst[vertex[keep]]
+
+
+def _chosen(points, tets, vertex, fans, new, closes_void, order, guard: SurfaceGuard, labels, starts, cells) -> list:
+    """The fills kept, in ``order``, as (index, region): no two share a vertex, the new cell's rim is
+    no face of the mesh (but a closed void's), the surface guard passes it, it overlaps nothing,
+    and with ``labels`` the cells at its vertex are of one region."""
+    chosen = []
+    if not len(order):
+        return chosen
+    tree = cKDTree(points)
+    reach = 2.0 * float(np.linalg.norm(points[tets[:, 0]] - points[tets[:, 1]], axis=1).max())
+    used = np.zeros(points.shape[0], dtype=bool)
+    for k in order:
+        cell = new[k]
+        if used[cell].any() or (_face_in_use(tets, cell[1:], starts, cells) and not closes_void[k]):
+            continue
+        region = None
+        if labels is not None:
+            around = np.unique(labels[cells[starts[vertex[k]]:starts[vertex[k] + 1]]])
+            if around.size != 1:
+                continue
+            region = around[0]
+        if not closes_void[k] and not guard.replacements_allowed(points[fans[k]][None], points[cell[1:]][None, None])[0]:
+            continue
+        if _overlaps(points, tets, cell, tree, reach, starts, cells):
+            continue
+        used[cell] = True
+        chosen.append((k, region))
+    return chosen
 
 
 def _face_in_use(tets, face, starts, cells) -> bool:

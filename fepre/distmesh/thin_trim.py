@@ -359,8 +359,7 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
         if not found:
             return points, tets, Trimmed.none()
         removed |= _thin_fragments(tets, len(points), removed, thin, volumes, ZONE_SHARE * total,
-                                   budget - float(volumes[removed].sum()),
-                                   np.zeros(len(points), dtype=bool) if held is None else held)
+                                   budget - float(volumes[removed].sum()), np.zeros_like(fixed) if held is None else held)
         cutting = _cutting(tets, len(points), removed, zones)
         if not cutting.any():
             break
