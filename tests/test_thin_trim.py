@@ -83,6 +83,41 @@ def test_a_zone_whose_removal_cuts_the_mesh_in_two_is_found():
     assert _cutting(tets, len(points), removed, [end]).tolist() == [False]
 
 
+def test_a_piece_a_zone_cuts_off_goes_with_it_when_thin_throughout_and_small():
+    # the bar cut across x = 5.5: the piece beyond is a hook's lip held by a zone when every cell
+    # of it is thin, and stays when one is not, when it holds a fixed point or is over the cap
+    from scipy.spatial import Delaunay
+
+    from fepre.distmesh.thin_trim import _thin_fragments
+
+    grid = np.stack(np.meshgrid(np.arange(8.0), np.arange(2.0), np.arange(2.0), indexing="ij"), -1).reshape(-1, 3)
+    points = grid + np.random.default_rng(1).uniform(-0.1, 0.1, grid.shape)
+    tets = Delaunay(points).simplices
+    x = points[tets][:, :, 0]
+    removed = (x.min(axis=1) < 5.5) & (x.max(axis=1) > 5.5)
+    beyond = x.min(axis=1) > 5.5
+    volumes = np.abs(np.einsum("ij,ij->i", points[tets[:, 1]] - points[tets[:, 0]],
+                               np.cross(points[tets[:, 2]] - points[tets[:, 0]], points[tets[:, 3]] - points[tets[:, 0]]))) / 6
+    free = np.zeros(len(points), dtype=bool)
+
+    def thin(cells):
+        return np.ones(len(cells), dtype=bool)
+
+    def thick_somewhere(cells):
+        return np.arange(len(cells)) > 0
+
+    lip = volumes[beyond].sum()
+    assert np.array_equal(_thin_fragments(tets, len(points), removed, thin, volumes, lip, lip, free), beyond)
+    assert not _thin_fragments(tets, len(points), removed, thick_somewhere, volumes, lip, lip, free).any()
+    assert not _thin_fragments(tets, len(points), removed, thin, volumes, 0.99 * lip, lip, free).any()
+    assert not _thin_fragments(tets, len(points), removed, thin, volumes, lip, 0.99 * lip, free).any()
+    held = free.copy()
+    held[np.argmax(points[:, 0])] = True
+    assert not _thin_fragments(tets, len(points), removed, thin, volumes, lip, lip, held).any()
+    end = x.min(axis=1) > 6.5  # nothing cut off
+    assert not _thin_fragments(tets, len(points), end, thin, volumes, lip, lip, free).any()
+
+
 @pytest.mark.slow
 def test_a_thin_rib_on_a_plate_stays_joined_to_it(tmp_path):
     """A 0.8 rib 20 high on a plate cut by a 10 deg chamfer, tessellated by gmsh (a new user's

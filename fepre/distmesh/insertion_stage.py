@@ -249,7 +249,7 @@ def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: Sha
     for _ in range(TRIM_ROUNDS):
         worst, points, tets, fixed, _, _ = best
         moved, kept, cut = trim_thin_zones(points, tets, job.model, job.h, local_size, targets,
-                                           budget - job.trimmed.volume, fixed)
+                                           budget - job.trimmed.volume, fixed, _held(job, points))
         if cut.cells == 0:
             break
         job.points, job.tets, job.fixed_mask = moved, kept, fixed
@@ -266,6 +266,17 @@ def _trim_rounds(job, best: tuple, removable: Callable, local_size, targets: Sha
         if score >= targets.min_dihedral:
             break
     return best
+
+
+def _held(job, points: np.ndarray) -> np.ndarray | None:
+    """(N,) mask of the nodes at the user's fixed points (their pieces stay whole), or None."""
+    if job.user_fixed is None or not len(job.user_fixed):
+        return None
+    from scipy.spatial import cKDTree
+
+    held = np.zeros(len(points), dtype=bool)
+    held[cKDTree(points).query(np.asarray(job.user_fixed, dtype=float))[1]] = True
+    return held
 
 
 def _split_away(points, tets, new_tets, targets) -> np.ndarray:

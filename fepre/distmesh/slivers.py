@@ -27,7 +27,10 @@ whichever measure is worst:
    and of one bad cell's vertices the one that lifts its star most moves first;
 5. *boundary cells* (:mod:`~fepre.distmesh.boundary_slivers`): flat cells lying on the boundary
    (two boundary faces, or one boundary face over a vertex just under the surface) are removed,
-   with a boundary edge flip or the vertex projected onto the zero set.
+   with a boundary edge flip or the vertex projected onto the zero set;
+6. *pit fills* (:mod:`~fepre.distmesh.pit_fill`): a bad cell's boundary vertex at the bottom of a
+   pit of three faces (a crevice narrower than h just under the surface) is covered by a new
+   cell over the pit and moves inside.
 
 The worst slivers are flipped first, then relaxation and shape flips lift the mean shape; then
 the stage works on the cells scoring below ``min_dihedral + 8`` degrees: flips, smoothing and boundary
@@ -55,6 +58,7 @@ from .boundary_flips import boundary_edge_round
 from .boundary_slivers import expose_shallow_vertices, remove_boundary_slivers
 from .edge_collapse import collapse_round
 from .flips import flip_round, shape_flip_round
+from .pit_fill import fill_pits
 from .smoothing import relax_round, smooth_round
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, dihedral_extremes, radius_ratio
@@ -225,7 +229,7 @@ def improve_arrays(
     -------
     points, tets, info : the improved mesh (same points count and order; ``tets`` renewed) and a
         dict with ``seconds``, ``relax_seconds``, ``flip_seconds``, ``smooth_seconds``,
-        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, the worst figures before
+        ``rounds``, ``flips``, ``moves``, ``relaxed``, ``removed``, ``collapses``, ``filled``, the worst figures before
         and after (``min_dihedral_before``, ``max_dihedral_before``,
         ``min_radius_ratio_before``, and the same ``_after``) and ``converged``.
 
@@ -366,7 +370,8 @@ class _SliverStage:
         self.tagged = {} if labels is None else {"labels": labels}
         self.quality = targets.score(points[tets])
         self.timings = {"relax": 0.0, "flip": 0.0, "smooth": 0.0}
-        self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0, "collapses": 0}
+        self.counts = {"flips": 0, "moves": 0, "relaxed": 0, "removed": 0, "collapses": 0, "filled": 0}
+        self.filled = np.zeros(n, dtype=bool)  # pits' vertices made inner: never exposed again
         self.removable = None  # the vertices edge collapses may remove (improve_arrays(collapse=...))
         self.inner_collapses = False  # collapses may remove inner vertices too
 
@@ -401,9 +406,12 @@ class _SliverStage:
         return result
 
     def first_flips_and_relaxation(self) -> None:
-        """Flip the worst slivers away first: they pin their vertices during relaxation."""
+        """Flip the worst slivers away and fill the pits first: they pin their vertices during
+        relaxation (ur3_upperarm's crevice at D/50: 32.9 deg with its pit filled first, 20.2 when
+        the fill waits for the rounds on the bad cells)."""
         flipped, _ = self.flip()
         self.counts["flips"] += flipped
+        self.pit_fills()
         for _ in range(RELAX_ROUNDS):
             self.relax()
 
@@ -447,14 +455,31 @@ class _SliverStage:
         (self.points, self.tets, self.quality, exposed, self.on_boundary, self.boundary_face_keys,
          self.boundary_edges) = self.removal(
             expose_shallow_vertices, self.points, self.tets, self.quality, self.threshold, self.on_boundary,
-            self.movable, self.boundary_face_keys, self.boundary_edges, self.model, self.h, self.surface_tol,
+            self.movable & ~self.filled, self.boundary_face_keys, self.boundary_edges, self.model, self.h, self.surface_tol,
             targets=self.targets,
         )
+        filled, fill_touched = self.pit_fills()
         self.counts["flips"] += flipped
         self.counts["moves"] += moved
         self.counts["removed"] += removed + exposed
         self.counts["flips"] += surface_flips
-        return flipped + moved + removed + exposed + surface_flips, touched | moved_vertices
+        return (flipped + moved + removed + exposed + surface_flips + filled,
+                touched | moved_vertices | fill_touched)
+
+    def pit_fills(self) -> tuple[int, np.ndarray]:
+        """The pits at the bad cells filled (:func:`~fepre.distmesh.pit_fill.fill_pits`); returns
+        the fills made and the vertices of the new cells."""
+        result = self.timed(
+            "flip", fill_pits, self.points, self.tets, self.quality, self.threshold, self.on_boundary, self.movable,
+            self.boundary_face_keys, self.boundary_edges, targets=self.targets, guard=self.guard, locked=self.locked,
+            **self.tagged)
+        self.tets, self.quality, filled, self.boundary_face_keys, self.boundary_edges, touched = result[:6]
+        if self.labels is not None:
+            self.tagged["labels"] = result[6]
+        self.filled |= filled
+        count = int(filled.sum())
+        self.counts["filled"] += count
+        return count, touched
 
     def boundary_flips(self) -> tuple[int, np.ndarray]:
         """Boundary edge removals and collapses of short boundary edges around the bad cells

@@ -16,7 +16,9 @@ or an inner node on the boundary; every cell added must also be in a part thinne
 ``GROWTH`` steps or its volume is over ``ZONE_SHARE`` of the mesh's, and the zones together hold
 at most ``TOTAL_SHARE`` of it. A thin wall that is most of a part is therefore kept (with its flat
 cells and the warning that names the ``hmin`` resolving it), while knife edges, fin tips and the
-slivers a box leaves of a lattice's wall go.
+slivers a box leaves of a lattice's wall go. A zone whose removal would cut the mesh in pieces is
+kept, unless what it cuts off is thinner than an element throughout and fits a zone's share: then
+that goes with it (a hook's lip, never a rib thicker than an element held by a thin root).
 
 On a gyroid lattice cut by a box at ``h = 0.05`` (three cells of 19.3 deg in slivers 0.1 h thick)
 the mesh goes to 25.8 deg for 0.001% of the volume.
@@ -216,9 +218,41 @@ def _cutting(tets: np.ndarray, n_points: int, removed: np.ndarray, zones: list) 
             removed[zones[index]] = False
 
 
+def _thin_fragments(tets: np.ndarray, n_points: int, removed: np.ndarray, thin, volumes: np.ndarray, cap: float,
+                    budget: float, held: np.ndarray) -> np.ndarray:
+    """(M,) mask of the cells of the pieces that removing ``removed`` cuts off a piece of the mesh
+    (all but the largest of what is left of it) where every cell is in a part thinner than
+    ``TRIM_SHARE`` sizes and no node is ``held``, each of at most ``cap`` volume, smallest first
+    while they fit ``budget`` together: the lip of a hook held by a zone (ur3_upperarm.stl at D/50,
+    six cells 0.5 h thick) goes with it."""
+    from .pieces import mesh_pieces
+
+    fragments = np.zeros(len(tets), dtype=bool)
+    kept = np.flatnonzero(~removed)
+    before, _ = mesh_pieces(tets, n_points)
+    after, counts = mesh_pieces(tets[kept], n_points)
+    if len(counts) <= before.max() + 1:
+        return fragments
+    origin = np.zeros(len(counts), dtype=np.int64)
+    origin[after] = before[kept]
+    largest = np.zeros(len(counts), dtype=bool)
+    for source in np.unique(origin):  # pieces are numbered largest first
+        largest[np.flatnonzero(origin == source)[0]] = True
+    spent = 0.0
+    for label in np.flatnonzero(~largest)[::-1]:
+        cells = kept[after == label]
+        volume = float(volumes[cells].sum())
+        if volume > cap or spent + volume > budget or held[tets[cells]].any() or not thin(cells).all():
+            continue
+        fragments[cells] = True
+        spent += volume
+    return fragments
+
+
 def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local_size=None,
                     targets: ShapeTargets | None = None, budget: float | None = None,
-                    fixed_mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, Trimmed]:
+                    fixed_mask: np.ndarray | None = None,
+                    held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, Trimmed]:
     """``points`` (inner nodes a zone exposes put on the zero set) and ``tets`` without the
     zones of cells below the targets in parts thinner than ``TRIM_SHARE`` local sizes (see the
     module docstring), and what went.
@@ -237,6 +271,10 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
         The volume the zones may hold together (default ``TOTAL_SHARE`` of the mesh's).
     fixed_mask : (N,) bool, optional
         Nodes that must not move (never exposed from the inside).
+    held : (N,) bool, optional
+        Nodes whose piece must stay whole (the user's fixed points): a piece a zone cuts off
+        the mesh goes with the zone when it is thinner than an element throughout, unless it
+        holds one of them.
 
     Examples
     --------
@@ -320,6 +358,8 @@ def trim_thin_zones(points: np.ndarray, tets: np.ndarray, model, h: float, local
         moved, removed, found, zones, used = search(banned)
         if not found:
             return points, tets, Trimmed.none()
+        removed |= _thin_fragments(tets, len(points), removed, thin, volumes, ZONE_SHARE * total,
+                                   budget - float(volumes[removed].sum()), np.zeros_like(fixed) if held is None else held)
         cutting = _cutting(tets, len(points), removed, zones)
         if not cutting.any():
             break
