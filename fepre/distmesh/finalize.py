@@ -61,11 +61,6 @@ _PROJECT_DEPTH = 0.5
 #: rounds of "release the interior nodes that hold a pinch, triangulate and choose again" before
 #: a closed choice over cells outside the part is refused
 _RELEASE_ROUNDS = 3
-#: a closed inner piece of the boundary enclosing at most this volume (times h^3) is a flat void
-_FLAT_VOLUME = 1e-9
-#: cells scoring under this (degrees) are flat: four co-planar nodes give a volume of 1e-15, not 0,
-#: whose sign is rounding's
-_FLAT_SCORE = 1e-6
 #: rounds of flips that remove flat cells from inside the final triangulation
 _FLAT_FLIP_ROUNDS = 6
 #: cells on the zero set whose nodes' normals are all within about 60 degrees of each other
@@ -232,7 +227,7 @@ def _flip_flat_cells(points: np.ndarray, tets: np.ndarray, h: float) -> np.ndarr
     targets = ShapeTargets()
     quality = targets.score(points[tets])
     for _ in range(_FLAT_FLIP_ROUNDS):
-        tets, quality, applied, _ = flip_round(points, tets, quality, _FLAT_SCORE, boundary_edges, targets=targets)
+        tets, quality, applied, _ = flip_round(points, tets, quality, 0.0, boundary_edges, targets=targets)
         if applied == 0:
             break
     return tets[signed_volumes(points, tets) > tiny]
@@ -398,19 +393,7 @@ def _valid_solid(model, state: _PointSet, tets: np.ndarray, h: float) -> bool:
     nodes = np.unique(faces)
     if np.abs(state.values[nodes]).max() > state.tol:
         return False
-    if np.abs(model(state.points[faces].mean(axis=1))).max() > _FAR_OUTSIDE * h:
-        return False
-    return not _flat_voids(state.points, faces, h)
-
-
-def _flat_voids(points: np.ndarray, faces: np.ndarray, h: float) -> bool:
-    """True when the boundary ``faces`` hold a closed inner piece enclosing no volume: a flat cell
-    of four co-planar nodes dropped from inside the solid (four nodes of the circle where a sphere
-    meets a capsule, ``sphere(2) | capsule(0.6)`` at h = 1), whose faces stayed on the boundary as a
-    void of 4e-15 that the checks took for a cavity. The attempt with the cracks mended flips it away."""
-    from .cavities import inner_voids
-
-    return any(void[2] <= _FLAT_VOLUME * h**3 for void in inner_voids(points, faces, h))
+    return bool(np.abs(model(state.points[faces].mean(axis=1))).max() <= _FAR_OUTSIDE * h)
 
 
 def _drop_far_cells(model, state: _PointSet, tets: np.ndarray, h: float, size, absolute: bool) -> np.ndarray | None:
@@ -459,8 +442,7 @@ def _attempts(model, state: _PointSet, previous, backend: str, h: float, geps: f
     closed = None  # the backend's own choice when it is closed but refused, and its gap
     for number, (triangulator, mend_cracks) in enumerate(attempts):
         trial = state.copy()
-        # the loop's last triangulation is the backend's own, cracks dropped: mending triangulates again
-        tets, centroid_values = _star_rounds(model, trial, previous if number == 0 else None, triangulator, h,
+        tets, centroid_values = _star_rounds(model, trial, previous if number < 2 else None, triangulator, h,
                                              mend_cracks=mend_cracks)
         chosen, held = _choose(model, trial, tets, geps, h, centroid_values)
         if _valid_solid(model, trial, chosen, h):
