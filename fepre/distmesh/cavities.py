@@ -137,7 +137,8 @@ def inner_voids(points: np.ndarray, faces: np.ndarray, h: float) -> list[tuple]:
     areas = np.linalg.norm(normals, axis=1)
     probes = corners.mean(axis=1) + CAVITY_DEPTH * h * normals / np.maximum(areas, 1e-300)[:, None]
     voids = []
-    for label in np.flatnonzero(enclosed < 0):
+    # a flat void (a co-planar cell's four faces) encloses a rounding error of either sign
+    for label in np.flatnonzero(enclosed < 1e-12 * h**3):
         chosen = labels == label
         voids.append((chosen, corners[chosen].reshape(-1, 3).mean(axis=0), float(-enclosed[label]), probes[chosen],
                       areas[chosen]))

@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import MeshingError
 from ..placement import in_user_frame
 from ..quality import signed_volumes
+from .pit_fill import close_flat_voids
 from .delaunay import sorted_cells, tetrahedralize
 from .topology import boundary_faces, check_topology, nonmanifold_items, repair_selection
 
@@ -558,6 +559,7 @@ def final_mesh(
     state, tets = trial, chosen
     if len(tets) == 0:
         raise MeshingError("DistMesh produced no tetrahedra inside the domain; try a smaller h")
+    tets = close_flat_voids(state.points, tets, h)
     points_out, tets, fixed_out = compact(state.points, tets, state.fixed)
     report = check_topology(tets, len(points_out))
     boundary = np.unique(report.boundary_faces)

@@ -26,10 +26,12 @@ from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
 from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted, vertex_stars
 
-__all__ = ["fill_pits"]
+__all__ = ["fill_pits", "close_flat_voids"]
 
 #: orientation tests within this share of the cell's size cubed count as zero
 FLAT = 1e-9
+#: a closed void of four faces enclosing at most this volume (times h^3) is flat
+FLAT_VOID = 1e-9
 #: a fill must raise the worst score of the cells at its vertex by at least this (degrees)
 MIN_GAIN = 1e-3
 #: the new cell's centroid lies at most this far outside the model (local sizes): a pit is a
@@ -270,3 +272,62 @@ def _on_edges(vertices: np.ndarray, edge_codes: np.ndarray, n: int) -> np.ndarra
     """Whether each of ``vertices`` ends one of the edges ``edge_codes`` (sorted keys)."""
     ends = np.unique(np.concatenate([edge_codes // n, edge_codes % n]))
     return np.isin(vertices, ends)
+
+
+def close_flat_voids(points: np.ndarray, tets: np.ndarray, h: float) -> np.ndarray:
+    """``tets`` with each closed void of four faces and no volume glued shut: a flat cell of four
+    co-planar nodes (a, b, c, d) dropped from inside the solid leaves the two cells over its faces
+    ``abc`` and ``acd`` on one side and two over ``abd`` and ``bcd`` on the other, each pair
+    split along another diagonal of the flat quad (four nodes of the circle where a sphere meets a
+    capsule, ``sphere(2) | capsule(0.6)`` at h = 1: a void of 4e-15 that the checks named as a
+    cavity). Where the two cells on one side share their fourth node ``e``, a 2-2 flip turns them
+    to the other diagonal (``e b d a`` and ``e b d c``), whose faces are the other side's.
+
+    Examples
+    --------
+    A flat square inside a double pyramid, between two cells above and two below, each pair on
+    its own diagonal (a void of no volume), is closed by the flip above:
+
+    >>> import numpy as np
+    >>> from fepre.distmesh.tet_shape import signed_volume
+    >>> from fepre.distmesh.topology import boundary_faces
+    >>> points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1], [0.5, 0.5, -1],
+    ...                    [0.5, -1, 0], [2, 0.5, 0], [0.5, 2, 0], [-1, 0.5, 0]])
+    >>> rim = [[t, a, b, o] for t in (4, 5) for a, b, o in ((0, 1, 6), (1, 2, 7), (2, 3, 8), (3, 0, 9))]
+    >>> tets = np.array([[4, 0, 1, 2], [4, 0, 2, 3], [5, 0, 3, 1], [5, 1, 3, 2]] + rim)
+    >>> tets[signed_volume(points[tets]) < 0] = tets[signed_volume(points[tets]) < 0][:, [1, 0, 2, 3]]
+    >>> closed = close_flat_voids(points, tets, 1.0)
+    >>> len(boundary_faces(tets)), len(boundary_faces(closed))     # the void's four faces are inside now
+    (20, 16)
+    >>> float(signed_volume(points[closed]).sum()), float(signed_volume(points[closed]).min()) > 0
+    (2.0, True)
+    """
+    from .cavities import inner_voids
+    from .tet_topology import face_neighbours
+    from .topology import check_topology
+
+    n = points.shape[0]
+    cell, local = np.nonzero(face_neighbours(tets, n) < 0)
+    faces = tets[cell[:, None], FACE_OF_TET[local]]
+    voids = [chosen for chosen, _, volume, _, _ in inner_voids(points, faces, h)
+             if chosen.sum() == 4 and volume <= FLAT_VOID * h**3]
+    if not voids:
+        return tets
+    closed = tets.copy()
+    for chosen in voids:
+        owners, sides = cell[chosen], faces[chosen]
+        apexes = np.array([np.setdiff1d(closed[owner], side)[0] for owner, side in zip(owners, sides)])
+        for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+            if apexes[i] != apexes[j] or owners[i] == owners[j]:
+                continue
+            diagonal = np.intersect1d(sides[i], sides[j])
+            if diagonal.size != 2:
+                continue
+            b, d = np.setdiff1d(sides[i], diagonal)[0], np.setdiff1d(sides[j], diagonal)[0]
+            new = np.array([[apexes[i], b, d, diagonal[0]], [apexes[i], b, d, diagonal[1]]])
+            turned = signed_volume(points[new]) < 0
+            new[turned] = new[turned][:, [1, 0, 2, 3]]
+            if (signed_volume(points[new]) > FLAT * h**3).all():
+                closed[owners[i]], closed[owners[j]] = new
+                break
+    return closed if check_topology(closed, n).ok else tets
