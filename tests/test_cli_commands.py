@@ -242,6 +242,29 @@ def test_missing_files_and_bad_usage(tmp_path, capsys):
     assert exit_.value.code == 2 and "argument --seed: expected a non-negative integer; got '-3'" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("value", ["-1", "0", "nan", "inf"])
+def test_a_length_that_is_no_length_is_refused_by_its_flag_before_the_model_is_read(tmp_path, capsys, value):
+    # a new user's --h -1 on an 84k-triangle STL was refused after 262 s of reading it; the file
+    # here does not exist, so any other order of checks says so instead
+    for flag in ("--h", "--hmax"):
+        with pytest.raises(SystemExit) as exit_:
+            main(["mesh", str(tmp_path / "nope.stl"), "-o", str(tmp_path / "x.vtu"), flag, value])
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2 and f"argument {flag}: a length must be a finite number > 0" in err, err
+        assert f"got '{value}'" in err
+
+
+def test_an_hmax_under_h_is_refused_before_the_model_is_read(tmp_path, capsys):
+    missing = str(tmp_path / "nope.stl")
+    assert main(["mesh", missing, "-o", str(tmp_path / "x.vtu"), "--h", "1", "--hmax", "0.5"]) == 1
+    assert "--hmax must be larger than --h; got --hmax 0.5 and --h 1" in capsys.readouterr().err
+    assert main(["mesh", missing, "-o", str(tmp_path / "x.vtu"), "--h", "D/50", "--hmax", "D/100"]) == 1
+    assert "--hmax must be larger than --h; got --hmax D/100 and --h D/50" in capsys.readouterr().err
+    assert main(["size", missing, "-o", str(tmp_path / "x.vti"), "--h", "2", "--hmax", "2"]) == 1
+    assert "--hmax must be larger than --h" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
 def test_features_prints_and_writes_the_rim_of_the_cut_ball(folder, capsys):
     out = folder / "ball_features.vtp"
     assert main(["features", str(folder / "ball.py"), "-o", str(out)]) == 0

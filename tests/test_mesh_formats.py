@@ -208,6 +208,16 @@ def test_a_broken_off_file_names_the_file_and_the_problem(tmp_path, text, words)
     assert words in str(caught.value)
 
 
+def test_a_ply_of_strips_cut_short_names_the_file(tmp_path):
+    # a new user's igea.ply cut to 1.5 MB gave plyfile's traceback ("early end-of-file")
+    whole, cut = tmp_path / "strips.ply", tmp_path / "cut.ply"
+    write_ply_strips(whole, binary=True)
+    data = whole.read_bytes()
+    cut.write_bytes(data[: data.index(b"end_header") + 11 + (len(data) - data.index(b"end_header") - 11) // 2])
+    with pytest.raises(MeshInputError, match=r"mesh file .*cut\.ply could not be read: not a readable PLY file"):
+        sdf.mesh(cut)
+
+
 def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
     for name in ("cube.off", "strips.ply"):
         WRITERS[name](tmp_path / name)

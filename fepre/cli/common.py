@@ -387,10 +387,14 @@ def length(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"D/N needs a number N > 0 (D/50: 50 elements along the part's diagonal); "
                                          f"got {text!r}")
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a length, or D/N for the part's bounding-box diagonal over N "
                                          f"(e.g. 0.5 or D/50); got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):  # refused before the model is read (262 s for an 84k-triangle STL)
+        raise argparse.ArgumentTypeError(f"a length must be a finite number > 0, or D/N for the part's "
+                                         f"bounding-box diagonal over N (e.g. 0.5 or D/50); got {text!r}")
+    return value
 
 
 LENGTH_HELP = "; or D/N: the part's bounding-box diagonal over N"
@@ -416,6 +420,17 @@ def require_edge_length(args: argparse.Namespace) -> None:
     if args.h is None and getattr(args, "size", None) is None and not str(args.model).endswith(".py"):
         raise ValueError(f"no edge length: pass --h, an edge length in the units of {args.model}, or --h D/N for "
                          "the part's bounding-box diagonal over N (--h D/50: about 50 elements along it)")
+    hmax = getattr(args, "hmax", None)
+    if isinstance(args.h, float) and isinstance(hmax, float) and not hmax > args.h:
+        raise ValueError(f"--hmax must be larger than --h; got --hmax {hmax:g} and --h {args.h:g}")
+    if isinstance(args.h, str) and isinstance(hmax, str) and not _diagonal_count(hmax) < _diagonal_count(args.h):
+        raise ValueError(f"--hmax must be larger than --h; got --hmax {hmax} and --h {args.h} (D/N: a larger N is "
+                         "a smaller length)")
+
+
+def _diagonal_count(text: str) -> float:
+    """N of a checked ``D/N``."""
+    return float(text[2:])
 
 
 def edge_length(args: argparse.Namespace, part) -> float:

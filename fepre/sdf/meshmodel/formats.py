@@ -72,11 +72,15 @@ def read_ply_strips(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        The file has no ``vertex`` element with ``x``, ``y``, ``z``, or no list in ``tristrips``.
+        The file has no ``vertex`` element with ``x``, ``y``, ``z``, or no list in ``tristrips``, or
+        ends before its elements do.
     """
-    from plyfile import PlyData
+    from plyfile import PlyData, PlyParseError
 
-    data = PlyData.read(str(path))
+    try:
+        data = PlyData.read(str(path))
+    except PlyParseError as exc:  # a file cut short: "early end-of-file" in an element
+        raise ValueError(f"not a readable PLY file ({exc})") from None
     names = [element.name for element in data.elements]
     if "vertex" not in names or not {"x", "y", "z"} <= set(data["vertex"].data.dtype.names):
         raise ValueError(f"no 'vertex' element with x, y, z properties (elements: {names})")
