@@ -35,7 +35,7 @@ import numpy as np
 
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted, vertex_stars
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, cells_around, edge_keys, face_keys, in_sorted, vertex_stars
 from .topology import nonmanifold_items
 
 __all__ = ["collapse_round", "SHORT_EDGE"]
@@ -97,10 +97,7 @@ class _CellsOf:
         self._starts, self._cells = vertex_stars(tets, n)
 
     def __call__(self, vertices) -> np.ndarray:
-        vertices = np.atleast_1d(np.asarray(vertices, dtype=np.int64))
-        first, counts = self._starts[vertices], self._starts[vertices + 1] - self._starts[vertices]
-        offsets = np.repeat(first - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
-        return np.unique(self._cells[offsets + np.arange(counts.sum())])
+        return np.unique(cells_around(self._starts, self._cells, vertices)[0])
 
 
 def _surface_neighbours(faces: np.ndarray, vertex: int) -> set:

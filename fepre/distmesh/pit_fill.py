@@ -24,7 +24,7 @@ from scipy.spatial import cKDTree
 
 from .surface_guard import SurfaceGuard
 from .tet_shape import ShapeTargets, signed_volume
-from .tet_topology import EDGE_OF_TET, FACE_OF_TET, edge_keys, face_keys, in_sorted, vertex_stars
+from .tet_topology import EDGE_OF_TET, FACE_OF_TET, cells_around, edge_keys, face_keys, in_sorted, vertex_stars
 
 __all__ = ["fill_pits", "close_flat_voids"]
 
@@ -40,18 +40,10 @@ MIN_GAIN = 1e-3
 PIT_DEPTH = 0.1
 
 
-def _cells_at(starts: np.ndarray, cells: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The cells around each of ``vertices`` (CSR lists ``starts``, ``cells``): the cells, and for
-    each the vertex it was found at."""
-    counts = starts[vertices + 1] - starts[vertices]
-    offsets = np.repeat(starts[vertices] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
-    return cells[offsets + np.arange(counts.sum())], np.repeat(vertices, counts)
-
-
 def _pit_faces(tets, candidates, boundary_face_keys, starts, cells, n: int):
     """The candidate vertices whose boundary faces are exactly three forming a closed fan, and
     those faces (K, 3, 3), outward, each turned to start at its vertex."""
-    star, owner = _cells_at(starts, cells, candidates)
+    star, owner = cells_around(starts, cells, candidates)
     faces = tets[star][:, FACE_OF_TET].reshape(-1, 3)
     owner = np.repeat(owner, 4)
     keep = in_sorted(face_keys(faces, n), boundary_face_keys) & (faces == owner[:, None]).any(axis=1)
@@ -100,7 +92,7 @@ def _overlaps(points, tets, cell, tree: cKDTree, reach: float, starts, cells) ->
         if inside.any():
             return True
     around = np.asarray(tree.query_ball_point(centre, size + reach), dtype=np.int64)
-    touching, _ = _cells_at(starts, cells, around)
+    touching, _ = cells_around(starts, cells, around)
     edges = np.unique(np.sort(tets[np.unique(touching)][:, EDGE_OF_TET].reshape(-1, 2), axis=1), axis=0)
     edges = edges[~np.isin(edges, cell[1:]).any(axis=1)]
     return bool(_segments_cross(points[edges[:, 0]], points[edges[:, 1]], corners[1:], tol).any())
@@ -223,7 +215,7 @@ def _pits(points, tets, quality, threshold, free, locked, boundary_face_keys, ta
     new = np.column_stack([first, third]).astype(tets.dtype)
     size = np.linalg.norm(points[new] - points[new].mean(axis=1, keepdims=True), axis=2).max(axis=1, initial=0.0)
     new_quality = targets.score(points[new]) if len(new) else np.zeros(0)
-    star, owner = _cells_at(starts, cells, vertex)
+    star, owner = cells_around(starts, cells, vertex)
     worst = np.full(n, np.inf)
     np.minimum.at(worst, owner, quality[star])
     centroids = points[new].mean(axis=1)
@@ -241,7 +233,8 @@ def _chosen(points, tets, vertex, fans, new, closes_void, order, guard: SurfaceG
     if not len(order):
         return chosen
     tree = cKDTree(points)
-    reach = 2.0 * float(np.linalg.norm(points[tets[:, 0]] - points[tets[:, 1]], axis=1).max())
+    ends = tets[:, EDGE_OF_TET]
+    reach = float(np.linalg.norm(points[ends[..., 0]] - points[ends[..., 1]], axis=2).max())  # the longest edge
     used = np.zeros(points.shape[0], dtype=bool)
     for k in order:
         cell = new[k]

@@ -19,6 +19,7 @@ __all__ = [
     "edge_keys",
     "face_neighbours",
     "vertex_stars",
+    "cells_around",
     "faces_on_boundary",
     "open_boundary_reason",
 ]
@@ -131,6 +132,23 @@ def vertex_stars(tets: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarra
     from .._cell_kernels import cells_by_vertex
 
     return cells_by_vertex(tets, n_points)
+
+
+def cells_around(starts: np.ndarray, cells: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cells around each of ``vertices`` in the CSR lists of :func:`vertex_stars`, vertex after
+    vertex (a cell around two of them comes twice), and for each the vertex it is around.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> starts, cells = vertex_stars(np.array([[0, 1, 2, 3], [1, 2, 3, 4]]), 5)
+    >>> [part.tolist() for part in cells_around(starts, cells, np.array([4, 1]))]
+    [[1, 0, 1], [4, 1, 1]]
+    """
+    vertices = np.atleast_1d(np.asarray(vertices, dtype=np.int64))
+    counts = starts[vertices + 1] - starts[vertices]
+    offsets = np.repeat(starts[vertices] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+    return cells[offsets + np.arange(counts.sum())], np.repeat(vertices, counts)
 
 
 def faces_on_boundary(tets: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
