@@ -309,20 +309,21 @@ def _material_checks(job: MeshingJob) -> tuple[list, list]:
     their places in the user's frame."""
     from .lost_material import significant
 
-    lost, added, _ = _material_candidates(job)
+    lost, added, _, _ = _material_candidates(job)
     return significant(lost, job.points, job.tets, job.h), significant(added, job.points, job.tets, job.h)
 
 
-def _material_candidates(job: MeshingJob) -> tuple[list, list, object]:
-    """Every region lost and added, whatever its volume, in the user's frame, and the checks'
-    grid (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
+def _material_candidates(job: MeshingJob) -> tuple[list, list, object, object]:
+    """Every region lost and added, whatever its volume, in the user's frame, the checks' grid
+    and the model's volume estimated on them (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
     from .lost_material import material_candidates
 
-    lost, added, grid = material_candidates(job.model, job.points, job.tets, job.h, job.size if job.absolute else None)
+    lost, added, grid, volume = material_candidates(job.model, job.points, job.tets, job.h,
+                                                    job.size if job.absolute else None)
     if job.frame_offset.any():
         lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
                        for found in (lost, added))
-    return lost, added, grid
+    return lost, added, grid, volume
 
 
 def _warn_of_genus(job: MeshingJob, faces, grid, lost: list, added: list, small_lost: list, small_added: list) -> None:
@@ -349,11 +350,11 @@ def check_mesh(job: MeshingJob) -> None:
     from .lost_material import added_material_message, lost_material_message, volume_message
 
     o, loop, h = job.options, job.loop, job.h
-    lost, added, small_lost, small_added, grid = [], [], [], [], None
+    lost, added, small_lost, small_added, grid, estimate = [], [], [], [], None, None
     if o.check_resolution:
         from .lost_material import significant
 
-        small_lost, small_added, grid = _material_candidates(job)
+        small_lost, small_added, grid, estimate = _material_candidates(job)
         lost, added = (significant(found, job.points, job.tets, h) for found in (small_lost, small_added))
         small_lost, small_added = ([] if big else small for big, small in ((lost, small_lost), (added, small_added)))
     if lost:
@@ -409,7 +410,7 @@ def check_mesh(job: MeshingJob) -> None:
                 warn_user(f"distmesh: {message}", ResolutionWarning)
     if o.check_resolution and not any(value is not None for value in job.keywords.values()):  # not a cut cell
         message = volume_message(job.given_model, job.model, job.points, job.tets, job.lower, job.upper, h,
-                                 job.absolute or job.size is not None)
+                                 job.absolute or job.size is not None, estimate)
         if message:
             warn_user(f"distmesh: {message}", ResolutionWarning)
     job.history = dict(loop.history)
