@@ -82,6 +82,7 @@ def test_export_and_improve_accessors(mesh, tmp_path):
     assert quality["min_dihedral_angle"].min() >= tet_quality(mesh.points, mesh.cells_dict[pv.CellType.TETRA])["min_dihedral_angle"].min() - 1e-9
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_plot_quality_plot_and_plot_model_screenshots(mesh, tmp_path):
     assert mesh.fepre.plot_quality("radius_ratio", off_screen=True, screenshot=tmp_path / "rr.png") == tmp_path / "rr.png"
     assert _non_blank(tmp_path / "rr.png") > 0.05

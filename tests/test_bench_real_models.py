@@ -17,6 +17,7 @@ def _box(path, missing_face: bool = False):
     return path
 
 
+@pytest.mark.slow  # 6 s of the default run on 2 cores
 def test_bench_core_on_a_tiny_box(tmp_path):
     _box(tmp_path / "box.stl")
     (tmp_path / "notes.txt").write_text("not a model")

@@ -60,6 +60,7 @@ def test_an_assembly_s_solids_are_united(tmp_path):
     assert model.repaired.internal == 0  # fused by OpenCASCADE, not by the repair
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_step_file_of_faces_without_a_solid_is_meshed_with_a_warning(tmp_path):
     """A box's six faces exported without its volume: meshed as the solid they close (as with
     --solids it is refused), but no longer silently (a new user's trial)."""
@@ -86,6 +87,7 @@ def test_a_step_file_of_faces_without_a_solid_is_meshed_with_a_warning(tmp_path)
         sdf.mesh(tmp_path / "plate.step")  # a solid: nothing to say
 
 
+@pytest.mark.slow  # 7 s of the default run on 2 cores
 def test_the_cli_meshes_a_step_file(tmp_path):
     volume = write_cad(tmp_path / "plate.step")
     out = tmp_path / "plate.vtu"
@@ -154,6 +156,7 @@ def test_a_rib_punched_through_at_d_over_25_is_named(tmp_path):
     assert re.search(r"about 1\d\d near \(8\d\.\d+, 29\.\d+, 1\d(\.\d+)?\), 2\.5 thick", named)  # z = 15 is "15"
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_bore_set_on_a_tessellated_step_part_takes_the_bore(tmp_path):
     # fepre tessellates a STEP file itself, so a bore's nodes lie on facets under the exact
     # cylinder, a few thousandths of h off it: the set "bore" took 18 of 370 faces (-94.7% of its
@@ -170,6 +173,7 @@ def test_a_bore_set_on_a_tessellated_step_part_takes_the_bore(tmp_path):
     assert area == pytest.approx(2 * np.pi * 5.0 * 10.0, rel=0.01)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_perforated_plate_is_tessellated_by_its_holes_curvature_not_its_faces_edges(tmp_path):
     # a plate with 135 holes 3 across was 1.08M triangles and 27 s of tessellation, the holes'
     # fine edges carried into its two flat faces; its flat faces now take few triangles and the

@@ -77,6 +77,7 @@ def test_each_solid_is_a_region_of_the_part(assembly):
     assert solids["plate"]([[20.0, 15.0, 2.5]])[0] == pytest.approx(4.0, abs=0.01)
 
 
+@pytest.mark.slow  # 7 s of the default run on 2 cores
 def test_the_solids_mesh_conformally(assembly):
     solids = sdf.cad_solids(assembly)
     # the bore's chords at h = 1.5 (2.7 h across): the pin loses about 2%, the plate takes most of
@@ -108,6 +109,7 @@ def test_an_overlap_goes_to_the_smaller_solid_with_a_warning(tmp_path):
     assert solids.volumes["solid_3"] == pytest.approx(BLOCK, rel=1e-9)  # the block stays whole
 
 
+@pytest.mark.slow  # 9 s of the default run on 2 cores
 def test_an_insert_modelled_whole_inside_its_housing_is_its_own_region(tmp_path):
     # the housing is not cut: the insert overlaps it entirely, and it was emptied (a crash)
     def build(occ):
@@ -167,6 +169,7 @@ def _fepre(*args, cwd):
     return subprocess.run([sys.executable, "-m", "fepre", *map(str, args)], capture_output=True, text=True, cwd=cwd)
 
 
+@pytest.mark.slow  # 8 s of the default run on 2 cores
 def test_the_cli_writes_an_element_set_per_solid(tmp_path, assembly):
     done = _fepre("mesh", assembly, "--solids", "--solid", "1=plate", "--solid", "3=block", "--h", "2",
                   "-o", tmp_path / "assembly.inp", cwd=tmp_path)
@@ -213,6 +216,7 @@ def test_the_cli_refuses_solids_of_a_surface_or_image_file(tmp_path, name):
     assert done.returncode != 0 and "--solids takes a CAD file (.step, .stp, .brep)" in done.stderr
 
 
+@pytest.mark.slow  # 10 s of the default run on 2 cores
 def test_far_from_the_origin_each_solid_is_its_own_part(tmp_path, monkeypatch):
     # meshed in a local frame, the solids were moved without their `within`: each region's size
     # field was that of `part & region`, which found walls 0.0008 thick where a solid's face lies

@@ -51,6 +51,7 @@ def test_a_void_whose_middle_is_in_the_material_is_the_model_s_own():
     assert unmodelled_cavities(points, boundary_faces(tets), ringed, 0.25) == []
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_void_of_the_model_s_outside_sealed_by_the_mesh_is_named():
     # a new user's two cubes sharing an edge, at h = 0.2: the mesh held the four faces of a cell
     # missing in the wedge beside the edge, outside the model, and nothing said so

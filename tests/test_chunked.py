@@ -145,6 +145,7 @@ def test_streamed_ply_shares_vertices_across_seams(tmp_path, method):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["part.ply", "part.stl"]
 
 
+@pytest.mark.slow  # 7 s of the default run on 2 cores
 def test_local_cluster_gives_the_same_surface(tmp_path):
     distributed = pytest.importorskip("distributed")
     model, spacing = PARTS["cube_with_hole"]

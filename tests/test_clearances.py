@@ -104,6 +104,7 @@ def _write_two_boxes(path, gap: float) -> None:
         gmsh.finalize()
 
 
+@pytest.mark.slow  # 5 s of the default run on 2 cores
 def test_the_cli_names_the_solids_a_clearance_parts(tmp_path):
     _write_two_boxes(tmp_path / "stack.step", 0.1)
     command = [sys.executable, "-m", "fepre", "mesh", str(tmp_path / "stack.step"), "--solids", "--h", "1.5",

@@ -132,6 +132,7 @@ def test_view_without_a_display_asks_for_a_screenshot(meshed, capsys, monkeypatc
     assert "pass --screenshot" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_compare_writes_table_json_and_report(meshed, capsys):
     report, figures = meshed / "cmp.html", meshed / "cmp.json"
     argv = ["compare", str(meshed / "ball.py"), "--h", "0.4", "--references", "gmsh", "--report", str(report), "--json", str(figures)]
@@ -210,6 +211,7 @@ def test_edge_lengths_as_the_parts_diagonal_over_n(tmp_path, capsys):
     assert "or --h D/N for the part's bounding-box diagonal over N" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 20 s of the default run on 2 cores
 def test_strict_writes_nothing_when_the_mesh_draws_a_resolution_warning(tmp_path, capsys):
     # a new user's enclosure at D/25 came out with a free 57-cell piece, warned, written, exit 0,
     # and CalculiX solved it; --strict refuses such a mesh
@@ -397,6 +399,7 @@ def test_mesh_quiet_prints_only_the_written_file(folder, tmp_path, capsys):
     assert captured.out.startswith(f"wrote {out}") and captured.err == "" and "min_dihedral" not in captured.out
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_api_warnings_point_at_the_users_line(tmp_path):
     # They pointed into fepre ("fepre/distmesh/__init__.py:27", "fepre/export/__init__.py:199").
     import subprocess
@@ -577,6 +580,7 @@ def test_a_model_file_sets_the_boundary_tolerance(tmp_path, capsys):
     assert "`boundary_tolerance` must be in (0, 0.25]" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_the_header_of_shells_split_at_their_seams_counts_no_smooth_pieces(tmp_path, capsys):
     """Two crossing boxes: their triangles are split into loose pieces where they cross, each a
     smooth piece of its own (two touching boxes of 11,688 triangles read "18679 smooth pieces")."""

@@ -225,6 +225,7 @@ def test_gmsh_reference_that_does_not_finish_is_stopped_and_reported():
         gmsh_mesh(surface, 0.2, timeout=0.001)
 
 
+@pytest.mark.slow  # 14 s of the default run on 2 cores
 def test_a_script_without_a_main_guard_runs_once_and_writes_nothing_else(tmp_path):
     # The README tour run as a plain script printed its lines twice and ended in a
     # multiprocessing RuntimeError ("gmsh aborted"): the gmsh child imported the user's __main__.
@@ -246,6 +247,7 @@ def test_a_script_without_a_main_guard_runs_once_and_writes_nothing_else(tmp_pat
     assert [p.name for p in tmp_path.iterdir()] == ["tour.py"]
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_report_says_how_each_mesher_ran_and_its_mean_edge_length(tmp_path):
     # The gmsh reference ran without its optimisers and the report did not say how any
     # reference was made; gmsh's edges come out longer than asked, so h alone misleads.

@@ -48,6 +48,7 @@ def _motor_plate():
     return (plate | hub | bosses) - sdf.cylinder(radius=20, height=60, center=(0, 0, 10)) - holes - pockets
 
 
+@pytest.mark.slow  # 20 s of the default run on 2 cores
 def test_graded_pocket_edges_are_kept_and_the_floor_set_is_exact():
     """The motor plate graded at h = (2, 10): the quality stage left cells in the corners of two
     pockets' edges (faces 0.39-0.48 off the surface, 0.16 h; the pockets' floor set 1796.7 for

@@ -61,6 +61,7 @@ def test_l_bracket_with_fillet_and_hole(h, rel):
     assert_valid_solid(_mesh(model, h), model, h, BRACKET_VOLUME, rel)
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_gyroid_block_with_walls_about_h_thick():
     # the sheet (0.15) is as thin as h: chords across its junctions with the shell fill the
     # concave corners (+3 % measured; +1.4 % at h=0.1)

@@ -267,6 +267,7 @@ def test_h_as_a_share_of_the_diagonal_as_on_the_command_line():
     assert fepre.distmesh(box, h="d/20", bounds=roomy).n_cells == fepre.distmesh(box, h=np.sqrt(24.0) / 20, bounds=roomy).n_cells
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_bounds_that_cut_the_solid_mesh_the_part_inside_them():
     # an unbounded gyroid given bounds (as the "bounds is required" message asks) was refused
     # after the loop as "cells outside the part; try a smaller h"; now the bounds cut it, as

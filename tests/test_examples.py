@@ -13,9 +13,12 @@ EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.py"))
 # examples whose main() a test below runs and checks (not run twice)
 CHECKED = {"adaptive_remeshing", "cube_with_hole", "simp_cantilever", "brain_mri"}
 RUN_ONLY = [p for p in EXAMPLES if p.stem not in CHECKED]
+# 7-11 s each in the default run on 2 cores: run with the long proofs
+SLOW = {"regions", "chunked_surfaces", "periodic_cell", "compare_with_pytetwild"}
 
 
-@pytest.mark.parametrize("script", RUN_ONLY, ids=[p.stem for p in RUN_ONLY])
+@pytest.mark.parametrize("script", [pytest.param(p, id=p.stem, marks=[pytest.mark.slow] if p.stem in SLOW else [])
+                                    for p in RUN_ONLY])
 def test_example_runs(script, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sys, "argv", [str(script), str(tmp_path)])
@@ -23,6 +26,7 @@ def test_example_runs(script, tmp_path, monkeypatch):
     assert any(tmp_path.iterdir()), f"{script.name} wrote nothing into its output folder"
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_cube_with_hole_surface_is_closed_with_the_right_volume(tmp_path):
     namespace = runpy.run_path(str(EXAMPLES[[p.stem for p in EXAMPLES].index("cube_with_hole")]))
     check = namespace["main"](str(tmp_path))

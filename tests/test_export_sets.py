@@ -137,6 +137,7 @@ def test_faces_need_every_node_on_the_surface_and_its_normal():
         assert tag_boundaries(grid, {"floor": lambda p: p[:, 2]})["boundary_id"].tolist() == [1, 1, 1, 1]
 
 
+@pytest.mark.slow  # 6 s of the default run on 2 cores
 def test_a_set_by_an_unbounded_plane_is_not_told_to_take_another_surface():
     """A keyway's floor named by the plane z = 11.5, which runs on through the crown of a journal
     of radius 12 beside it: the journal's faces near the plane (0.1-0.5 below its top, tilted

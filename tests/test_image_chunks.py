@@ -61,6 +61,7 @@ def test_the_zarr_store_holds_the_phantom(torus_image):
     assert store.attrs["origin"] == pytest.approx(grid.origin, abs=1e-15)
 
 
+@pytest.mark.slow  # 7 s of the default run on 2 cores
 def test_chunked_image_is_the_in_memory_image(torus_image):
     values, grid, path, _ = torus_image
     whole = sdf.image(values, level=0.5, spacing=grid.spacing, origin=grid.origin, refine=2)
@@ -76,6 +77,7 @@ def test_chunked_image_is_the_in_memory_image(torus_image):
     assert chunked(points)[0] == pytest.approx(-0.25, abs=0.1 * 2 / 64)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_border_smoothing_and_refine_one_match_too():
     """A solid cut by the image's box (padding), smoothing, refine 1 and 3, from a dask array."""
     grid = partial_volume(TORUS, (-0.7,) * 3, (0.7,) * 3, 1.4 / 36)

@@ -407,6 +407,7 @@ def _worst_per_region(mesh, count):
     return [float(mesh["min_dihedral_angle"][ids == k].min()) for k in range(count)]
 
 
+@pytest.mark.slow  # 23 s of the default run on 2 cores
 def test_rod_cap_rims_rounded_over_a_voxel_meet_the_angle_target():
     # a rod's flat caps meet its side at a rim the smoothing rounds over about a voxel (h = 4.6
     # voxels); the loop leaves interface nodes on the rounding a fraction of h apart and the cells
@@ -419,6 +420,7 @@ def test_rod_cap_rims_rounded_over_a_voxel_meet_the_angle_target():
     assert min(_worst_per_region(mesh, 2)) >= 25.0
 
 
+@pytest.mark.slow  # 9 s of the default run on 2 cores
 def test_sharp_interface_edges_stay_sharp():
     # a box of voxels inside a block: the insert's edges are sharp edges of the interface, and its
     # nodes there move only along them, so the insert's volume is its voxels' to rounding (moved
@@ -442,6 +444,7 @@ def _shaft_and_hub():
     return sdf.labels(grid, names={1: "shaft", 2: "hub"})
 
 
+@pytest.mark.slow  # 11 s of the default run on 2 cores
 def test_rims_away_from_the_interfaces_meet_the_targets():
     # a hub on a shaft as a label image: the hub's outer rims are far from the interface, where
     # a plain mesh gets its long boundary edges split, its boundary edges flipped and vertices
@@ -459,6 +462,7 @@ def test_rims_away_from_the_interfaces_meet_the_targets():
     assert area == pytest.approx(2 * np.pi * 5 * 10, rel=0.02)
 
 
+@pytest.mark.slow  # 11 s of the default run on 2 cores
 def test_rims_at_a_concave_edge_without_features():
     # the shaft leaves the hub at a concave edge of the part, where the interface ends: with
     # features=False its rim was not laid as interface nodes, the cells there bridged the corner
@@ -471,6 +475,7 @@ def test_rims_at_a_concave_edge_without_features():
     assert volumes == pytest.approx([np.pi * 25 * 40, np.pi * (144 - 25) * 10], rel=0.02)
 
 
+@pytest.mark.slow  # 17 s of the default run on 2 cores
 def test_graded_regions_take_the_sizes_of_a_thin_region():
     # a shell 1.5 thick round a core, h = (0.5, 2): the part is a solid block, whose own field
     # is coarse inside; the shell's walls need 0.5 (three elements across). The field is the
@@ -520,6 +525,7 @@ def test_random_label_images_mesh_graded(seed):
     assert mesh.volume == pytest.approx(plain.volume, rel=0.005)
 
 
+@pytest.mark.slow  # 5 s of the default run on 2 cores
 def test_small_labels_inside_an_image_whose_block_reaches_the_border_have_their_volumes_checked():
     # A new user's label image: a substrate touching the image's borders, a ball inclusion 4
     # voxels in radius and a post. The ball's mesh came out 5.2% short of its voxels and nothing

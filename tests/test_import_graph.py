@@ -33,6 +33,7 @@ def test_fepre_has_no_import_cycle(import_graph):
     assert not found, "import cycles:\n" + "\n".join(details)
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_fepre_modules_import_only_from_their_layer_or_below(import_graph):
     graph = import_graph.build_graph(ROOT / "fepre")
     assert import_graph.unlayered(graph) == []

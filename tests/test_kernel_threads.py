@@ -161,6 +161,7 @@ def _ungated_calls(tree, kernels):
     return found
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_every_parallel_kernel_is_launched_through_the_thread_choice():
     """A new ``parallel=True`` kernel called without ``kernel_threads`` would pay the busy-wait
     of every launch again: each call site in fepre is inside the ``with`` block."""

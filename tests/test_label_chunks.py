@@ -107,6 +107,7 @@ def test_diagonal_joins_across_chunks(smoothing, keep):
         assert np.array_equal(getattr(found.surface, name), getattr(whole, name)), name
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_one_label_windows_are_skipped_and_reaching_the_border():
     values = np.ones((40, 40, 40), np.uint8)
     values[25:, :, :] = 2  # two labels, both on the border; a plane at x = 24.5
@@ -121,6 +122,7 @@ def test_one_label_windows_are_skipped_and_reaching_the_border():
     assert regions["label_1"](points[1:2])[0] == pytest.approx(-0.5, abs=1e-9)  # the plane, sharp
 
 
+@pytest.mark.slow  # 10 s of the default run on 2 cores
 def test_conformal_mesh_from_the_store(both):
     whole, chunked = both
     h = 0.1
@@ -135,6 +137,7 @@ def test_conformal_mesh_from_the_store(both):
         assert mesh["min_dihedral_angle"][mesh["region_id"] == k].min() >= 25.0
 
 
+@pytest.mark.slow  # 6 s of the default run on 2 cores
 def test_cli_meshes_a_label_store(phantom, tmp_path):
     _, _, path, _ = phantom
     out = tmp_path / "labels.inp"

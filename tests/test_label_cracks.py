@@ -46,6 +46,7 @@ def test_cracks_are_found_between_two_labels_only():
     assert done == 20 and (filled[3, 1:] == 1).all() and background_cracks(filled)[0] == 0
 
 
+@pytest.mark.slow  # 27 s of the default run on 2 cores
 def test_a_cracked_label_image_warns_and_meshes_when_filled():
     grid, layer = _cracked()
     assert background_cracks(np.asarray(grid["labels"]).reshape(grid.dimensions, order="F"))[0] == layer

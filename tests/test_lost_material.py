@@ -18,6 +18,7 @@ def finned_plate(thickness: float):
     return sdf.box((20, 20, 4)) | sdf.box((thickness, 20, 10)).translate((5, 0, 5))
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_fin_thinner_than_h_is_named_with_its_thickness_place_and_the_h_that_keeps_it():
     """Before: a 0.6 thick fin at h = 1 lost 12% of its volume without a word (a 0.5 fin, here,
     loses 7%; the 0.6 fin is now kept whole by the Qhull fallback of the final triangulation)."""

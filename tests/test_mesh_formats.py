@@ -218,6 +218,7 @@ def test_a_ply_of_strips_cut_short_names_the_file(tmp_path):
         sdf.mesh(cut)
 
 
+@pytest.mark.slow  # 8 s of the default run on 2 cores
 def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
     for name in ("cube.off", "strips.ply"):
         WRITERS[name](tmp_path / name)
@@ -228,6 +229,7 @@ def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
         assert pv.read(out).volume == pytest.approx(1.0, rel=1e-3)
 
 
+@pytest.mark.slow  # 8 s of the default run on 2 cores
 def test_the_cli_remeshes_its_own_calculix_file(tmp_path):
     """A volume mesh fepre wrote (CalculiX .inp) is a model again: its boundary, remeshed."""
     write_volume(tmp_path / "cube.mesh")

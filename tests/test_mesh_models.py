@@ -132,6 +132,7 @@ def test_grid_sampling_matches_points():
     assert grid.ravel()[np.argmin(np.linalg.norm(points, axis=1))] == -0.5
 
 
+@pytest.mark.slow  # 12 s of the default run on 2 cores
 def test_combines_with_csg_infill_and_transforms():
     ball = sdf.mesh(pv.Sphere(radius=1.0, theta_resolution=96, phi_resolution=96))
     part = ball - sdf.cylinder(radius=0.3, height=3.0)
@@ -249,6 +250,7 @@ def test_an_assembly_s_winding_number_summed_body_by_body_is_the_whole_s():
     assert np.count_nonzero(exact > 1.5) > 10  # points where boxes overlap are among them
 
 
+@pytest.mark.slow  # 5 s of the default run on 2 cores
 def test_clean_triangles_sign_by_their_normal_as_the_winding_number_does():
     from fepre.sdf.meshmodel.bvh import REGION_FACE
     from fepre.sdf.meshmodel.distance import TriangleDistance
@@ -390,6 +392,7 @@ def test_quads_are_triangulated():
     assert len(model.faces) == 12 and model.volume == pytest.approx(1.0)
 
 
+@pytest.mark.slow  # 11 s of the default run on 2 cores
 def test_cli_meshes_and_surfaces_mesh_files(tmp_path, cad_box_with_hole):
     run = lambda *args: subprocess.run([sys.executable, "-m", "fepre", *args], capture_output=True, text=True)
     out = tmp_path / "part.inp"
@@ -644,6 +647,7 @@ def test_a_flat_surface_is_refused_as_flat(tmp_path):
             sdf.mesh(path, inside=inside)
 
 
+@pytest.mark.slow  # 6 s of the default run on 2 cores
 def test_a_cad_file_fepre_does_not_read_is_refused_with_what_to_export(tmp_path):
     for name, words in (("bracket.sat", "fepre reads CAD geometry from STEP and BREP files only: export a STEP"),
                         ("bracket.step", "bracket.step could not be read: OpenCASCADE failed reading it: could not import the file")):

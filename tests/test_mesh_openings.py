@@ -44,6 +44,7 @@ def _box_without_two_faces() -> pv.PolyData:
     return cube.extract_cells(np.flatnonzero(~((normals[:, 0] > 0.9) | (normals[:, 1] > 0.9)))).extract_surface(algorithm=None)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_open_surfaces_are_refused_with_the_option_named(hemisphere):
     for surface in (hemisphere, _sheet_pair(), _box_without_two_faces()):
         with pytest.raises(MeshInputError, match=r"has no inside: it is an open surface.*inside='winding'"):

@@ -116,6 +116,7 @@ def test_a_triangle_mesh_models_curvature_sizes_do_not_depend_on_placement():
     np.testing.assert_allclose(moved, near, rtol=1e-6)
 
 
+@pytest.mark.slow  # 5 s of the default run on 2 cores
 def test_a_graded_mesh_of_a_part_at_1e4_is_the_one_at_the_origin():
     """Before: MeshingError (5 boundary nodes off the zero set)."""
     part = sdf.box((4, 2, 1)) - sdf.cylinder(radius=0.15, height=3)
@@ -186,6 +187,7 @@ def test_an_error_about_a_far_part_names_the_frame():
         assert any("moved by (-10000.0, 0.0, 0.0)" in note for note in raised.value.__notes__)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_the_size_fields_warning_names_places_where_the_far_part_is():
     """The size field's under-hmin warning named local coordinates, (-0.2, 9.7, 0.3), for a plate
     at (1e4, -5e3, 0): both through size_field and through distmesh(h=(hmin, hmax))."""

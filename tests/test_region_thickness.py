@@ -41,6 +41,7 @@ def _phantom_regions(seed: int):
         return phantom(seed, 0.25)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 @notes
 def test_a_failed_region_mesh_names_the_thin_regions():
     # seed 5 of the label corpus: label_2, 9 voxels' volume, is too small for its own mesh at h = 1
@@ -64,6 +65,7 @@ def test_the_h_a_failed_region_mesh_names_meshes_it():
     assert min(worst) >= 25.0
 
 
+@pytest.mark.slow  # 9 s of the default run on 2 cores
 @notes
 def test_the_cli_prints_the_notes_of_an_error(tmp_path):
     _phantom_regions(5).save(tmp_path / "labels.vti")

@@ -238,6 +238,7 @@ def test_bad_materials_are_refused(tmp_path):
     assert not list(tmp_path.iterdir())  # nothing written
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_graded_mesh_with_regions():
     # the automatic size field (fine near the ball's surface) with a cube core: edges kept, targets met
     ball, core = sdf.sphere(1.0), sdf.box(0.8)

@@ -492,6 +492,7 @@ def test_facet_curvature_of_facets_much_finer_than_the_scale_is_binned(monkeypat
     np.testing.assert_allclose(binned, 1.0, rtol=0.1)
 
 
+@pytest.mark.slow  # 9 s of the default run on 2 cores
 def test_facet_curvature_is_summed_a_block_at_a_time_in_bounded_memory(monkeypatch):
     # every pair of facets within the scale at once held 3 GB on a sheet-metal box's 385k-facet
     # tessellation (890 MB on this ball's 114k facets); summed a block of facets at a time, the

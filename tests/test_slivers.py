@@ -106,6 +106,7 @@ def test_target_models(name, model, h, size, exact):
         assert better.volume == pytest.approx(exact, rel=0.04)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_gyroid_infill_walls_of_three_elements():
     """A genuine gyroid infill (sheet 0.15 = 3 h, shell 0.2 = 4 h): about half of its cells lie
     within one h of the boundary, where relaxation alone stalls (mean radius ratio 0.877 before
@@ -139,6 +140,7 @@ def test_fixed_nodes_never_move_and_seed_reproduces(sphere_raw):
     np.testing.assert_array_equal(again_tets, new_tets)
 
 
+@pytest.mark.slow  # 3 s of the default run on 2 cores
 def test_improves_a_pytetwild_mesh(tmp_path, monkeypatch):
     pytetwild = pytest.importorskip("pytetwild")
     monkeypatch.chdir(tmp_path)  # fTetWild writes __tracked_surface.stl into the working folder

@@ -28,6 +28,7 @@ def _mesh(model, h, **options):
     return mesh, [str(w.message) for w in caught if issubclass(w.category, fepre.ResolutionWarning)]
 
 
+@pytest.mark.slow  # 39 s of the default run on 2 cores
 def test_the_slivers_a_box_leaves_of_a_lattice_wall_go_and_every_cell_meets_the_targets():
     kept, _ = _mesh(LATTICE, 0.05, thin_parts="keep")
     trimmed, said = _mesh(LATTICE, 0.05)
@@ -148,6 +149,7 @@ def test_a_thin_rib_on_a_plate_stays_joined_to_it(tmp_path):
     assert mesh.bounds[5] == pytest.approx(26.0, abs=1e-6)  # the rib's top is there
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_a_part_that_is_thin_all_over_is_kept_with_its_flat_cells():
     """A plate thinner than h everywhere: every cell is flat and the plate is one zone, far over
     the volume a zone may hold, so nothing goes."""
@@ -184,6 +186,7 @@ def test_the_message_names_flat_places_and_the_thinnest_measured_one():
     assert TOTAL_SHARE == pytest.approx(0.01)
 
 
+@pytest.mark.slow  # 4 s of the default run on 2 cores
 def test_thin_parts_is_checked_and_the_cli_flag_keeps_them(tmp_path):
     with pytest.raises(ValueError, match="thin_parts"):
         fepre.distmesh(sdf.sphere(1.0), 0.5, thin_parts="drop")

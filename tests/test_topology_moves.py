@@ -172,6 +172,7 @@ def test_vertices_inserted_where_the_surface_bends_at_the_scale_of_h(monkeypatch
     assert np.abs(model(np.asarray(grid.points)[boundary])).max() < 1e-3 * h
 
 
+@pytest.mark.slow  # 6 s of the default run on 2 cores
 def test_a_thin_wedge_is_meshed_valid_and_whole():
     # a 15 deg wedge: the volume check's 13^3 samples counted 21% too much behind its edge (a CSG
     # intersection's value there is the planes', below the distance) and refused the valid
@@ -189,7 +190,7 @@ def test_a_thin_wedge_is_meshed_valid_and_whole():
     assert grid.cell_data["min_dihedral_angle"].min() > 5.0  # the quality stage's mesh, not DistMesh's
 
 
-@pytest.mark.parametrize("h", [0.25, pytest.param(0.15, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("h", [pytest.param(0.25, marks=pytest.mark.slow), pytest.param(0.15, marks=pytest.mark.slow)])
 def test_a_knife_edge_is_named_as_the_reason_and_not_chased(h):
     # libigl's extrusion.obj: a prism whose section has a 14 deg corner; no cell on that edge can
     # have a larger angle, so no vertex is inserted (six futile rounds took 380 s at h = 0.1)
