@@ -222,9 +222,12 @@ def test_strict_writes_nothing_when_the_mesh_draws_a_resolution_warning(tmp_path
     err = capsys.readouterr().err
     assert "warning: distmesh: the mesh leaves out about" in err
     assert "error: --strict: " in err and "nothing written" in err and not out.exists()
+    # a ball of radius 1 at h = 0.3 is 3% short of its volume by its chords, which warns too
     ball = tmp_path / "ball.py"
     ball.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
-    assert main(["mesh", str(ball), "--h", "0.3", "--strict", "-o", str(tmp_path / "ball.inp"), "--quiet"]) == 0
+    assert main(["mesh", str(ball), "--h", "0.3", "--strict", "-o", str(tmp_path / "ball.inp"), "--quiet"]) == 1
+    assert "the mesh's volume is" in capsys.readouterr().err
+    assert main(["mesh", str(ball), "--h", "0.1", "--strict", "-o", str(tmp_path / "ball.inp"), "--quiet"]) == 0
 
 
 def test_missing_files_and_bad_usage(tmp_path, capsys):
@@ -392,9 +395,11 @@ def test_view_slice_and_clip_render_inside(meshed, tmp_path, capsys):
     assert "not both" in capsys.readouterr().err
 
 
-def test_mesh_quiet_prints_only_the_written_file(folder, tmp_path, capsys):
-    out = tmp_path / "ball.inp"
-    assert main(["mesh", str(folder / "ball.py"), "-o", str(out), "--h", "0.4", "--quiet"]) == 0
+def test_mesh_quiet_prints_only_the_written_file(tmp_path, capsys):
+    # a flat-faced part: the ball at h = 0.4 (D/5) is 6.9% short of its volume, which warns
+    (tmp_path / "block.py").write_text("from fepre import sdf\nmodel = sdf.box((2, 1, 1))\n")
+    out = tmp_path / "block.inp"
+    assert main(["mesh", str(tmp_path / "block.py"), "-o", str(out), "--h", "0.4", "--quiet"]) == 0
     captured = capsys.readouterr()
     assert captured.out.startswith(f"wrote {out}") and captured.err == "" and "min_dihedral" not in captured.out
 
