@@ -552,6 +552,22 @@ def test_nesting_decides_orientation_of_closed_shells():
     assert model.volume == pytest.approx(64.0 - cavity.volume + ball.volume, rel=1e-9)
 
 
+def test_a_body_written_inside_out_is_turned_over_when_it_shares_an_edge_with_another(tmp_path):
+    # a new user's OBJ of two tetrahedra sharing an edge, the second inside out: it was dropped
+    # as "triangles inside or outside the solid" (an info line) and half the volume went with it
+    # (0.1667 of 0.3333); the same tetrahedron apart from the other was turned over
+    vertices = np.array([[0, 0, 0], [0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], float)
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3],    # outward
+                      [0, 1, 4], [0, 5, 1], [0, 4, 5], [1, 5, 4]])   # inside out
+    path = tmp_path / "edge_tets.obj"
+    path.write_text("".join(f"v {x:g} {y:g} {z:g}\n" for x, y, z in vertices)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    model = sdf.mesh(path)
+    assert model.volume == pytest.approx(1 / 3, rel=1e-12)
+    assert model.repaired.flipped == 4 and model.repaired.internal == 0
+    assert model([-0.2, -0.2, 0.2]) < 0 and model([0.2, 0.2, 0.2]) < 0  # inside each
+
+
 @pytest.mark.slow
 def test_hole_tangent_to_a_slot_wall_meshes(tmp_path):
     """Bolt holes whose rims touch a slot's walls: the touching point, found along two feature

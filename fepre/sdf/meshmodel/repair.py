@@ -345,18 +345,23 @@ NESTING_SAMPLES = 15
 def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
     """Triangles to turn over so that every piece faces out of the material.
 
-    Only unbranched pieces (no edge shared by three or more triangles; holes are fine, they are
-    closed later) are turned or count as enclosing: a piece enclosed by an even number of others bounds a solid (it encloses positive
-    volume); by an odd number, a cavity (negative volume). Enclosure is decided by most of a
-    piece's sample points, so shells that merely overlap (a union written as two shells) do
-    not count as nested. Branched pieces (cut off by edges of three or more triangles) keep the
-    orientation most of their triangles had.
+    Only unbranched pieces (each of their edges used by at most two of their own triangles;
+    holes are fine, they are closed later) are turned or count as enclosing: a piece enclosed by
+    an even number of others bounds a solid (it encloses positive volume); by an odd number, a
+    cavity (negative volume). Enclosure is decided by most of a piece's sample points, so shells
+    that merely overlap (a union written as two shells) do not count as nested. Branched pieces
+    (cut off by edges of three or more of their triangles) keep the orientation most of their
+    triangles had. Two closed bodies that share an edge are each unbranched: an edge of four
+    triangles, two of each (counted over all triangles, the second of two tetrahedra sharing an
+    edge, written inside out, stayed so and was dropped as outside the solid: half the volume).
     """
     normals, areas = face_normals(vertices, faces)
     volume = enclosed_volume(vertices, faces, label, pieces)
     centroid = vertices[faces].mean(axis=1)
     edges, face_edge, _ = edge_table(faces)
-    unbranched = (np.bincount(face_edge.reshape(-1), minlength=len(edges)) <= 2)[face_edge].all(axis=1)
+    piece_edge = label[:, None].astype(np.int64) * np.int64(len(edges)) + face_edge
+    _, inverse, uses = np.unique(piece_edge.reshape(-1), return_inverse=True, return_counts=True)
+    unbranched = (uses <= 2)[inverse.reshape(-1, 3)].all(axis=1)
     closed = np.bincount(label, weights=~unbranched, minlength=pieces) == 0
     if pieces == 1:
         return np.full(len(faces), bool(volume[0] < 0 and closed[0]))
