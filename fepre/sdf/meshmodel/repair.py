@@ -345,8 +345,8 @@ NESTING_SAMPLES = 15
 def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
     """Triangles to turn over so that every piece faces out of the material.
 
-    Only unbranched pieces (each of their edges used by at most two of their own triangles;
-    holes are fine, they are closed later) are turned or count as enclosing: a piece enclosed by
+    Only unbranched pieces (each of their edges used by at most two triangles, or by exactly two
+    of their own; holes are fine, they are closed later) are turned or count as enclosing: a piece enclosed by
     an even number of others bounds a solid (it encloses positive volume); by an odd number, a
     cavity (negative volume). Enclosure is decided by most of a piece's sample points, so shells
     that merely overlap (a union written as two shells) do not count as nested. Branched pieces
@@ -359,9 +359,12 @@ def _nesting_turns(vertices, faces, label, pieces) -> np.ndarray:
     volume = enclosed_volume(vertices, faces, label, pieces)
     centroid = vertices[faces].mean(axis=1)
     edges, face_edge, _ = edge_table(faces)
+    # an edge of two triangles, or of more with two of them this piece's: a body sharing an edge
+    # with another (not a patch cut off where shells cross, which uses its edge there once)
     piece_edge = label[:, None].astype(np.int64) * np.int64(len(edges)) + face_edge
-    _, inverse, uses = np.unique(piece_edge.reshape(-1), return_inverse=True, return_counts=True)
-    unbranched = (uses <= 2)[inverse.reshape(-1, 3)].all(axis=1)
+    _, inverse, own = np.unique(piece_edge.reshape(-1), return_inverse=True, return_counts=True)
+    everyone = np.bincount(face_edge.reshape(-1), minlength=len(edges))[face_edge]
+    unbranched = ((everyone <= 2) | (own[inverse.reshape(-1, 3)] == 2)).all(axis=1)
     closed = np.bincount(label, weights=~unbranched, minlength=pieces) == 0
     if pieces == 1:
         return np.full(len(faces), bool(volume[0] < 0 and closed[0]))
