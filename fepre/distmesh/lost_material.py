@@ -187,12 +187,13 @@ def material_checks(model, points: np.ndarray, tets: np.ndarray, h: float, size=
     return significant(lost, points, tets, h), significant(added, points, tets, h)
 
 
-def material_candidates(model, points: np.ndarray, tets: np.ndarray, h: float, size=None):
+def material_candidates(model, points: np.ndarray, tets: np.ndarray, h: float, size=None, volume: bool = True):
     """Every region lost and added, largest first, whatever their volume (:func:`material_checks`
     keeps those that hold ``_MIN_VOLUME h^3`` together), the sampled grid when it is one over
     the whole box, and the model's volume estimated from the grids
-    (:func:`.model_volume.sampled_volume`): ``(lost, added, grid, volume)`` (grid None for a
-    graded mesh's zone grids)."""
+    (:func:`.model_volume.sampled_volume`; None without ``volume``: a triangle-mesh model's is
+    exact, and the sums take about a second on the largest grids): ``(lost, added, grid,
+    volume)`` (grid None for a graded mesh's zone grids)."""
     from .model_volume import sampled_volume
 
     points = np.asarray(points, dtype=np.float64)
@@ -201,7 +202,8 @@ def material_candidates(model, points: np.ndarray, tets: np.ndarray, h: float, s
         grids = [_sampled(model, points, tets, h)]
     lost, added = (sorted([r for g in grids for r in _candidate_regions(model, h, outside, size, g)],
                           key=lambda region: -region.volume) for outside in (False, True))
-    return lost, added, grids[0] if len(grids) == 1 and grids[0].mine is None else None, sampled_volume(grids)
+    return (lost, added, grids[0] if len(grids) == 1 and grids[0].mine is None else None,
+            sampled_volume(grids) if volume else None)
 
 
 def _uncovered_regions(model, points: np.ndarray, tets: np.ndarray, h: float, outside: bool, size=None,

@@ -34,10 +34,12 @@ class VolumeEstimate:
 def _inside_volume(values: np.ndarray, step: np.ndarray, mine: np.ndarray | None) -> float:
     """Sum over the nodes (all, or those of ``mine``) of the share of each node's cell inside."""
     spacing = float(np.cbrt(np.prod(step)))
-    share = np.clip(0.5 - values / spacing, 0.0, 1.0)
+    share = np.multiply(values, -1.0 / spacing, dtype=np.float64)
+    share += 0.5
+    np.clip(share, 0.0, 1.0, out=share)
     if mine is not None:
-        share = np.where(mine, share, 0.0)
-    return float(share.sum(dtype=np.float64)) * float(np.prod(step))
+        share[~mine] = 0.0
+    return float(share.sum()) * float(np.prod(step))
 
 
 def sampled_volume(grids) -> VolumeEstimate:

@@ -316,10 +316,11 @@ def _material_checks(job: MeshingJob) -> tuple[list, list]:
 def _material_candidates(job: MeshingJob) -> tuple[list, list, object, object]:
     """Every region lost and added, whatever its volume, in the user's frame, the checks' grid
     and the model's volume estimated on them (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
-    from .lost_material import material_candidates
+    from .lost_material import material_candidates, mesh_model_of
 
     lost, added, grid, volume = material_candidates(job.model, job.points, job.tets, job.h,
-                                                    job.size if job.absolute else None)
+                                                    job.size if job.absolute else None,
+                                                    volume=mesh_model_of(job.given_model)[0] is None)
     if job.frame_offset.any():
         lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
                        for found in (lost, added))
