@@ -346,7 +346,10 @@ def _check_solid(repaired: Repair, name: str) -> None:
     of the 15% of its area left once its holes are closed.
     """
     if len(repaired.faces) == 0:
-        raise MeshInputError(f"{name} has no inside: none of its triangles separates an inside from an outside")
+        raise MeshInputError(
+            f"{name} has no inside: none of its triangles separates an inside from an outside (loose triangles "
+            "or sheets that close nothing); give the closed surface of a solid, or pass inside='winding' (CLI: "
+            "--inside winding) if its triangles wrap a solid with gaps between them")
     _, areas = face_normals(repaired.vertices, repaired.faces)
     given = float(areas[~repaired.filled].sum())  # the input's own area, without the patches
     if repaired.holes and repaired.hole_area > MAX_HOLE_FRACTION * given:
