@@ -55,6 +55,17 @@ def test_open_surfaces_are_refused_with_the_option_named(hemisphere):
         sdf.mesh(hemisphere, inside="winding", sign="pseudonormal")
 
 
+def test_loose_triangles_are_refused_with_what_to_pass():
+    # a new user's soup.stl (100 loose triangles): "none of its triangles separates an inside from
+    # an outside", and nothing said what to do
+    rng = np.random.default_rng(5)
+    corners = rng.uniform(0, 10, (1, 3)) + rng.uniform(-1, 1, (40, 3, 3))
+    soup = pv.PolyData.from_regular_faces(corners.reshape(-1, 3), np.arange(120).reshape(-1, 3))
+    with pytest.raises(MeshInputError, match=r"none of its triangles separates an inside from an outside.*"
+                                             r"give the closed surface of a solid, or pass inside='winding'"):
+        sdf.mesh(soup)
+
+
 def test_hemisphere_is_the_half_ball_with_a_flat_disc(hemisphere):
     """On the equator's disc the hemisphere subtends exactly half of the sphere's solid angle:
     w = 1/2 there, so the solid is the half ball and the spanning surface the flat disc."""
