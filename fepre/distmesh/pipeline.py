@@ -309,18 +309,19 @@ def _material_checks(job: MeshingJob) -> tuple[list, list]:
     their places in the user's frame."""
     from .lost_material import significant
 
-    lost, added, _, _ = _material_candidates(job)
+    lost, added, _, _ = _material_candidates(job, volume=False)
     return significant(lost, job.points, job.tets, job.h), significant(added, job.points, job.tets, job.h)
 
 
-def _material_candidates(job: MeshingJob) -> tuple[list, list, object, object]:
+def _material_candidates(job: MeshingJob, volume: bool = True) -> tuple[list, list, object, object]:
     """Every region lost and added, whatever its volume, in the user's frame, the checks' grid
-    and the model's volume estimated on them (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
+    and, with ``volume``, the model's volume estimated on them when it is not a triangle-mesh
+    model's exact one (:func:`~fepre.distmesh.lost_material.material_candidates`)."""
     from .lost_material import material_candidates, mesh_model_of
 
     lost, added, grid, volume = material_candidates(job.model, job.points, job.tets, job.h,
                                                     job.size if job.absolute else None,
-                                                    volume=mesh_model_of(job.given_model)[0] is None)
+                                                    volume=volume and mesh_model_of(job.given_model)[0] is None)
     if job.frame_offset.any():
         lost, added = ([replace(r, center=tuple(np.add(r.center, job.frame_offset).tolist())) for r in found]
                        for found in (lost, added))
