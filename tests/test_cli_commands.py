@@ -180,6 +180,23 @@ def test_edge_lengths_are_checked_and_the_flag_named_before_meshing(tmp_path, ca
     assert words in err and "DistMesh" not in err and not out.exists()
 
 
+def test_max_cells_refuses_a_finer_mesh_by_its_flag_and_writes_nothing(tmp_path, capsys):
+    path = tmp_path / "ball.py"
+    path.write_text("from fepre import sdf\nmodel = sdf.sphere(1.0)\n")
+    out = tmp_path / "x.inp"
+    # a unit ball at h = 0.1: 4189 h^3, about 35,000 cells
+    assert main(["mesh", str(path), "--h", "0.1", "--max-cells", "1e4", "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert re.search(r"about 3\d,\d{3} cells, more than max_cells = 10,000 \(CLI: --max-cells\)", err)
+    assert "DistMesh h=0.1" in err and "MAX_CELLS" not in err and not out.exists()
+    for value in ("1.5", "0", "many", "-3"):
+        with pytest.raises(SystemExit):
+            main(["mesh", str(path), "--h", "0.1", "--max-cells", value, "-o", str(out)])
+        err = capsys.readouterr().err
+        assert "argument --max-cells: expected a whole number of cells >= 1" in err and repr(value) in err
+    assert not out.exists()
+
+
 def test_a_file_without_an_edge_length_is_refused_before_it_is_read(tmp_path, capsys):
     # a STEP file carries no edge length: the error comes before its (slow) tessellation; this
     # one is not even a STEP file, and reading it would fail otherwise

@@ -211,12 +211,27 @@ def test_distmesh_takes_a_background_mesh_and_checks_that_it_covers_the_part():
 
 
 def test_meshes_too_big_for_the_machine_are_refused_before_any_work():
-    with pytest.raises(ValueError, match=r"would have about [\d,]+ cells, more than .*MAX_CELLS"):
+    # 1e6 h^3 at 8.3 cells each: 8.3e9 cells, 1.4 KB each
+    with pytest.raises(ValueError, match=r"would have about 8,[\d,]+ cells, more than max_cells = 20,000,000 "
+                                         r"\(CLI: --max-cells\); .* 1\d\.?\d* TB for this one"):
         fepre.distmesh(sdf.box(100.0), 0.1)
     with pytest.raises(ValueError, match="h must be a number or a pair"):
         fepre.distmesh(sdf.box(1.0), (0.1, 0.2, 0.3))
     with pytest.raises(ValueError, match="h is required"):
         fepre.distmesh(sdf.box(1.0))
+
+
+def test_max_cells_sets_the_largest_mesh_started_on():
+    # a 2-box at h = 0.25: 512 h^3, about 4,250 cells estimated
+    block = sdf.box(2.0)
+    with pytest.raises(ValueError, match=r"would have about 4,\d\d\d cells, more than max_cells = 1,000 "):
+        fepre.distmesh(block, 0.25, max_cells=1000)
+    mesh = fepre.distmesh(block, 0.25, max_cells=6000)
+    assert 3000 < mesh.n_cells <= 6000
+    with pytest.raises(ValueError, match="max_cells must be a positive integer; got 0"):
+        fepre.distmesh(block, 0.25, max_cells=0)
+    with pytest.raises(TypeError, match="max_cells must be a positive integer; got float"):
+        fepre.DistMeshOptions(max_cells=5e7)
 
 
 @pytest.mark.slow

@@ -45,7 +45,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "few such places that leave cells below the quality targets are left out (at most 1%% of "
                              "the volume), named in a warning with the --h that keeps them, and so are small pieces they cut off from "
                              "the rest (nothing would hold them in a solver)")
+    parser.add_argument("--max-cells", type=_cell_count, default=None, metavar="N",
+                        help="largest mesh, in estimated cells, to start on (default 20000000; meshing takes about "
+                             "1.4 KB of memory per cell): a finer --h is refused before any work")
     parser.add_argument("--quiet", action="store_true", help="print only the written file's name and errors")
+
+
+def _cell_count(text: str) -> int:
+    """``--max-cells``: a whole number of cells, at least 1 (``5e7`` or ``50000000``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value >= 1 and value < 1e18 and value == int(value)):
+        raise argparse.ArgumentTypeError(f"expected a whole number of cells >= 1 (e.g. 50000000 or 5e7); got {text!r}")
+    return int(value)
 
 
 def _materials(args: argparse.Namespace, part, regions: dict, format_name: str) -> dict | None:
@@ -131,7 +145,8 @@ def run(args: argparse.Namespace) -> int:
     with _strict(args.strict):
         mesh = fepre.distmesh(part.model, h, bounds=part.bounds, size=size, progress=not args.quiet, seed=args.seed,
                               features=not args.no_features, periodic=period, regions=regions or None,
-                              thin_parts="keep" if args.keep_thin else "trim")
+                              thin_parts="keep" if args.keep_thin else "trim",
+                              **({} if args.max_cells is None else {"max_cells": args.max_cells}))
     if regions:
         names = list(mesh.field_data["region_names"])
         for index, name in enumerate(names):

@@ -19,8 +19,11 @@ from .pipeline import run_pipeline
 
 __all__ = ["distmesh", "MAX_CELLS"]
 
-#: largest mesh (estimated cells) fepre.distmesh starts on; a 24 GB machine holds about 17M
-MAX_CELLS = 20_000_000
+#: largest mesh (estimated cells) fepre.distmesh starts on by default (``max_cells``); a 24 GB
+#: machine holds about 17M
+MAX_CELLS = DistMeshOptions.max_cells
+#: memory the meshing of one cell takes, about (bytes)
+BYTES_PER_CELL = 1400
 
 
 def _is_dataset(value: Any) -> bool:
@@ -337,15 +340,29 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
 
 
 def _check_sizes(job: MeshingJob) -> None:
-    """The size function answers, and the mesh's estimated cells stay under MAX_CELLS."""
+    """The size function answers, and the mesh's estimated cells stay under ``max_cells``."""
     from ..sizing.estimate import estimated_cells
 
     if job.size is not None:
         evaluate_size(job.size, np.stack([job.lower, 0.5 * (job.lower + job.upper), job.upper]))
-    expected = estimated_cells(job.model, job.size, job.h, job.lower, job.upper, job.absolute, ceiling=MAX_CELLS)
-    if expected > MAX_CELLS:
+    limit = job.options.max_cells
+    expected = estimated_cells(job.model, job.size, job.h, job.lower, job.upper, job.absolute, ceiling=limit)
+    if expected > limit:
         advice = "a larger hmin or hmax" if job.absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
         raise ValueError(
-            f"the mesh would have about {expected:,.0f} cells, more than fepre.distmesh.mesher.MAX_CELLS = "
-            f"{MAX_CELLS:,} (about 1.4 KB of memory each); use {advice}, or raise MAX_CELLS if the machine has the memory"
+            f"the mesh would have about {expected:,.0f} cells, more than max_cells = {limit:,} (CLI: --max-cells); "
+            f"meshing takes about 1.4 KB of memory per cell, {_bytes(expected * BYTES_PER_CELL)} for this one; "
+            f"use {advice}, or raise max_cells if the machine has the memory"
         )
+
+
+def _bytes(count: float) -> str:
+    """``count`` bytes, about, in the largest unit (MB to PB) that keeps the number at least 1.
+
+    >>> _bytes(2.8e10), _bytes(5e5), _bytes(1.02e20)
+    ('28 GB', '0.5 MB', '102,000 PB')
+    """
+    for unit, size in (("PB", 1e15), ("TB", 1e12), ("GB", 1e9)):
+        if count >= size:
+            return f"{float(f'{count / size:.3g}'):,.12g} {unit}"
+    return f"{count / 1e6:.2g} MB"

@@ -121,6 +121,10 @@ class DistMeshOptions:
         than ``h`` resolves; :func:`fepre.distmesh.lost_material`) and warn with a
         :class:`fepre.ResolutionWarning` naming where, how thick and the ``h`` that keeps it.
         Costs a narrow-band sample of the model at ``h/4``, a few percent of the meshing time.
+    max_cells : int, default 20_000_000
+        Largest mesh, in estimated cells, that :func:`fepre.distmesh` starts on: a larger one is
+        refused with a ValueError before any work. Meshing takes about 1.4 KB of memory per
+        cell (20M cells: about 28 GB); raise it on a machine with the memory.
     """
 
     deltat: float = 0.1
@@ -150,6 +154,7 @@ class DistMeshOptions:
     features: bool = True
     feature_angle: float = 30.0
     check_resolution: bool = True
+    max_cells: int = 20_000_000
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -167,7 +172,7 @@ class DistMeshOptions:
         if self.jitter >= 0.25:
             raise ValueError(f"jitter must be in [0, 0.25) (a fraction of h); got {shown(self.jitter)}")
         put("quality_tol", nonnegative_float(self.quality_tol, "quality_tol"))
-        for name in ("maxiter", "sort_interval", "quality_window", "move_average_window"):
+        for name in ("maxiter", "sort_interval", "quality_window", "move_average_window", "max_cells"):
             put(name, positive_int(getattr(self, name), name))
         put("feature_angle", positive_float(self.feature_angle, "feature_angle"))
         if self.feature_angle >= 180.0:
