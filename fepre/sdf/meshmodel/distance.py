@@ -120,7 +120,11 @@ class TriangleDistance:
 
         Just off the inside of such a triangle the surface is that triangle alone, so the
         winding number steps by one across it and a point whose closest point lies there is on
-        the side its normal says. Elsewhere (seams of united shells, their loose pieces, open
+        the side its normal says. Sides are matched by their ends' positions
+        (:func:`welded_faces`): a repair that united overlapping shells numbers each piece's
+        vertices apart, and by number 96% of ur3_shoulder.stl's triangles had no neighbour, so
+        that nearly every query took a winding number (275 of the 654 s of its mesh at
+        h = (D/100, D/25)). Elsewhere (loose pieces, open
         edges, sides shared by more triangles, crossings) the winding number decides. A side
         or corner is not enough: on beast.obj a seam piece touching a clean side without
         sharing its vertices put points 0.004 D off it at a winding number of 0.999 where the
@@ -132,11 +136,13 @@ class TriangleDistance:
                 if self._clean is None:
                     from .self_crossing import crossing_triangles
 
-                    edges, face_edge, forward = edge_table(self.faces)
+                    faces = welded_faces(self.vertices, self.faces)
+                    edges, face_edge, forward = edge_table(faces)
                     first, _, agree, counts = manifold_pairs(face_edge, forward, len(edges))
                     good = np.zeros(len(edges), bool)
                     good[np.flatnonzero(counts == 2)[agree]] = True
                     clean = good[face_edge].all(axis=1)
+                    clean &= (faces[:, [0, 1, 2]] != faces[:, [1, 2, 0]]).all(axis=1)
                     clean[crossing_triangles(self.vertices, self.faces, tree, both=True)] = False
                     self._clean = clean
         return self._clean
@@ -230,6 +236,26 @@ class TriangleDistance:
         safe = np.where(on_surface, 1.0, distance)
         direction = np.where(on_surface[:, None], _unit(normal), offset * (sign / safe)[:, None])
         return sign * distance, face, closest, direction
+
+
+def welded_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces`` (F, 3) with the vertices at one position numbered as one.
+
+    A repaired surface whose shells were united keeps its pieces apart (their triangles share
+    no vertices: ur3_shoulder.stl's 146,522 triangles have 425,794 vertices at 84,365
+    positions); sides are shared by position.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    >>> welded_faces(vertices, np.array([[0, 1, 2], [3, 5, 4]])).tolist()
+    [[0, 2, 1], [2, 3, 1]]
+    """
+    if len(vertices) == 0:
+        return faces
+    _, number = np.unique(vertices, axis=0, return_inverse=True)
+    return number.reshape(-1)[faces]
 
 
 def _unit(vectors: np.ndarray) -> np.ndarray:
