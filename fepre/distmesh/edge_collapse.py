@@ -249,6 +249,23 @@ def _remove_star(points, tets, removed, v, faces, keys, guard: SurfaceGuard, cel
     return removed, np.zeros(0, dtype=np.int64), np.zeros((0, 4), dtype=tets.dtype), np.zeros(0), gone, exposed
 
 
+def _gate_verdicts(points, tets, quality, tries: list, targets: ShapeTargets, cells_of: _CellsOf) -> dict:
+    """``{(keep, gone): passed}`` of :func:`_gates_passed` for every pair of ``tries``."""
+    listed = np.array([pair for pairs in tries for pair in pairs], dtype=np.int64).reshape(-1, 2)
+    return dict(zip(map(tuple, listed.tolist()), _gates_passed(points, tets, quality, listed, targets, cells_of)))
+
+
+def _boundary_after(face_keys_before, edges_before, old_faces, new_faces, gone: int, n: int):
+    """The boundary's face and edge keys after a collapse replaced ``old_faces`` (each holding
+    ``gone``) with ``new_faces``: the old faces' edges at ``gone`` go, the new faces' edges come."""
+    faces = np.union1d(np.setdiff1d(face_keys_before, face_keys(old_faces, n)), face_keys(new_faces, n))
+    old_edges = old_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    old_edges = old_edges[(old_edges == gone).any(axis=1)]
+    edges = np.union1d(np.setdiff1d(edges_before, edge_keys(old_edges, n)),
+                       edge_keys(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
+    return faces, edges
+
+
 def _may_remove(keep: int, gone: int, flap: bool, on_boundary, movable, removable, locked, labels, cells_of) -> bool:
     """Whether ``gone`` may be collapsed into ``keep`` (see :func:`collapse_round`)."""
     if not removable[gone] or (locked is not None and locked[gone]):
@@ -349,10 +366,8 @@ def collapse_round(
     flaps = _flap_apexes(points, tets[quality < threshold], boundary_face_keys)
     shorts = _short_edges(points, tets, quality, threshold, on_boundary, inner)
     tries = [((u, v),) for v, u in flaps] + [((u, v), (v, u)) for u, v in shorts]
-    listed = np.array([pair for pairs in tries for pair in pairs], dtype=np.int64).reshape(-1, 2)
-    # the gates' verdicts hold until a collapse changes a cell at the removed vertex
-    gated = dict(zip(map(tuple, listed.tolist()), _gates_passed(points, tets, quality, listed, targets, cells_of)))
-    stale = np.zeros(n, dtype=bool)
+    gated = _gate_verdicts(points, tets, quality, tries, targets, cells_of)
+    stale = np.zeros(n, dtype=bool)  # a verdict holds until a collapse changes a cell at the removed vertex
     for k, pairs in enumerate(tries):
         flap = k < len(flaps)
         for keep, gone in pairs:
@@ -375,13 +390,8 @@ def collapse_round(
             if labels is not None:
                 labels = labels[alive]
             cells_of = _CellsOf(tets, n)
-            boundary_face_keys = np.union1d(np.setdiff1d(boundary_face_keys, face_keys(old_faces, n)),
-                                            face_keys(new_faces, n))
-            # every old face held v: its edges at v go, the new faces' edges come
-            old_edges = old_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-            old_edges = old_edges[(old_edges == gone).any(axis=1)]
-            boundary_edges = np.union1d(np.setdiff1d(boundary_edges, edge_keys(old_edges, n)),
-                                        edge_keys(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), n))
+            boundary_face_keys, boundary_edges = _boundary_after(boundary_face_keys, boundary_edges, old_faces,
+                                                                 new_faces, gone, n)
             on_boundary[gone] = movable[gone] = removable[gone] = False
             touched[new.ravel()] = True
             touched[keep] = True
