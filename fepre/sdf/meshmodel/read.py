@@ -127,7 +127,7 @@ def _check_binary_ply_length(path: Path) -> None:
     for name, count, fixed, lists in elements:
         per_item = 3 if name == "face" else 0
         least += count * (fixed + sum(c + per_item * i for c, i in lists))
-    exact = _uniform_faces_end(path, elements, start, fmt)
+    exact = _uniform_faces_end(path, elements, start)
     needed = exact if exact is not None else start + least
     if size < needed:
         declared = " and ".join(f"{count:,} '{name}'" for name, count, _, _ in elements) + " elements"
@@ -137,7 +137,7 @@ def _check_binary_ply_length(path: Path) -> None:
         )
 
 
-def _uniform_faces_end(path: Path, elements: list, start: int, fmt: str) -> int | None:
+def _uniform_faces_end(path: Path, elements: list, start: int) -> int | None:
     """Where a binary PLY whose last element is ``face`` (one list, every face as long as the
     first) ends, after the elements before it of fixed size; None when that cannot be told."""
     if not elements or elements[-1][0] != "face" or len(elements[-1][3]) != 1 or elements[-1][2]:
