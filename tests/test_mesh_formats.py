@@ -218,6 +218,32 @@ def test_a_ply_of_strips_cut_short_names_the_file(tmp_path):
         sdf.mesh(cut)
 
 
+def test_a_binary_ply_cut_short_is_refused_before_vtk_reads_it(tmp_path):
+    # horse.ply cut to 300 kB crashed the process in VTK's reader (a segmentation fault, no
+    # message); read in a child process, so that a crash fails this test and not the run
+    whole = tmp_path / "ball.ply"
+    pv.Sphere(theta_resolution=16, phi_resolution=16).save(whole, binary=True)
+    data = whole.read_bytes()
+    body = data.index(b"end_header") + 11
+    for name, end in (("vertices", body + 100), ("faces", len(data) - 7)):
+        (tmp_path / f"cut_in_{name}.ply").write_bytes(data[:end])
+    script = (
+        "import sys\nfrom fepre import sdf\n"
+        "for path in sys.argv[1:]:\n"
+        "    try:\n        print(len(sdf.mesh(path).faces))\n"
+        "    except sdf.MeshInputError as exc:\n        print(exc)\n"
+    )
+    paths = [str(tmp_path / name) for name in ("cut_in_vertices.ply", "cut_in_faces.ply", "ball.ply")]
+    done = subprocess.run([sys.executable, "-c", script, *paths], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.strip().splitlines()
+    for line, path in zip(lines[:2], paths):
+        assert line.startswith(f"mesh file {path} is a damaged binary PLY: its header declares 226 'vertex' "
+                               "and 448 'face' elements")
+        assert line.endswith(f"but the file has {len(open(path, 'rb').read())} bytes; it was cut short")
+    assert lines[2] == "448"
+
+
 @pytest.mark.slow  # 8 s of the default run on 2 cores
 def test_the_cli_meshes_an_off_file_and_a_ply_of_strips(tmp_path):
     for name in ("cube.off", "strips.ply"):

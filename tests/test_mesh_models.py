@@ -224,6 +224,25 @@ def test_overlapping_shells_that_meet_along_shared_edges_are_united_exactly():
     assert model([0.25, 0.25, 0.75]) == pytest.approx(-0.25, abs=1e-12)
 
 
+def test_united_shells_judge_their_faces_clean_by_their_sides_positions():
+    # two overlapping balls united: the repair splits the triangles crossing the other ball at the
+    # seam and numbers each piece's vertices apart (by number 90% of the faces had no neighbour);
+    # the faces are still one sheet by their sides' positions, and a point whose closest point lies
+    # inside one of them takes its side without a winding number (12-27 us a point)
+    ball = lambda x: pv.Sphere(radius=1.0, center=(x, 0.0, 0.0), theta_resolution=12, phi_resolution=12)
+    model = sdf.mesh(ball(0.0) + ball(1.2))
+    distance = model._distance
+    assert model.repaired.internal > 0 and not distance.pseudonormal
+    assert distance.clean_faces.mean() > 0.8
+    # the sign is the independent winding number's (off the surface, where it is 0 or 1)
+    points = np.random.default_rng(5).uniform((-1.2, -1.2, -1.2), (2.4, 1.2, 1.2), (400, 3))
+    values = model(points)
+    vertices, faces = model.repaired.vertices, model.repaired.faces
+    sure = np.flatnonzero(np.abs(values) > 1e-3)
+    winding = np.concatenate([brute_winding(points[part], vertices, faces) for part in np.array_split(sure, 12)])
+    assert np.array_equal(values[sure] < 0, winding > 0.5)
+
+
 def test_an_assembly_s_winding_number_summed_body_by_body_is_the_whole_s():
     """Ten overlapping boxes, two touching along an edge (four triangles there) and an open
     sheet: asked piece by piece, each closed body only inside its box, the winding number is the
@@ -264,9 +283,12 @@ def test_clean_triangles_sign_by_their_normal_as_the_winding_number_does():
     centroid = vertices[faces].mean(axis=1)
     seam = np.hypot(centroid[:, 0] - 0.5, np.hypot(centroid[:, 1], centroid[:, 2]) - np.sqrt(0.75))
     clean = by_face.clean_faces
-    assert not clean[seam < 0.02].any()  # the seam's pieces and the triangles crossing it
+    # the triangles crossing the other ball are not clean; the seam's pieces are, where their
+    # sides are shared by position (the union's crease)
+    crossing = crossing_triangles(vertices, faces, both=True)
+    assert len(crossing) and not clean[crossing].any()
     assert clean[seam > 0.15].mean() > 0.99
-    assert set(crossing_triangles(vertices, faces)) < set(crossing_triangles(vertices, faces, both=True))
+    assert set(crossing_triangles(vertices, faces)) < set(crossing)
     rng = np.random.default_rng(4)
     off = lambda size: rng.normal(size=(size, 3)) * rng.choice([1e-9, 1e-4, 1e-2, 0.3], size)[:, None]
     points = np.concatenate([rng.uniform(-1.2, 2.2, (20000, 3)), centroid[rng.integers(0, len(faces), 20000)] + off(20000)])

@@ -44,6 +44,8 @@ def _as_polydata(source: Any, name: str):
             return own
         if path.suffix.lower() == ".stl":
             _check_binary_stl_length(path)
+        if path.suffix.lower() == ".ply":
+            _check_binary_ply_length(path)
         with warnings.catch_warnings(record=True) as caught, vtk_messages_kept():
             warnings.simplefilter("always")
             try:
@@ -87,6 +89,76 @@ def _check_binary_stl_length(path: Path) -> None:
             f"({84 + 50 * count} bytes), but the file has {size} bytes ({holds:.4g} triangles); "
             "it was cut short or is not an STL file"
         )
+
+
+#: bytes of the PLY format's scalar types
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _check_binary_ply_length(path: Path) -> None:
+    """A binary PLY holds at least what its header declares: each element's count times its
+    properties' bytes, a list at least its count and, in a ``face`` element, three indices (all
+    of them when every face has as many). A shorter file was cut short: VTK's reader crashed the
+    process on one (horse.ply cut to 300 kB: a segmentation fault, no message)."""
+    with open(path, "rb") as stream:
+        head = stream.read(65536)
+    if b"end_header" not in head:
+        return
+    text, _ = head.split(b"end_header", 1)
+    start = len(text) + len(b"end_header") + (2 if head[len(text) + 10:len(text) + 12] == b"\r\n" else 1)
+    lines = [line.split() for line in text.decode("latin-1").splitlines()]
+    fmt = next((line[1] for line in lines if line[:1] == ["format"] and len(line) > 1), "ascii")
+    if not fmt.startswith("binary"):
+        return
+    elements: list[list] = []  # [name, count, fixed bytes, [(count bytes, item bytes)]]
+    for line in lines:
+        try:
+            if line[:1] == ["element"]:
+                elements.append([line[1], int(line[2]), 0, []])
+            elif line[:1] == ["property"] and elements:
+                if line[1] == "list":
+                    elements[-1][3].append((_PLY_SIZES[line[2]], _PLY_SIZES[line[3]]))
+                else:
+                    elements[-1][2] += _PLY_SIZES[line[1]]
+        except (IndexError, KeyError, ValueError):
+            return  # a header this check does not know: the reader's own errors stand
+    size, least = path.stat().st_size, 0
+    for name, count, fixed, lists in elements:
+        per_item = 3 if name == "face" else 0
+        least += count * (fixed + sum(c + per_item * i for c, i in lists))
+    exact = _uniform_faces_end(path, elements, start, fmt)
+    needed = exact if exact is not None else start + least
+    if size < needed:
+        declared = " and ".join(f"{count:,} '{name}'" for name, count, _, _ in elements) + " elements"
+        raise MeshInputError(
+            f"mesh file {path} is a damaged binary PLY: its header declares {declared} (at least {needed} bytes), "
+            f"but the file has {size} bytes; it was cut short"
+        )
+
+
+def _uniform_faces_end(path: Path, elements: list, start: int, fmt: str) -> int | None:
+    """Where a binary PLY whose last element is ``face`` (one list, every face as long as the
+    first) ends, after the elements before it of fixed size; None when that cannot be told."""
+    if not elements or elements[-1][0] != "face" or len(elements[-1][3]) != 1 or elements[-1][2]:
+        return None
+    if any(lists for _, _, _, lists in elements[:-1]):
+        return None
+    offset = start + sum(count * fixed for _, count, fixed, _ in elements[:-1])
+    count, (count_bytes, item_bytes) = elements[-1][1], elements[-1][3][0]
+    if count_bytes != 1 or count == 0:
+        return None
+    with open(path, "rb") as stream:
+        stream.seek(offset)
+        first = stream.read(1)
+    if not first:
+        return offset + 1
+    stride = 1 + first[0] * item_bytes
+    size = path.stat().st_size
+    counts = np.memmap(path, dtype=np.uint8, mode="r", offset=offset)[: max(0, size - offset)][::stride]
+    if counts.size < count:  # too few records: cut short whatever the rest holds
+        return offset + count * stride
+    return offset + count * stride if bool((counts[:count] == first[0]).all()) else None
 
 
 def _ascii_stl_cut_short(path: Path) -> str:
