@@ -233,7 +233,12 @@ def test_a_binary_ply_cut_short_is_refused_before_vtk_reads_it(tmp_path):
         "    try:\n        print(len(sdf.mesh(path).faces))\n"
         "    except sdf.MeshInputError as exc:\n        print(exc)\n"
     )
-    paths = [str(tmp_path / name) for name in ("cut_in_vertices.ply", "cut_in_faces.ply", "ball.ply")]
+    # an ASCII one cut in its last line reached numpy's "cannot reshape array of size 1786 into shape (4)"
+    text = tmp_path / "ball_ascii.ply"
+    pv.Sphere(theta_resolution=16, phi_resolution=16).save(text, binary=False)
+    (tmp_path / "cut_ascii.ply").write_bytes(text.read_bytes().rstrip()[:-2])
+    paths = [str(tmp_path / name) for name in ("cut_in_vertices.ply", "cut_in_faces.ply", "ball.ply", "cut_ascii.ply",
+                                               "ball_ascii.ply")]
     done = subprocess.run([sys.executable, "-c", script, *paths], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     lines = done.stdout.strip().splitlines()
@@ -241,7 +246,9 @@ def test_a_binary_ply_cut_short_is_refused_before_vtk_reads_it(tmp_path):
         assert line.startswith(f"mesh file {path} is a damaged binary PLY: its header declares 226 'vertex' "
                                "and 448 'face' elements")
         assert line.endswith(f"but the file has {len(open(path, 'rb').read())} bytes; it was cut short")
-    assert lines[2] == "448"
+    assert lines[2] == lines[4] == "448"
+    assert lines[3] == (f"mesh file {paths[3]} is a damaged ASCII PLY: its header declares 226 'vertex' and 448 'face' "
+                        "elements, one line each (674 lines), but the file ends in line 674 of them; it was cut short")
 
 
 @pytest.mark.slow  # 8 s of the default run on 2 cores

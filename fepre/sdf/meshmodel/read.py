@@ -109,7 +109,8 @@ def _check_binary_ply_length(path: Path) -> None:
     start = len(text) + len(b"end_header") + (2 if head[len(text) + 10:len(text) + 12] == b"\r\n" else 1)
     lines = [line.split() for line in text.decode("latin-1").splitlines()]
     fmt = next((line[1] for line in lines if line[:1] == ["format"] and len(line) > 1), "ascii")
-    if not fmt.startswith("binary"):
+    if fmt == "ascii":
+        _check_ascii_ply_lines(path, lines, start)
         return
     elements: list[list] = []  # [name, count, fixed bytes, [(count bytes, item bytes)]]
     for line in lines:
@@ -127,7 +128,7 @@ def _check_binary_ply_length(path: Path) -> None:
     for name, count, fixed, lists in elements:
         per_item = 3 if name == "face" else 0
         least += count * (fixed + sum(c + per_item * i for c, i in lists))
-    exact = _uniform_faces_end(path, elements, start, fmt)
+    exact = _uniform_faces_end(path, elements, start)
     needed = exact if exact is not None else start + least
     if size < needed:
         declared = " and ".join(f"{count:,} '{name}'" for name, count, _, _ in elements) + " elements"
@@ -137,7 +138,30 @@ def _check_binary_ply_length(path: Path) -> None:
         )
 
 
-def _uniform_faces_end(path: Path, elements: list, start: int, fmt: str) -> int | None:
+def _check_ascii_ply_lines(path: Path, header: list, start: int) -> None:
+    """An ASCII PLY holds a line for every item its header declares, the last one whole (a
+    ``face``'s count and that many indices); a file cut short reached numpy's errors ("cannot
+    reshape array of size 1786 into shape (4)")."""
+    try:
+        counts = [(line[1], int(line[2])) for line in header if line[:1] == ["element"]]
+    except (IndexError, ValueError):
+        return
+    body = path.read_bytes()[start:].rstrip()
+    rows = body.count(b"\n") + 1 if body else 0
+    declared = sum(count for _, count in counts)
+    whole = rows >= declared
+    if whole and rows == declared and declared and counts[-1][0] == "face":
+        last = body[body.rfind(b"\n") + 1:].split()
+        whole = bool(last) and last[0].isdigit() and len(last) >= 1 + int(last[0])
+    if not whole:
+        listed = " and ".join(f"{count:,} '{name}'" for name, count in counts) + " elements"
+        raise MeshInputError(
+            f"mesh file {path} is a damaged ASCII PLY: its header declares {listed}, one line each "
+            f"({declared:,} lines), but the file ends in line {rows:,} of them; it was cut short"
+        )
+
+
+def _uniform_faces_end(path: Path, elements: list, start: int) -> int | None:
     """Where a binary PLY whose last element is ``face`` (one list, every face as long as the
     first) ends, after the elements before it of fixed size; None when that cannot be told."""
     if not elements or elements[-1][0] != "face" or len(elements[-1][3]) != 1 or elements[-1][2]:
