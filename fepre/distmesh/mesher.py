@@ -341,6 +341,7 @@ def _in_local_frame(offset: np.ndarray, model: SDF, h: Any, *, bounds: Any, size
 
 def _check_sizes(job: MeshingJob) -> None:
     """The size function answers, and the mesh's estimated cells stay under ``max_cells``."""
+    from ..sampling import _format_bytes
     from ..sizing.estimate import estimated_cells
 
     if job.size is not None:
@@ -351,18 +352,7 @@ def _check_sizes(job: MeshingJob) -> None:
         advice = "a larger hmin or hmax" if job.absolute else "a larger h (or h=(hmin, hmax) for a graded mesh)"
         raise ValueError(
             f"the mesh would have about {expected:,.0f} cells, more than max_cells = {limit:,} (CLI: --max-cells); "
-            f"meshing takes about 1.4 KB of memory per cell, {_bytes(expected * BYTES_PER_CELL)} for this one; "
+            f"meshing takes about 1.4 KB of memory per cell, {_format_bytes(expected * BYTES_PER_CELL)} for this one; "
             f"use {advice}, or raise max_cells if the machine has the memory"
         )
 
-
-def _bytes(count: float) -> str:
-    """``count`` bytes, about, in the largest unit (MB to PB) that keeps the number at least 1.
-
-    >>> _bytes(2.8e10), _bytes(5e5), _bytes(1.02e20)
-    ('28 GB', '0.5 MB', '102,000 PB')
-    """
-    for unit, size in (("PB", 1e15), ("TB", 1e12), ("GB", 1e9)):
-        if count >= size:
-            return f"{float(f'{count / size:.3g}'):,.12g} {unit}"
-    return f"{count / 1e6:.2g} MB"
